@@ -1,0 +1,22 @@
+"""graspjax: a JAX-vectorized batch evaluator of plane-detection end-tool alignment for grasping.
+
+Reproduces and extends "Automatic End Tool Alignment through Plane Detection
+with a RANSAC-Algorithm for Robotic Grasping": double T-beam grasp detection
+and plane-scoring re-alignment as jit/vmap kernels, evaluated in MuJoCo MJX.
+"""
+
+from graspjax.camera import Camera
+from graspjax.config import AlignConfig, ConfigError, DetectorConfig, GripperConfig
+from graspjax.perception import (
+    Alignment,
+    AlignReason,
+    Grasp,
+    GraspReason,
+    align_tool,
+    detect_grasp,
+)
+
+__version__ = "0.1.0"
+
+__all__ = ["AlignConfig", "AlignReason", "Alignment", "Camera", "ConfigError", "DetectorConfig",
+           "Grasp", "GraspReason", "GripperConfig", "align_tool", "detect_grasp"]

@@ -1,0 +1,248 @@
+"""Configuration: frozen dataclasses with the paper's defaults.
+
+Every config is immutable, hashable and registered as a *static* JAX pytree,
+so it can be passed straight into `jax.jit`/`jax.vmap`-ed functions (a new
+value means a new compile, never a silent retrace inside a batch). Values are
+validated when a config is constructed, so a bad value fails before anything
+compiles, with a one-line `ConfigError` that names the field.
+
+`override(config, ["align.window_px=10"])` replaces values by dotted name,
+parsing each string by the field's declared type.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import typing
+from collections.abc import Iterable, Mapping
+from typing import Any, Literal
+
+import jax
+
+
+class ConfigError(ValueError):
+    """A configuration value or key is invalid (the message is one line)."""
+
+
+def _static(cls):
+    """Freeze a dataclass and register it as a leafless (static) pytree."""
+    cls = dataclasses.dataclass(frozen=True)(cls)
+    jax.tree_util.register_static(cls)
+    return cls
+
+
+def _require(ok: bool, message: str) -> None:
+    if not ok:
+        raise ConfigError(message)
+
+
+def _positive(obj: Any, *names: str) -> None:
+    for name in names:
+        value = getattr(obj, name)
+        _require(value > 0, f"{type(obj).__name__}.{name} must be > 0, got {value!r}")
+
+
+def _in_range(obj: Any, name: str, lo: float, hi: float) -> None:
+    value = getattr(obj, name)
+    _require(
+        lo <= value <= hi,
+        f"{type(obj).__name__}.{name} must be in [{lo}, {hi}], got {value!r}",
+    )
+
+
+@_static
+class GripperConfig:
+    """The parallel-jaw gripper, shared by the double T-beam and the physics.
+
+    Defaults are those of a common research gripper (Franka Hand-like: 8 cm
+    stroke, 2 cm wide finger pads); the paper only says its gripper had "a
+    very small opening".
+    """
+
+    opening: float = 0.08  # distance between the fully opened jaws (m)
+    finger_width: float = 0.02  # finger extent along the grasped edge (m)
+    finger_thickness: float = 0.012  # finger extent along the closing axis (m)
+    finger_length: float = 0.05  # how far the fingers reach below the palm (m)
+    grip_force: float = 40.0  # squeezing force of the closed jaws (N)
+    friction: float = 1.0  # finger-pad sliding friction coefficient
+
+    def __post_init__(self):
+        _positive(self, "opening", "finger_width", "finger_thickness", "finger_length",
+                  "grip_force", "friction")
+
+
+@_static
+class DetectorConfig:
+    """Grasp point detection with the double T-beam (paper section 3.1)."""
+
+    surface_tolerance: float = 0.005  # half-width of the depth band of the target surface (m)
+    min_surface_pixels: int = 12  # smaller surface clusters are rejected
+    max_contour: int = 1024  # contour buffer length (pixels); longer contours are truncated
+    tangent_window: int = 3  # contour points each side used for the local edge direction
+    split_angle_deg: float = 20.0  # a new straight edge starts where the direction turns more
+    min_edge_pixels: int = 4  # shorter runs of contour points are not edges
+    max_edges: int = 32  # static maximum of straight edges kept (longest first)
+    antipodal_tolerance_deg: float = 15.0  # max deviation from opposite normals
+    clearance: float = 0.005  # free space kept between each open jaw and the object (m)
+    min_width: float = 0.004  # narrower antipodal pairs are not graspable (m)
+    grasp_depth: float = 0.02  # desired finger-tip depth below the surface (m)
+    min_grasp_depth: float = 0.008  # shallowest acceptable finger-tip depth (m)
+    depth_clearance: float = 0.003  # free space kept below the finger tips (m)
+    finger_samples: int = 3  # depth-check grid per finger (n x n points over its footprint)
+
+    def __post_init__(self):
+        _positive(self, "surface_tolerance", "min_surface_pixels", "max_contour",
+                  "tangent_window", "min_edge_pixels", "max_edges", "min_width",
+                  "grasp_depth", "min_grasp_depth")
+        _in_range(self, "split_angle_deg", 1.0, 90.0)
+        _in_range(self, "antipodal_tolerance_deg", 0.0, 90.0)
+        _require(self.clearance >= 0, f"DetectorConfig.clearance must be >= 0, got {self.clearance!r}")
+        _require(self.depth_clearance >= 0,
+                 f"DetectorConfig.depth_clearance must be >= 0, got {self.depth_clearance!r}")
+        _require(self.min_grasp_depth <= self.grasp_depth,
+                 "DetectorConfig.min_grasp_depth must be <= grasp_depth")
+        _require(self.max_contour >= 16, "DetectorConfig.max_contour must be >= 16")
+        _require(self.finger_samples >= 2, "DetectorConfig.finger_samples must be >= 2")
+
+
+@_static
+class AlignConfig:
+    """End-tool alignment by plane scoring (paper section 3.2, Eq. 2 and 3)."""
+
+    hypotheses: Literal["triangles", "random"] = "triangles"  # paper: fixed triangles around A
+    num_triangles: int = 8  # triangles around the z_min point A (paper: 8, 45 degrees apart)
+    triangle_radius_px: float = 5.0  # distance of the triangle corners B, C from A (pixels)
+    num_random: int = 64  # random-triangle hypotheses when hypotheses == "random"
+    window_px: int = 15  # inlier window around the triangle centroid in x, y and z (pixels)
+    distance_threshold: float = 0.3  # max point-to-plane distance of an inlier (pixel units)
+    pixel_scale: Literal["paper", "footprint"] = "paper"  # Eq. 2 as written, or the true footprint
+    refit: bool = False  # least-squares refit of the winning plane to its inliers
+    min_inliers: int = 10  # fewer inliers means no usable plane
+
+    def __post_init__(self):
+        _require(self.hypotheses in ("triangles", "random"),
+                 f"AlignConfig.hypotheses must be 'triangles' or 'random', got {self.hypotheses!r}")
+        _require(self.pixel_scale in ("paper", "footprint"),
+                 f"AlignConfig.pixel_scale must be 'paper' or 'footprint', got {self.pixel_scale!r}")
+        _in_range(self, "num_triangles", 3, 64)
+        _in_range(self, "num_random", 1, 4096)
+        _in_range(self, "window_px", 1, 200)
+        _positive(self, "triangle_radius_px", "distance_threshold", "min_inliers")
+
+
+# ---------------------------------------------------------------------------
+# Dotted-name overrides
+
+
+def _parse(text: str, kind: Any, key: str) -> Any:
+    """Parse `text` as a value of the annotated type `kind`."""
+    origin = typing.get_origin(kind)
+    if origin is Literal:
+        choices = typing.get_args(kind)
+        if text not in choices:
+            raise ConfigError(f"{key} must be one of {', '.join(map(str, choices))}, got {text!r}")
+        return text
+    if kind is bool:
+        lowered = text.strip().lower()
+        if lowered in ("1", "true", "yes", "on"):
+            return True
+        if lowered in ("0", "false", "no", "off"):
+            return False
+        raise ConfigError(f"{key} must be true or false, got {text!r}")
+    try:
+        return kind(text)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{key} must be {kind.__name__}, got {text!r}") from None
+
+
+def field_names(config: Any, prefix: str = "") -> list[str]:
+    """All dotted leaf names of a (nested) config."""
+    names = []
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            names += field_names(value, prefix + f.name + ".")
+        else:
+            names.append(prefix + f.name)
+    return names
+
+
+def _replace(config: Any, path: list[str], text: str, key: str) -> Any:
+    hints = typing.get_type_hints(type(config))
+    name = path[0]
+    if name not in hints:
+        raise KeyError(name)
+    current = getattr(config, name)
+    if len(path) == 1:
+        if dataclasses.is_dataclass(current):
+            raise KeyError(name)
+        value = _parse(text, hints[name], key)
+    else:
+        if not dataclasses.is_dataclass(current):
+            raise KeyError(name)
+        value = _replace(current, path[1:], text, key)
+    return dataclasses.replace(config, **{name: value})
+
+
+def parse_assignments(items: Iterable[str]) -> dict[str, str]:
+    """Split `key=value` strings into a dict, with a clear error for malformed ones."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"expected key=value, got {item!r}")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def override(config: Any, assignments: Mapping[str, str] | Iterable[str]) -> Any:
+    """Return `config` with values replaced by dotted name (`"align.window_px": "10"`)."""
+    if not isinstance(assignments, Mapping):
+        assignments = parse_assignments(assignments)
+    for key, text in assignments.items():
+        try:
+            config = _replace(config, key.split("."), str(text), key)
+        except KeyError:
+            known = field_names(config)
+            close = difflib.get_close_matches(key, known, n=1)
+            hint = f" (did you mean {close[0]}?)" if close else ""
+            raise ConfigError(f"unknown configuration key {key!r}{hint}") from None
+    return config
+
+
+def differences(config: Any, reference: Any, prefix: str = "") -> dict[str, Any]:
+    """Dotted names and values where `config` differs from `reference`."""
+    out = {}
+    for f in dataclasses.fields(config):
+        mine, theirs = getattr(config, f.name), getattr(reference, f.name)
+        if dataclasses.is_dataclass(mine):
+            out.update(differences(mine, theirs, prefix + f.name + "."))
+        elif mine != theirs:
+            out[prefix + f.name] = mine
+    return out
+
+
+def flatten(config: Any, prefix: str = "") -> dict[str, Any]:
+    """All dotted names and values of a (nested) config."""
+    out = {}
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            out.update(flatten(value, prefix + f.name + "."))
+        else:
+            out[prefix + f.name] = value
+    return out
+
+
+@_static
+class Config:
+    """Everything one run needs, addressed by dotted names (`--set align.window_px=10`)."""
+
+    gripper: GripperConfig = GripperConfig()  # shared by the T-beam and the physics
+    detect: DetectorConfig = DetectorConfig()  # grasp point detection (paper 3.1)
+    align: AlignConfig = AlignConfig()  # end-tool alignment (paper 3.2)
+
+    def __post_init__(self):
+        _require(self.detect.grasp_depth <= self.gripper.finger_length,
+                 "detect.grasp_depth must be <= gripper.finger_length")

@@ -1,0 +1,225 @@
+"""Grasp point detection with the double T-beam (paper section 3.1), for one depth image.
+
+The camera is assumed to look (nearly) perpendicular at the target surface:
+the nearest valid pixel (z_min) seeds a surface cluster, its contour is
+grouped into straight edges (`contour.py`), and a T-beam the size of the
+opened gripper is placed at the centre S of every edge with its closing axis
+along the edge's normal. A placement is a grasp when an antipodal edge lies
+at a distance c that fits the opening, the four outer finger corners lie
+outside the cluster and the depth under both finger footprints leaves room
+to reach the grasp depth. The grasp centre is Eq. 1, read as
+G = S - (c / 2) * n (half-way between the two antipodal edges; the paper
+writes it in pixels with c / 2 converted by d_p, we work in metres on the
+surface plane). Among valid placements the one whose G is closest to the
+cluster's centroid wins (most central, least likely to push the object);
+near-ties go to the first placement.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from graspjax.camera import Camera
+from graspjax.config import DetectorConfig, GripperConfig
+from graspjax.perception.cluster import nearest_pixel, target_surface, valid_mask
+from graspjax.perception.contour import Contour, Edges, fit_edges, trace_contour
+from graspjax.perception.reasons import CANDIDATE_STAGE, GraspReason
+
+
+@dataclasses.dataclass(frozen=True)
+class TBeams:
+    """Every T-beam placement: edge i's centre with partner edge j, flattened to M = K*K."""
+
+    center: jax.Array  # (M, 3) grasp centre G in the camera frame (on the surface plane)
+    pixel: jax.Array  # (M, 2) G in pixel coordinates (u, v)
+    axis: jax.Array  # (M, 2) closing axis in the image plane (outward normal of edge i)
+    width: jax.Array  # (M,) distance c between the two antipodal edges (m)
+    depth: jax.Array  # (M,) reachable finger-tip depth below the surface (m)
+    reason: jax.Array  # (M,) int32 GraspReason of this placement
+    valid: jax.Array  # (M,) bool, reason == FOUND
+
+
+@dataclasses.dataclass(frozen=True)
+class Grasp:
+    """Result of `detect_grasp` for one image (camera frame, metres)."""
+
+    found: jax.Array  # () bool
+    reason: jax.Array  # () int32 GraspReason
+    position: jax.Array  # (3,) grasp centre G on the target surface
+    closing_axis: jax.Array  # (3,) unit, perpendicular to the optical axis
+    approach: jax.Array  # (3,) unit approach direction (the optical axis, +z)
+    width: jax.Array  # () distance between the two antipodal edges (m)
+    depth: jax.Array  # () finger-tip depth below the surface to grasp at (m)
+    surface_depth: jax.Array  # () mean depth of the target surface cluster (m)
+    pixel: jax.Array  # (2,) G in pixel coordinates (u, v)
+    nearest: jax.Array  # (2,) int32 pixel of z_min (u, v)
+    index: jax.Array  # () int32 chosen placement in `candidates`, -1 if none
+    surface_pixels: jax.Array  # () int32 pixels in the surface cluster
+    contour_closed: jax.Array  # () bool, False if the contour hit `max_contour`
+    edges: Edges  # the straight edges (K)
+    candidates: TBeams  # every T-beam placement (K*K)
+
+
+for _cls in (TBeams, Grasp):
+    jax.tree_util.register_dataclass(
+        _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
+
+_STAGE = np.zeros(max(GraspReason) + 1, np.int32)
+for _reason, _stage in CANDIDATE_STAGE.items():
+    _STAGE[_reason] = _stage
+_BY_STAGE = np.array(sorted(CANDIDATE_STAGE, key=CANDIDATE_STAGE.get), np.int32)
+
+
+def _sample(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
+    """Nearest-pixel lookup of `image` at float pixel coordinates `(..., 2)`; returns (value, inside)."""
+    height, width = image.shape
+    iuv = jnp.round(uv).astype(jnp.int32)
+    inside = ((iuv[..., 0] >= 0) & (iuv[..., 0] < width)
+              & (iuv[..., 1] >= 0) & (iuv[..., 1] < height))
+    value = image[jnp.clip(iuv[..., 1], 0, height - 1), jnp.clip(iuv[..., 0], 0, width - 1)]
+    return jnp.where(inside, value, fill), inside
+
+
+def _finger_points(center, axis, gripper: GripperConfig, samples: int):
+    """Outer corners `(..., 4, 2)` and footprint grids `(..., 2*samples^2, 2)` of both fingers."""
+    along = jnp.stack([-axis[..., 1], axis[..., 0]], axis=-1)
+    inner, outer = gripper.opening / 2, gripper.opening / 2 + gripper.finger_thickness
+    half_w = gripper.finger_width / 2
+    corners = [(side * outer, lateral) for side in (1.0, -1.0) for lateral in (half_w, -half_w)]
+    a = np.linspace(inner, outer, samples)
+    b = np.linspace(-half_w, half_w, samples)
+    grid = [(side * x, y) for side in (1.0, -1.0) for x in a for y in b]
+
+    def place(offsets):
+        off = jnp.asarray(offsets, jnp.float32)  # (P, 2) in (axis, along) coordinates
+        return (center[..., None, :] + off[:, 0, None] * axis[..., None, :]
+                + off[:, 1, None] * along[..., None, :])
+
+    return place(corners), place(grid)
+
+
+def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig()
+                    ) -> tuple[jax.Array, jax.Array, jax.Array, Contour]:
+    """The detector's first stage: z_min pixel `(2,)`, surface cluster `(H, W)`, its depth, contour.
+
+    The depth is 1.0 when the cluster is empty (every later result is masked).
+    """
+    valid = valid_mask(depth)
+    seed, z_min = nearest_pixel(depth, valid)
+    cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance)
+    z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
+    return seed, cluster, z_s, trace_contour(cluster, config.max_contour)
+
+
+def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
+                 gripper: GripperConfig = GripperConfig()) -> Grasp:
+    """Find a parallel-jaw grasp on the surface nearest the camera.
+
+    depth: metric depth (H, W) float32, 0 or nan = invalid. Pure and static-
+    shaped: jit it, and vmap it over a leading batch axis of `depth`.
+    """
+    if config.grasp_depth > gripper.finger_length:
+        raise ValueError("DetectorConfig.grasp_depth exceeds GripperConfig.finger_length")
+    depth = jnp.asarray(depth, jnp.float32)
+    if depth.shape != (camera.height, camera.width):
+        raise ValueError(f"depth shape {depth.shape} does not match the camera "
+                         f"({camera.height}, {camera.width})")
+    valid = valid_mask(depth)
+    any_valid = jnp.any(valid)
+    seed, cluster, z_s, contour = surface_contour(depth, config)
+    n_surface = jnp.sum(cluster)
+    edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
+                      split_angle_deg=config.split_angle_deg,
+                      min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges)
+
+    # --- antipodal pairs: T-beam at edge i, partner edge j --------------------------------
+    k = config.max_edges
+    s_i, n_i = edges.center[:, None, :], edges.normal[:, None, :]
+    s_j, n_j, t_j = edges.center[None], edges.normal[None], edges.direction[None]
+    facing = jnp.sum(n_i * n_j, -1)  # (K, K)
+    safe = jnp.where(facing < 0, facing, -1.0)
+    c = jnp.sum((s_i - s_j) * n_j, -1) / safe  # distance from S_i along -n_i to edge j's line
+    hit = s_i - c[..., None] * n_i
+    lateral = jnp.abs(jnp.sum((hit - s_j) * t_j, -1))
+    pair_ok = (edges.valid[:, None] & edges.valid[None, :] & ~jnp.eye(k, dtype=bool))
+    antipodal = (pair_ok & (facing <= -jnp.cos(jnp.deg2rad(config.antipodal_tolerance_deg)))
+                 & (c > 0) & (lateral <= edges.length[None, :] / 2))
+    wide_enough = c >= config.min_width
+    fits = c <= gripper.opening - 2 * config.clearance
+
+    # --- T-beam placement, Eq. 1 ----------------------------------------------------------
+    axis = jnp.broadcast_to(edges.normal[:, None, :], (k, k, 2))
+    g_xy = s_i - 0.5 * c[..., None] * n_i  # (K, K, 2)
+    corners, footprint = _finger_points(g_xy, axis, gripper, config.finger_samples)
+
+    def to_pixels(xy):
+        return jnp.stack([camera.fx * xy[..., 0] / z_s + camera.cx,
+                          camera.fy * xy[..., 1] / z_s + camera.cy], axis=-1)
+
+    corner_in_cluster, corner_inside = _sample(cluster, to_pixels(corners), False)
+    free, foot_inside = _sample(jnp.where(valid, depth - z_s, jnp.inf), to_pixels(footprint),
+                                jnp.inf)
+    in_view = jnp.all(corner_inside, -1) & jnp.all(foot_inside, -1)
+    collision = jnp.any(corner_in_cluster, -1)
+    reach = jnp.minimum(config.grasp_depth, jnp.min(free, -1) - config.depth_clearance)
+    room = reach >= config.min_grasp_depth
+
+    reason = jnp.select(
+        [~antipodal, ~wide_enough, ~fits, ~in_view, collision, ~room],
+        [GraspReason.NO_ANTIPODAL, GraspReason.TOO_NARROW, GraspReason.TOO_WIDE,
+         GraspReason.OUT_OF_VIEW, GraspReason.COLLISION, GraspReason.NO_ROOM],
+        GraspReason.FOUND).astype(jnp.int32)
+    ok = reason == GraspReason.FOUND
+
+    # --- choice: the valid G closest to the cluster centroid ------------------------------
+    centroid_uv = (jnp.sum(camera.pixel_grid() * cluster[..., None], axis=(0, 1))
+                   / jnp.maximum(n_surface, 1))
+    centroid = jnp.stack([(centroid_uv[0] - camera.cx) * z_s / camera.fx,
+                          (centroid_uv[1] - camera.cy) * z_s / camera.fy])
+    # Near-ties (mirror placements on a symmetric face) go to the lowest index,
+    # whatever the float rounding of the batch: the first within 0.5 mm of the best.
+    flat_ok = ok.reshape(-1)
+    dist = jnp.where(flat_ok, jnp.linalg.norm(g_xy - centroid, axis=-1).reshape(-1), jnp.inf)
+    best = jnp.argmax(dist <= jnp.min(dist) + 5e-4)
+    found = flat_ok[best]
+
+    stage = jnp.asarray(_STAGE)[reason.reshape(-1)]
+    furthest = jnp.asarray(_BY_STAGE)[jnp.max(stage)]
+    image_checks = [~any_valid, n_surface < config.min_surface_pixels, jnp.sum(edges.valid) < 2]
+    image_failed = image_checks[0] | image_checks[1] | image_checks[2]
+    overall = jnp.select(
+        image_checks,
+        [GraspReason.NO_DEPTH, GraspReason.SURFACE_TOO_SMALL, GraspReason.NO_EDGES],
+        furthest).astype(jnp.int32)
+    found = found & ~image_failed
+
+    g_flat = g_xy.reshape(-1, 2)
+    centers3 = jnp.concatenate([g_flat, jnp.full((k * k, 1), z_s)], -1)
+    axis_flat = axis.reshape(-1, 2)
+    reach_flat = jnp.clip(reach.reshape(-1), 0.0, None)
+    candidates = TBeams(center=centers3, pixel=to_pixels(g_flat), axis=axis_flat,
+                        width=c.reshape(-1), depth=reach_flat,
+                        reason=jnp.where(image_failed, overall, reason.reshape(-1)),
+                        valid=flat_ok & found)
+    nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    return Grasp(
+        found=found,
+        reason=overall,
+        position=jnp.where(found, centers3[best], nan3),
+        closing_axis=jnp.where(found, jnp.append(axis_flat[best], 0.0), nan3),
+        approach=jnp.array([0.0, 0.0, 1.0], jnp.float32),
+        width=jnp.where(found, c.reshape(-1)[best], jnp.nan),
+        depth=jnp.where(found, reach_flat[best], jnp.nan),
+        surface_depth=jnp.where(n_surface > 0, z_s, jnp.nan),
+        pixel=jnp.where(found, to_pixels(g_flat[best]), jnp.nan),
+        nearest=seed,
+        index=jnp.where(found, best, -1).astype(jnp.int32),
+        surface_pixels=n_surface.astype(jnp.int32),
+        contour_closed=contour.closed,
+        edges=edges,
+        candidates=candidates,
+    )

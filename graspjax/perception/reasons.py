@@ -1,0 +1,44 @@
+"""Integer outcome codes carried in arrays (failures are data, never exceptions under jit)."""
+
+from enum import IntEnum
+
+
+class GraspReason(IntEnum):
+    """Why `detect_grasp` found (0) or did not find a grasp.
+
+    Candidate-level codes are ordered by how far a T-beam placement got
+    through the checks; an image's overall code is the furthest any of its
+    candidates reached (or an earlier, image-level failure).
+    """
+
+    FOUND = 0  # a valid grasp was found
+    NO_DEPTH = 1  # no valid depth pixel in the image
+    SURFACE_TOO_SMALL = 2  # the target surface cluster has too few pixels
+    NO_EDGES = 3  # fewer than two straight edges on the contour
+    NO_ANTIPODAL = 4  # no pair of edges with opposite normals facing each other
+    TOO_NARROW = 5  # antipodal pairs exist, all narrower than `min_width`
+    TOO_WIDE = 6  # antipodal pairs exist, none fits inside the opening
+    OUT_OF_VIEW = 7  # the T-beam leaves the image
+    COLLISION = 8  # a T-beam corner lies inside the surface cluster
+    NO_ROOM = 9  # the depth at the fingers leaves no room to reach grasp depth
+
+
+# Stage order of the candidate checks: a larger stage got further.
+CANDIDATE_STAGE = {
+    GraspReason.NO_ANTIPODAL: 0,
+    GraspReason.TOO_NARROW: 1,
+    GraspReason.TOO_WIDE: 2,
+    GraspReason.OUT_OF_VIEW: 3,
+    GraspReason.COLLISION: 4,
+    GraspReason.NO_ROOM: 5,
+    GraspReason.FOUND: 6,
+}
+
+
+class AlignReason(IntEnum):
+    """Why `align_tool` found (0) or did not find a plane."""
+
+    FOUND = 0  # a plane with at least `min_inliers` inliers was found
+    NO_DEPTH = 1  # no valid depth pixel in the image
+    NO_PLANE = 2  # every hypothesis was degenerate or left the image
+    TOO_FEW_INLIERS = 3  # the best plane has fewer than `min_inliers` inliers

@@ -1,0 +1,164 @@
+"""End-tool alignment against known plane normals and a direct NumPy reading of Eq. 3."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import assert_trees_close, world_to_camera
+
+from graspjax import AlignConfig, AlignReason, align_tool
+from graspjax.perception.align import plane_inliers
+from graspjax.synthetic import box, half_space, rot_x, rot_y, rot_z
+
+
+def _camera_normal(normal_world):
+    return world_to_camera(normal_world) - world_to_camera([0, 0, 0])
+
+
+def eq3_reference(depth, camera, config: AlignConfig):
+    """Eq. 2 and 3 over the whole image, pixel by pixel, straight from the paper.
+
+    Returns the inlier count of each of the 8 (N) triangles around z_min.
+    """
+    valid = np.isfinite(depth) & (depth > 0)
+    masked = np.where(valid, depth, np.inf)
+    v_a, u_a = np.unravel_index(np.argmin(masked), depth.shape)
+    z_a = depth[v_a, u_a]
+    tan_half = np.tan(camera.fov_x / 2)
+    d_p = z_a * tan_half / camera.width  # Eq. 2 as written
+    if config.pixel_scale == "footprint":
+        d_p *= 2
+    counts = []
+    n = config.num_triangles
+    for k in range(n):
+        corners = [(u_a, v_a)]
+        for phi in (2 * np.pi * k / n, 2 * np.pi * (k + 1) / n):
+            corners.append((int(np.round(u_a + config.triangle_radius_px * np.cos(phi))),
+                            int(np.round(v_a + config.triangle_radius_px * np.sin(phi)))))
+        if not all(0 <= u < camera.width and 0 <= v < camera.height and valid[v, u]
+                   for u, v in corners):
+            counts.append(0)
+            continue
+        p = np.array([[u, v, depth[v, u] / d_p] for u, v in corners], float)
+        normal = np.cross(p[1] - p[0], p[2] - p[0])
+        normal /= np.linalg.norm(normal)
+        centroid = p.mean(axis=0)
+        count = 0
+        for v in range(camera.height):
+            for u in range(camera.width):
+                if not valid[v, u]:
+                    continue
+                q = np.array([u, v, depth[v, u] / d_p])
+                d = abs(normal @ (q - p[0]))
+                if d < config.distance_threshold and np.all(np.abs(q - centroid)
+                                                            < config.window_px):
+                    count += 1
+        counts.append(count)
+    return np.array(counts)
+
+
+@pytest.mark.parametrize("tilt_deg, azimuth_deg", [(0, 0), (10, 0), (30, 45), (50, 200),
+                                                   (25, -120)])
+def test_tilted_plane_normal_is_recovered(camera, align, render, tilt_deg, azimuth_deg):
+    normal_world = rot_z(np.deg2rad(azimuth_deg)) @ rot_y(np.deg2rad(tilt_deg)) @ [0, 0, 1.0]
+    a = align(jnp.asarray(render([half_space(normal_world, [0, 0, 0.1])], ground=None)), camera)
+    assert bool(a.found), AlignReason(int(a.reason))
+    expected = _camera_normal(normal_world)  # toward the camera: negative z in camera frame
+    np.testing.assert_allclose(np.asarray(a.normal), expected, atol=2e-3)
+    assert float(a.normal[2]) < 0
+    assert int(a.inliers) >= AlignConfig().min_inliers
+
+
+@pytest.mark.parametrize("scale", ["paper", "footprint"])
+def test_inlier_counts_match_the_paper_formula(camera, render, scale):
+    """Patch-based scoring equals Eq. 3 evaluated pixel by pixel over the image."""
+    cfg = AlignConfig(pixel_scale=scale)
+    scene = [box((0.05, 0.07, 0.04), (0.01, 0.0, 0.0), 0.4).moved(rot_x(0.3), (0, 0, 0.02)),
+             box((0.04, 0.04, 0.06), (-0.05, 0.02, 0.0), 1.0)]
+    depth = render(scene)
+    a = jax.jit(align_tool)(jnp.asarray(depth), camera, cfg)
+    np.testing.assert_array_equal(np.asarray(a.counts), eq3_reference(depth, camera, cfg))
+    assert int(a.inliers) == int(np.max(a.counts))
+    mask = plane_inliers(jnp.asarray(depth), camera, a, cfg)
+    assert int(mask.sum()) == int(a.inliers)
+
+
+def test_paper_scale_is_stricter_than_the_true_footprint_on_a_tilted_plane(camera, render):
+    """Eq. 2 as written halves d_p, doubling z in pixel units: fewer points fit the window."""
+    depth = jnp.asarray(render([half_space(rot_y(0.6) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
+    paper = align_tool(depth, camera, AlignConfig(pixel_scale="paper"))
+    true = align_tool(depth, camera, AlignConfig(pixel_scale="footprint"))
+    assert int(true.inliers) > int(paper.inliers)
+    np.testing.assert_allclose(np.asarray(paper.normal), np.asarray(true.normal), atol=1e-5)
+
+
+def test_point_is_the_centroid_of_the_inliers(camera, render):
+    depth = render([box((0.06, 0.06, 0.05), (0, 0, 0), 0.2)])
+    a = align_tool(jnp.asarray(depth), camera)
+    mask = np.asarray(plane_inliers(jnp.asarray(depth), camera, a))
+    v, u = np.nonzero(mask)
+    z = depth[v, u]
+    pts = np.column_stack([(u - camera.cx) * z / camera.fx, (v - camera.cy) * z / camera.fy, z])
+    np.testing.assert_allclose(np.asarray(a.point), pts.mean(axis=0), atol=1e-5)
+    np.testing.assert_allclose(np.asarray(a.normal), [0, 0, -1], atol=1e-5)  # the box top
+
+
+def test_ranking_orders_hypotheses_by_inliers(camera, render):
+    depth = render([box((0.05, 0.07, 0.04), (0.0, 0.0, 0.0), 0.4).moved(rot_x(0.5), (0, 0, 0.03))])
+    a = align_tool(jnp.asarray(depth), camera)
+    counts = np.asarray(a.counts)[np.asarray(a.ranking)]
+    assert (np.diff(counts) <= 0).all()
+    assert int(a.best) == int(a.ranking[0])
+
+
+def test_random_hypotheses_need_a_key_and_are_reproducible(camera, render):
+    depth = jnp.asarray(render([half_space(rot_y(0.4) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
+    cfg = AlignConfig(hypotheses="random", num_random=32)
+    with pytest.raises(ValueError, match="PRNG key"):
+        align_tool(depth, camera, cfg)
+    key = jax.random.key(7)
+    a = align_tool(depth, camera, cfg, key)
+    assert_trees_close(a, align_tool(depth, camera, cfg, key))
+    assert a.corners.shape == (32, 3, 2)
+    np.testing.assert_allclose(np.asarray(a.normal), _camera_normal(rot_y(0.4) @ [0, 0, 1.0]),
+                               atol=5e-3)
+
+
+def test_refit_reduces_noise_in_the_normal(camera, render):
+    """On a noisy plane the triangle normal wobbles; a least-squares refit is closer."""
+    normal_world = rot_y(np.deg2rad(20)) @ [0, 0, 1.0]
+    expected = _camera_normal(normal_world)
+    clean = render([half_space(normal_world, [0, 0, 0.1])], ground=None)
+    rng = np.random.default_rng(0)
+    cfg = AlignConfig(distance_threshold=2.0, pixel_scale="footprint")
+    errors = {False: [], True: []}
+    for _ in range(5):
+        noisy = jnp.asarray(clean + rng.normal(0, 0.0005, clean.shape).astype(np.float32))
+        for refit in (False, True):
+            a = align_tool(noisy, camera, AlignConfig(**{**cfg.__dict__, "refit": refit}))
+            errors[refit].append(np.degrees(np.arccos(min(1.0, float(a.normal @ expected)))))
+    assert np.mean(errors[True]) < np.mean(errors[False])
+    assert np.mean(errors[True]) < 2.0
+
+
+def test_empty_image_and_invalid_triangles(camera, align):
+    a = align(jnp.zeros((120, 160)), camera)
+    assert AlignReason(int(a.reason)) == AlignReason.NO_DEPTH and not bool(a.found)
+    speck = np.zeros((120, 160), np.float32)
+    speck[60, 80] = 0.4  # a lone pixel: every triangle corner is invalid
+    a = align(jnp.asarray(speck), camera)
+    assert AlignReason(int(a.reason)) == AlignReason.NO_PLANE
+    assert np.isnan(np.asarray(a.normal)).all() and int(a.best) == -1
+
+
+def test_vmap_equals_a_loop(camera, align, render):
+    scenes = [render([half_space(rot_y(t) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None)
+              for t in (0.1, 0.5)]
+    scenes.append(render([box((0.05, 0.05, 0.05))]))
+    batched = jax.jit(jax.vmap(align_tool, in_axes=(0, None)))(jnp.asarray(np.stack(scenes)),
+                                                               camera)
+    for i, depth in enumerate(scenes):
+        assert_trees_close(jax.tree.map(lambda x, i=i: x[i], batched),
+                           align(jnp.asarray(depth), camera))
+    assert_trees_close(align_tool(jnp.asarray(scenes[0]), camera),
+                       align(jnp.asarray(scenes[0]), camera))

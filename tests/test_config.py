@@ -1,0 +1,66 @@
+import dataclasses
+
+import jax
+import pytest
+
+from graspjax.config import (
+    AlignConfig,
+    ConfigError,
+    DetectorConfig,
+    GripperConfig,
+    differences,
+    override,
+    parse_assignments,
+)
+
+
+def test_paper_defaults():
+    a = AlignConfig()
+    assert (a.window_px, a.distance_threshold, a.num_triangles) == (15, 0.3, 8)
+    assert a.pixel_scale == "paper" and a.hypotheses == "triangles" and not a.refit
+
+
+def test_configs_are_hashable_static_pytrees():
+    assert jax.tree_util.tree_leaves(AlignConfig()) == []
+    assert hash(DetectorConfig()) == hash(DetectorConfig())
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: GripperConfig(opening=-0.01), "GripperConfig.opening must be > 0"),
+    (lambda: AlignConfig(window_px=0), "AlignConfig.window_px"),
+    (lambda: AlignConfig(pixel_scale="metres"), "pixel_scale"),
+    (lambda: DetectorConfig(min_grasp_depth=0.05), "min_grasp_depth"),
+])
+def test_invalid_values_raise_one_line_errors(make, match):
+    with pytest.raises(ConfigError, match=match) as info:
+        make()
+    assert "\n" not in str(info.value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Root:  # a nested config, as the experiment's is
+    align: AlignConfig = AlignConfig()
+    gripper: GripperConfig = GripperConfig()
+
+
+def test_override_by_dotted_name():
+    root = override(Root(), ["align.window_px=10", "align.distance_threshold=0.5",
+                             "align.refit=true", "align.pixel_scale=footprint"])
+    assert root.align.window_px == 10 and root.align.distance_threshold == 0.5
+    assert root.align.refit is True and root.align.pixel_scale == "footprint"
+    assert differences(root, Root()) == {"align.window_px": 10, "align.distance_threshold": 0.5,
+                                         "align.refit": True, "align.pixel_scale": "footprint"}
+    with pytest.raises(ConfigError, match="did you mean align.window_px"):
+        override(Root(), {"align.windw_px": "3"})
+    with pytest.raises(ConfigError, match="must be int"):
+        override(Root(), {"align.window_px": "ten"})
+    with pytest.raises(ConfigError, match="must be > 0"):
+        override(Root(), {"gripper.opening": "0"})
+    with pytest.raises(ConfigError, match="unknown configuration key 'align'"):
+        override(Root(), {"align": "1"})
+
+
+def test_parse_assignments_rejects_missing_equals():
+    assert parse_assignments(["a.b=1"]) == {"a.b": "1"}
+    with pytest.raises(ConfigError, match="key=value"):
+        parse_assignments(["a.b"])

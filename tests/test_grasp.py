@@ -1,0 +1,194 @@
+"""Double T-beam grasp detection against analytic depth images of primitives."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import assert_trees_close, world_to_camera
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from graspjax import DetectorConfig, GraspReason, GripperConfig, detect_grasp
+from graspjax.synthetic import box, regular_prism
+
+
+def _pixel(camera, z):
+    """Footprint of one pixel at depth z (the larger of x and y)."""
+    return z / min(camera.fx, camera.fy)
+
+
+def _reason(grasp):
+    return GraspReason(int(grasp.reason))
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 20.0, 45.0, 110.0, 163.0])
+def test_box_grasp_spans_the_narrow_side(camera, detect, render, yaw_deg):
+    """A 4 x 9 cm box: the jaws close across the 4 cm side, centred on the top face."""
+    height, size, centre = 0.05, (0.04, 0.09), (0.012, -0.008)
+    yaw = np.deg2rad(yaw_deg)
+    g = detect(jnp.asarray(render([box((*size, height), (*centre, 0.0), yaw)])), camera)
+    assert bool(g.found), _reason(g)
+    top = world_to_camera([*centre, height])
+    tol = _pixel(camera, top[2])
+    assert float(g.surface_depth) == pytest.approx(top[2], abs=1e-5)
+    assert abs(float(g.width) - size[0]) <= tol
+    # Closing axis is the box's local x axis, seen in the camera frame (up to sign).
+    axis = world_to_camera([np.cos(yaw), np.sin(yaw), 0.0]) - world_to_camera([0, 0, 0])
+    assert abs(float(jnp.dot(g.closing_axis, axis))) > np.cos(np.deg2rad(3.0))
+    assert float(g.closing_axis[2]) == 0.0
+    assert np.linalg.norm(np.asarray(g.position)[:2] - top[:2]) <= 1.5 * tol
+    assert float(g.position[2]) == pytest.approx(top[2], abs=1e-5)
+    # Finger tips go the desired depth: the table is 5 cm below the top face.
+    assert float(g.depth) == pytest.approx(DetectorConfig().grasp_depth)
+
+
+@settings(max_examples=10, deadline=None)
+@given(yaw=st.floats(-np.pi, np.pi), sx=st.floats(0.02, 0.065), sy=st.floats(0.09, 0.12),
+       x=st.floats(-0.03, 0.03), y=st.floats(-0.03, 0.03))
+def test_random_boxes_that_fit_are_grasped_at_their_width(camera, detect, render, yaw, sx, sy,
+                                                          x, y):
+    g = detect(jnp.asarray(render([box((sx, sy, 0.04), (x, y, 0.0), yaw)])), camera)
+    assert bool(g.found), _reason(g)
+    assert abs(float(g.width) - sx) <= _pixel(camera, 0.46)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 20.0, 45.0])
+def test_box_wider_than_the_opening_in_both_directions(camera, detect, render, yaw_deg):
+    g = detect(jnp.asarray(render([box((0.09, 0.10, 0.04), yaw=np.deg2rad(yaw_deg))])), camera)
+    assert not bool(g.found) and _reason(g) == GraspReason.TOO_WIDE
+    assert np.isnan(float(g.width)) and int(g.index) == -1
+
+
+def test_opening_decides_what_fits(camera, render):
+    """The same 6 cm box fits an 8 cm gripper but not a 6 cm one."""
+    depth = jnp.asarray(render([box((0.06, 0.11, 0.04))]))
+    assert bool(detect_grasp(depth, camera, gripper=GripperConfig(opening=0.08)).found)
+    small = detect_grasp(depth, camera, gripper=GripperConfig(opening=0.06))
+    assert _reason(small) == GraspReason.TOO_WIDE
+
+
+@pytest.mark.parametrize("sides, yaw_deg", [(6, 0.0), (6, 20.0), (6, 45.0), (8, 13.0)])
+def test_prisms_with_parallel_sides_are_grasped_flat_to_flat(camera, detect, render, sides,
+                                                             yaw_deg):
+    radius = 0.025
+    g = detect(jnp.asarray(render([regular_prism(sides, radius, 0.04,
+                                                 yaw=np.deg2rad(yaw_deg))])), camera)
+    assert bool(g.found), _reason(g)
+    flat_to_flat = 2 * radius * np.cos(np.pi / sides)
+    assert abs(float(g.width) - flat_to_flat) <= _pixel(camera, 0.46)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 20.0, 45.0])
+def test_triangular_prism_has_no_antipodal_pair(camera, detect, render, yaw_deg):
+    g = detect(jnp.asarray(render([regular_prism(3, 0.03, 0.04, yaw=np.deg2rad(yaw_deg))])),
+               camera)
+    assert _reason(g) == GraspReason.NO_ANTIPODAL
+    assert int(g.edges.valid.sum()) == 3
+
+
+def test_neighbour_too_close_leaves_no_room_for_the_fingers(camera, detect, render):
+    """A second box 5 mm away stands where the opened fingers must go down."""
+    target = box((0.04, 0.10, 0.05))
+    close = detect(jnp.asarray(render([target, box((0.04, 0.10, 0.045), (0.045, 0, 0))])),
+                   camera)
+    assert _reason(close) == GraspReason.NO_ROOM
+    far = detect(jnp.asarray(render([target, box((0.04, 0.10, 0.045), (0.10, 0, 0))])), camera)
+    assert bool(far.found)
+
+
+def test_u_shaped_surface_fingers_collide_with_the_other_arm(camera, detect, render):
+    """A U of three boxes at equal height (arms 2 cm wide, 4 cm apart).
+
+    Across one arm (2 cm) the far finger of the opened 8 cm gripper lands on
+    the other arm: those placements collide. Across the base the fingers
+    land in the gap and beyond: that is the grasp.
+    """
+    left = box((0.02, 0.08, 0.04), (-0.03, 0.0, 0.0))
+    right = box((0.02, 0.08, 0.04), (0.03, 0.0, 0.0))
+    base = box((0.04, 0.02, 0.04), (0.0, -0.03, 0.0))
+    g = detect(jnp.asarray(render([left, right, base])), camera)
+    reasons = np.asarray(g.candidates.reason)
+    widths = np.asarray(g.candidates.width)
+    across_arm = (reasons == GraspReason.COLLISION) & (np.abs(widths - 0.02) < 0.004)
+    assert across_arm.any()
+    assert bool(g.found) and _reason(g) == GraspReason.FOUND
+    # The grasp closes across the base, along the world y axis (camera y).
+    assert abs(float(g.closing_axis[1])) > np.cos(np.deg2rad(3.0))
+    base_top = world_to_camera([0.0, -0.03, 0.04])
+    assert np.linalg.norm(np.asarray(g.position)[:2] - base_top[:2]) < 0.006
+
+
+def test_short_object_is_grasped_shallower(camera, detect, render):
+    """The fingers stop above the table: 1.5 cm tall box, grasp at 1.5 cm - clearance."""
+    cfg = DetectorConfig()
+    g = detect(jnp.asarray(render([box((0.04, 0.08, 0.015))])), camera)
+    assert bool(g.found)
+    assert float(g.depth) == pytest.approx(0.015 - cfg.depth_clearance, abs=2e-4)
+    flat = detect(jnp.asarray(render([box((0.04, 0.08, 0.009))])), camera)
+    assert _reason(flat) == GraspReason.NO_ROOM
+
+
+def test_empty_and_invalid_images(camera, detect):
+    empty = detect(jnp.zeros((120, 160)), camera)
+    assert _reason(empty) == GraspReason.NO_DEPTH and not bool(empty.found)
+    nan = detect(jnp.full((120, 160), jnp.nan), camera)
+    assert _reason(nan) == GraspReason.NO_DEPTH
+    speck = np.zeros((120, 160), np.float32)
+    speck[50:52, 50:52] = 0.4
+    assert _reason(detect(jnp.asarray(speck), camera)) == GraspReason.SURFACE_TOO_SMALL
+
+
+def test_invalid_pixels_and_noise(camera, detect, render):
+    clean = render([box((0.05, 0.09, 0.04), yaw=0.4)])
+    rng = np.random.default_rng(3)
+    holes = clean.copy()
+    holes[rng.random(clean.shape) < 0.05] = 0.0
+    holes[rng.random(clean.shape) < 0.05] = np.nan
+    noisy = clean + rng.normal(0.0, 0.0015, clean.shape).astype(np.float32)
+    for depth in (holes, noisy):
+        g = detect(jnp.asarray(depth), camera)
+        assert bool(g.found), _reason(g)
+        assert abs(float(g.width) - 0.05) <= 1.5 * _pixel(camera, 0.46)
+
+
+def test_vmap_equals_a_loop_and_jit_equals_eager(camera, detect, render):
+    scenes = [render([box((0.04, 0.09, 0.04), yaw=a)]) for a in (0.0, 0.5, 1.0)]
+    scenes.append(render([box((0.09, 0.10, 0.04))]))  # not graspable
+    batch = jnp.asarray(np.stack(scenes))
+    batched = jax.jit(jax.vmap(detect_grasp, in_axes=(0, None)))(batch, camera)
+    for i, depth in enumerate(scenes):
+        single = detect(jnp.asarray(depth), camera)
+        assert_trees_close(jax.tree.map(lambda x, i=i: x[i], batched), single)
+    assert_trees_close(detect_grasp(jnp.asarray(scenes[1]), camera),
+                       detect(jnp.asarray(scenes[1]), camera))
+
+
+@settings(max_examples=15, deadline=None)
+@given(du=st.integers(-25, 25), dv=st.integers(-20, 20))
+def test_shifting_the_image_shifts_the_grasp(camera, detect, render, du, dv):
+    """Translating the depth image by whole pixels moves G by the same pixels, nothing else."""
+    base = render([box((0.045, 0.08, 0.04), yaw=0.35)])
+    table = float(base[0, 0])
+    shifted = np.full_like(base, table)
+    src = base[max(0, -dv): base.shape[0] - max(0, dv), max(0, -du): base.shape[1] - max(0, du)]
+    shifted[max(0, dv): max(0, dv) + src.shape[0], max(0, du): max(0, du) + src.shape[1]] = src
+    a = detect(jnp.asarray(base), camera)
+    b = detect(jnp.asarray(shifted), camera)
+    assert bool(a.found) and bool(b.found)
+    np.testing.assert_allclose(np.asarray(b.pixel) - np.asarray(a.pixel), [du, dv], atol=1e-3)
+    assert float(b.width) == pytest.approx(float(a.width), abs=1e-5)
+    assert abs(float(jnp.dot(a.closing_axis, b.closing_axis))) == pytest.approx(1.0, abs=1e-5)
+
+
+def test_candidates_report_every_placement(camera, detect, render):
+    g = detect(jnp.asarray(render([box((0.04, 0.09, 0.04))])), camera)
+    k = DetectorConfig().max_edges
+    assert g.candidates.reason.shape == (k * k,)
+    assert int(g.candidates.valid.sum()) >= 2  # both long sides hold a T-beam
+    assert bool(g.candidates.valid[g.index])
+    assert np.all(np.asarray(g.candidates.reason)[~np.asarray(g.candidates.valid)] != 0)
+
+
+def test_grasp_depth_longer_than_the_fingers_is_refused(camera):
+    with pytest.raises(ValueError, match="finger_length"):
+        detect_grasp(jnp.zeros((120, 160)), camera, DetectorConfig(grasp_depth=0.06))
