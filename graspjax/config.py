@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
 import typing
 from collections.abc import Iterable, Mapping
 from typing import Any, Literal
@@ -131,6 +132,115 @@ class AlignConfig:
         _positive(self, "triangle_radius_px", "distance_threshold", "min_inliers")
 
 
+@_static
+class CameraConfig:
+    """The tool camera: the paper's Kinect, downsampled, noise-free by default."""
+
+    width: int = 160  # working resolution (paper: Kinect 640 x 480, downsampled)
+    height: int = 120
+    fov_x_deg: float = 57.0  # Kinect horizontal field of view
+    fov_y_deg: float = 43.0  # Kinect vertical field of view
+    min_range: float = 0.05  # nearer returns are invalid (m)
+    max_range: float = 3.5  # farther returns are invalid (m)
+    noise_std: float = 0.0  # depth noise sigma at 1 m; sigma(z) = noise_std * z^2 (0: off, as the paper)
+
+    def __post_init__(self):
+        _in_range(self, "width", 16, 1280)
+        _in_range(self, "height", 16, 960)
+        _in_range(self, "fov_x_deg", 1.0, 170.0)
+        _in_range(self, "fov_y_deg", 1.0, 170.0)
+        _require(0 <= self.min_range < self.max_range,
+                 "CameraConfig needs 0 <= min_range < max_range")
+        _require(self.noise_std >= 0, f"CameraConfig.noise_std must be >= 0, got {self.noise_std!r}")
+
+    def camera(self):
+        """The pinhole `Camera` of this configuration."""
+        from graspjax.camera import Camera
+
+        return Camera.from_fov(self.width, self.height, self.fov_x_deg, self.fov_y_deg)
+
+
+@_static
+class SimConfig:
+    """MuJoCo MJX physics of the table, the objects and the floating gripper.
+
+    Fixed once for every object and setup, from physical reasoning (see
+    docs/simulation.md); never tuned per object or per cell.
+    """
+
+    timestep: float = 0.002  # integration step (s)
+    iterations: int = 5  # Newton solver iterations (it converges in a few on these small systems)
+    ls_iterations: int = 4  # solver line-search iterations
+    impratio: float = 10.0  # friction-to-normal impedance ratio: firm grip without creep
+    condim: int = 3  # sliding friction; finger pads touch at several points, which resists twisting
+    max_contact_points: int = 48  # MJX keeps this many most-penetrating contacts per step
+    object_friction: float = 0.5  # sliding friction of objects and table (wood, plastic, metal)
+    hand_mass: float = 0.7  # palm and housing (kg), like a Franka Hand's 0.73 kg
+    finger_mass: float = 0.05  # each finger (kg)
+    finger_armature: float = 0.5  # reflected inertia of the geared finger drive (kg)
+    finger_kp: float = 1000.0  # finger position servo gain (N/m), force-limited by grip_force
+    finger_damping: float = 30.0  # each finger slide (N s/m): the coupled pair about critically damped
+    grip_timeconst: float = 0.02  # time constant of the weld pulling the hand to its target (s)
+    segment_steps: int = 50  # physics steps per compiled call; phases are whole segments
+    settle_time: float = 0.4  # settling after a layout is placed (s; Setup 3 drops: 3x)
+    approach_time: float = 0.3  # pre-grasp to grasp pose along the approach axis (s)
+    close_time: float = 0.3  # closing the jaws (s)
+    lift_time: float = 0.4  # lifting by lift_height (s)
+    hold_time: float = 0.3  # holding still before the outcome is judged (s)
+    pregrasp_distance: float = 0.06  # start of the approach, back along the approach axis (m)
+    lift_height: float = 0.10  # how far the gripper lifts (m)
+    min_lift: float = 0.05  # success: the target ends at least this much above its start (m)
+    approach_tolerance: float = 0.015  # hand further than this from its target: blocked (m)
+
+    def __post_init__(self):
+        _positive(self, "timestep", "iterations", "ls_iterations", "impratio", "max_contact_points",
+                  "object_friction", "hand_mass", "finger_mass", "finger_armature", "finger_kp",
+                  "finger_damping", "grip_timeconst", "segment_steps", "settle_time",
+                  "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
+                  "min_lift", "approach_tolerance")
+        _require(self.condim in (1, 3, 4, 6), f"SimConfig.condim must be 1, 3, 4 or 6, got {self.condim}")
+        _require(self.pregrasp_distance >= 0, "SimConfig.pregrasp_distance must be >= 0")
+        _require(self.min_lift <= self.lift_height, "SimConfig.min_lift must be <= lift_height")
+
+    def segments(self, seconds: float) -> int:
+        """Whole segments covering `seconds` of simulated time."""
+        return max(1, math.ceil(round(seconds / (self.segment_steps * self.timestep), 6)))
+
+
+@_static
+class LayoutConfig:
+    """Random object layouts of the three setups (paper Fig. 7)."""
+
+    workspace: float = 0.08  # Setup 1: object centre uniform in a square of this half-size (m)
+    gap_min: float = 0.02  # Setup 2: smallest gap between neighbouring objects (m)
+    gap_max: float = 0.05  # Setup 2: largest gap between neighbouring objects (m)
+    dense_radius: float = 0.05  # Setup 3: object centres uniform in a disc of this radius (m)
+    dense_tilt_deg: float = 20.0  # Setup 3: initial tilt uniform in [0, this] (deg)
+    drop_clearance: float = 0.003  # initial height above the resting pose (m)
+    stack_gap: float = 0.005  # Setup 3: vertical gap between objects stacked for the drop (m)
+
+    def __post_init__(self):
+        _positive(self, "workspace", "gap_max", "dense_radius")
+        _require(self.stack_gap >= 0, "LayoutConfig.stack_gap must be >= 0")
+        _require(0 <= self.gap_min <= self.gap_max, "LayoutConfig needs 0 <= gap_min <= gap_max")
+        _in_range(self, "dense_tilt_deg", 0.0, 90.0)
+        _require(self.drop_clearance >= 0, "LayoutConfig.drop_clearance must be >= 0")
+
+
+@_static
+class ProcedureConfig:
+    """The paper's procedure (Fig. 1): overview, select, centre, detect, re-align, execute."""
+
+    max_reorientations: int = 1  # re-alignments allowed after a failed detection (paper: 1)
+    camera_height: float = 0.5  # overview and centred views: camera height above the table (m)
+    min_view_height: float = 0.05  # a re-aligned camera must stay this high above the table (m)
+
+    def __post_init__(self):
+        _in_range(self, "max_reorientations", 0, 10)
+        _in_range(self, "camera_height", 0.15, 3.0)
+        _require(self.min_view_height >= 0, "ProcedureConfig.min_view_height must be >= 0")
+
+
 # ---------------------------------------------------------------------------
 # Dotted-name overrides
 
@@ -239,9 +349,13 @@ def flatten(config: Any, prefix: str = "") -> dict[str, Any]:
 class Config:
     """Everything one run needs, addressed by dotted names (`--set align.window_px=10`)."""
 
+    camera: CameraConfig = CameraConfig()  # the tool camera
     gripper: GripperConfig = GripperConfig()  # shared by the T-beam and the physics
     detect: DetectorConfig = DetectorConfig()  # grasp point detection (paper 3.1)
     align: AlignConfig = AlignConfig()  # end-tool alignment (paper 3.2)
+    sim: SimConfig = SimConfig()  # physics and grasp execution
+    layout: LayoutConfig = LayoutConfig()  # random scenes of the three setups
+    procedure: ProcedureConfig = ProcedureConfig()  # the grasping procedure
 
     def __post_init__(self):
         _require(self.detect.grasp_depth <= self.gripper.finger_length,

@@ -59,3 +59,33 @@ def assert_trees_close(a, b, rtol=1e-4, atol=1e-5):
         else:
             np.testing.assert_array_equal(x, y)
     jax.tree.map(check, a, b)
+
+
+# --- simulation: one compiled scene per object set, shared by every test ---------------------
+SIM_BATCH = 6  # every physics test uses this many worlds, so each scene compiles once
+
+
+@pytest.fixture(scope="session")
+def basic_sim():
+    """Simulator of the a-f scene (Setups 1-3), shared with the experiment runner."""
+    from graspjax.sim import simulator
+
+    return simulator(tuple("abcdef"))
+
+
+@pytest.fixture(scope="session")
+def industrial_sim():
+    """Simulator of the g-l scene (Setup 1; objects never meet), shared likewise."""
+    from graspjax.sim import simulator
+
+    return simulator(tuple("ghijkl"), objects_collide=False)
+
+
+def hull_solid(points, rotation, translation):
+    """Analytic convex solid (graspjax.synthetic) of a point set, moved to a pose."""
+    from scipy.spatial import ConvexHull
+
+    from graspjax.synthetic import Solid
+
+    eq = ConvexHull(points).equations
+    return Solid(eq[:, :3], -eq[:, 3]).moved(rotation, translation)

@@ -1,0 +1,184 @@
+"""Scene models: a table, a set of objects and the floating parallel-jaw gripper.
+
+One compiled model serves every layout of its objects: an object that is not
+in the current layout is *parked*, held in the air far from the workspace by
+a weld to the world that is switched on per world (`eq_active`), so it makes
+no contacts. The a-f scene therefore serves Setups 1, 2 and 3, and the g-l
+scene Setup 1 (its objects never meet, so object-object contacts are off).
+
+The gripper is a free-floating hand welded to a mocap target (so it follows
+any 6-D pose), with two slide-joint box fingers coupled by a joint equality
+and driven by one force-limited position servo. In the hand frame, z points
+from the palm to the finger tips (the approach direction) and x is the
+closing axis.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+
+import mujoco
+import numpy as np
+
+from graspjax.config import GripperConfig, SimConfig
+from graspjax.sim.objects import OBJECTS, object_mjcf
+from graspjax.sim.render import RenderGeometry, render_geometry
+
+with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
+    from mujoco import mjx
+
+# Contact bits: a geom pair collides when contype of one matches conaffinity of the other.
+_TABLE, _OBJECT, _GRIPPER = 1, 2, 4
+PARK_HEIGHT = 1.0  # parked objects hang this high above the table (m), far outside the view
+_PARK_X = 3.0  # first parking spot (m); objects park 0.5 m apart along x
+GRIPPER_HOME = np.array([0.0, 0.0, 1.5])  # the gripper waits here, above the camera's view
+PALM_HALF = np.array([0.02, 0.05, 0.01])  # palm box half extents (m)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: usable as a static jit argument
+class Scene:
+    """A compiled scene and the indices the simulation needs (shared by all worlds)."""
+
+    letters: tuple[str, ...]  # objects in the model, in body order
+    mj_model: mujoco.MjModel
+    model: mjx.Model
+    object_body: np.ndarray  # (n,) body id of each object
+    object_qpos: np.ndarray  # (n,) qpos address of each object's free joint
+    object_qvel: np.ndarray  # (n,) qvel address of each object's free joint
+    park_eq: np.ndarray  # (n,) equality id of each object's parking weld
+    park_pos: np.ndarray  # (n, 3) parking position of each object
+    hand_body: int  # body id of the hand
+    hand_qpos: int  # qpos address of the hand's free joint
+    hand_qvel: int
+    finger_qpos: np.ndarray  # (2,) qpos addresses of the two finger slides
+    finger_qvel: np.ndarray
+    tcp_offset: float  # hand-frame z of the point between the finger tips (m)
+    object_points: np.ndarray  # (n, V, 3) piece vertices in the object frame, padded by repeats
+    footprint_radius: np.ndarray  # (n,) horizontal radius around the object origin (m)
+    render: RenderGeometry  # half-spaces of the table and every object piece
+    piece_object: np.ndarray  # (G,) object index of each rendered piece, -1 for the table
+    gripper: GripperConfig
+    sim: SimConfig
+
+    @property
+    def num_objects(self) -> int:
+        return len(self.letters)
+
+
+def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide: bool) -> str:
+    """The MJCF text of a scene with the given objects."""
+    friction = f"{sim.object_friction:g} 0.005 0.0001"
+    object_affinity = _TABLE | _GRIPPER | (_OBJECT if objects_collide else 0)
+    assets, bodies, parks = [], [], []
+    for i, letter in enumerate(letters):
+        asset, geoms = object_mjcf(OBJECTS[letter], prefix="obj_")
+        assets.append(asset)
+        park = (_PARK_X + 0.5 * i, 0.0, PARK_HEIGHT)
+        bodies.append(f'<body name="obj_{letter}" pos="{park[0]:g} {park[1]:g} {park[2]:g}">'
+                      f'<freejoint name="obj_{letter}"/>\n{geoms}\n</body>')
+        # (body1 must be the world: MuJoCo 4.0's weld with an implied world body2 exerts no force)
+        parks.append(f'<weld name="park_{letter}" body1="world" body2="obj_{letter}"/>')
+    g = gripper
+    finger_z = PALM_HALF[2] + g.finger_length / 2
+    finger_size = f"{g.finger_thickness / 2:g} {g.finger_width / 2:g} {g.finger_length / 2:g}"
+    home = " ".join(f"{v:g}" for v in GRIPPER_HOME)
+    # Each finger presses with half the servo force (the joint coupling carries
+    # the other half), so the servo is limited to twice the grip force.
+    return f"""<mujoco model="graspjax_{''.join(letters)}">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{sim.timestep:g}" iterations="{sim.iterations}" ls_iterations="{sim.ls_iterations}"
+          cone="pyramidal" impratio="{sim.impratio:g}">
+    <flag eulerdamp="disable"/>
+  </option>
+  <custom><numeric name="max_contact_points" data="{sim.max_contact_points}"/></custom>
+  <default>
+    <geom condim="{sim.condim}" friction="{friction}" contype="{_OBJECT}" conaffinity="{object_affinity}"/>
+    <default class="gripper">
+      <geom contype="{_GRIPPER}" conaffinity="{_TABLE | _OBJECT}"
+            friction="{g.friction:g} 0.005 0.0001"/>
+      <joint type="slide" range="0 {g.opening / 2:g}" armature="{sim.finger_armature:g}"
+             damping="{sim.finger_damping:g}"/>
+    </default>
+  </default>
+  <asset>
+    <material name="default" rgba="0.8 0.8 0.8 1"/>
+{chr(10).join(assets)}
+  </asset>
+  <worldbody>
+    <geom name="table" type="plane" size="0 0 1" contype="{_TABLE}" conaffinity="{_OBJECT | _GRIPPER}"
+          material="default"/>
+{chr(10).join(bodies)}
+    <body name="gripper_target" mocap="true" pos="{home}"/>
+    <body name="hand" pos="{home}">
+      <freejoint name="hand"/>
+      <geom name="palm" class="gripper" type="box" size="{PALM_HALF[0]:g} {PALM_HALF[1]:g} {PALM_HALF[2]:g}"
+            mass="{sim.hand_mass:g}"/>
+      <body name="finger_1" pos="0 0 {finger_z:g}">
+        <joint name="finger_1" class="gripper" axis="1 0 0"/>
+        <geom name="finger_1" class="gripper" type="box" size="{finger_size}"
+              pos="{g.finger_thickness / 2:g} 0 0" mass="{sim.finger_mass:g}"/>
+      </body>
+      <body name="finger_2" pos="0 0 {finger_z:g}">
+        <joint name="finger_2" class="gripper" axis="-1 0 0"/>
+        <geom name="finger_2" class="gripper" type="box" size="{finger_size}"
+              pos="{-g.finger_thickness / 2:g} 0 0" mass="{sim.finger_mass:g}"/>
+      </body>
+    </body>
+  </worldbody>
+  <contact><exclude body1="finger_1" body2="finger_2"/></contact>
+  <equality>
+    <weld name="grip" body1="gripper_target" body2="hand" solref="{sim.grip_timeconst:g} 1"/>
+    <joint joint1="finger_1" joint2="finger_2"/>
+{chr(10).join(parks)}
+  </equality>
+  <actuator>
+    <position name="jaws" joint="finger_1" kp="{sim.finger_kp:g}" ctrlrange="0 {g.opening / 2:g}"
+              forcerange="{-2 * g.grip_force:g} {2 * g.grip_force:g}"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfig = SimConfig(),
+                objects_collide: bool = True) -> Scene:
+    """Compile a scene of the given object letters (one MJX model for all layouts)."""
+    letters = tuple(letters)
+    mj_model = mujoco.MjModel.from_xml_string(scene_mjcf(letters, gripper, sim, objects_collide))
+
+    def obj_id(kind, name):
+        return mujoco.mj_name2id(mj_model, kind, name)
+
+    bodies = np.array([obj_id(mujoco.mjtObj.mjOBJ_BODY, f"obj_{c}") for c in letters])
+    joints = np.array([obj_id(mujoco.mjtObj.mjOBJ_JOINT, f"obj_{c}") for c in letters])
+    hand = obj_id(mujoco.mjtObj.mjOBJ_JOINT, "hand")
+    fingers = np.array([obj_id(mujoco.mjtObj.mjOBJ_JOINT, f"finger_{k}") for k in (1, 2)])
+    table = obj_id(mujoco.mjtObj.mjOBJ_GEOM, "table")
+    visible = [table] + [g for g in range(mj_model.ngeom) if mj_model.geom_bodyid[g] in bodies]
+    points = [OBJECTS[c].points() for c in letters]
+    most = max(len(p) for p in points)
+    padded = np.stack([np.concatenate([p, np.repeat(p[:1], most - len(p), 0)]) for p in points])
+    return Scene(
+        letters=letters,
+        mj_model=mj_model,
+        model=mjx.put_model(mj_model),
+        object_body=bodies,
+        object_qpos=mj_model.jnt_qposadr[joints],
+        object_qvel=mj_model.jnt_dofadr[joints],
+        park_eq=np.array([obj_id(mujoco.mjtObj.mjOBJ_EQUALITY, f"park_{c}") for c in letters]),
+        park_pos=mj_model.body_pos[bodies].copy(),
+        hand_body=int(mj_model.jnt_bodyid[hand]),
+        hand_qpos=int(mj_model.jnt_qposadr[hand]),
+        hand_qvel=int(mj_model.jnt_dofadr[hand]),
+        finger_qpos=mj_model.jnt_qposadr[fingers],
+        finger_qvel=mj_model.jnt_dofadr[fingers],
+        tcp_offset=float(PALM_HALF[2] + gripper.finger_length),
+        object_points=padded,
+        footprint_radius=np.array([OBJECTS[c].footprint_radius for c in letters]),
+        render=render_geometry(mj_model, visible),
+        piece_object=np.array([-1] + [int(np.flatnonzero(bodies == mj_model.geom_bodyid[g])[0])
+                                      for g in visible[1:]], np.int32),
+        gripper=gripper,
+        sim=sim,
+    )

@@ -1,0 +1,68 @@
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from graspjax.config import DetectorConfig, GripperConfig
+from graspjax.sim.objects import (
+    BASIC,
+    INDUSTRIAL,
+    OBJECTS,
+    catalogue_rows,
+    object_mass,
+    parse_letters,
+    write_assets,
+)
+
+
+def test_twelve_objects_with_small_convex_pieces():
+    assert "".join(OBJECTS) == "abcdefghijkl" and BASIC + INDUSTRIAL == tuple(OBJECTS)
+    for spec in OBJECTS.values():
+        assert spec.pieces and spec.density > 0
+        for piece in spec.pieces:
+            assert piece.kind in ("box", "hull")
+            if piece.kind == "hull":
+                assert 4 <= len(piece.vertices) <= 32
+        pts = spec.points()
+        assert pts[:, 2].min() == pytest.approx(0.0, abs=1e-9)  # resting on z = 0
+    # The industrial parts are concave: several convex pieces each.
+    assert all(len(OBJECTS[c].pieces) >= 2 for c in INDUSTRIAL)
+
+
+def test_every_object_fits_the_default_gripper_in_some_direction():
+    """Some horizontal width of each object fits the opening minus the clearances."""
+    limit = GripperConfig().opening - 2 * DetectorConfig().clearance
+    for spec in OBJECTS.values():
+        xy = spec.points()[:, :2]
+        widths = [np.ptp(xy @ [np.cos(a), np.sin(a)]) for a in np.linspace(0, np.pi, 180)]
+        assert min(widths) <= limit, spec.letter
+
+
+def test_masses_follow_volume_and_density():
+    # A 5 cm cube of 700 kg/m^3 weighs 87.5 g; MuJoCo computes it from the geometry.
+    assert object_mass(OBJECTS["a"]) == pytest.approx(0.125e-3 * 700)
+    cylinder = OBJECTS["e"]  # 16-gon prism, circumradius 2.5 cm, 7 cm tall
+    area = 0.5 * 16 * 0.025**2 * np.sin(2 * np.pi / 16)
+    assert object_mass(cylinder) == pytest.approx(area * 0.07 * 700, rel=1e-4)
+
+
+def test_committed_assets_match_the_generator(tmp_path):
+    write_assets(tmp_path)
+    committed = Path(__file__).resolve().parents[1] / "assets" / "objects"
+    for path in sorted(tmp_path.iterdir()):
+        with open(f"{committed}/{path.name}") as handle:
+            assert handle.read() == path.read_text(), f"{path.name} is stale: regenerate assets"
+    with open(f"{committed}/catalogue.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [r["letter"] for r in rows] == list("abcdefghijkl")
+    assert {r["name"] for r in rows} == {r["name"] for r in catalogue_rows()}
+
+
+def test_parse_letters():
+    assert parse_letters("a,b,c") == ("a", "b", "c")
+    assert parse_letters("ghi") == ("g", "h", "i")
+    with pytest.raises(ValueError, match="unknown object 'z'"):
+        parse_letters("a,z")
+    with pytest.raises(ValueError, match="twice"):
+        parse_letters("a,a")

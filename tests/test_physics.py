@@ -1,0 +1,155 @@
+"""Settling and grasp execution in MJX, judged by physics (on the CPU, small batches)."""
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+import pytest
+from conftest import SIM_BATCH
+
+from graspjax.config import LayoutConfig
+from graspjax.geometry import quat_to_matrix
+from graspjax.sim import GraspPose, Outcome, layout
+
+CFG = LayoutConfig()
+
+
+def _layouts(sim, setup, seed=0):
+    scene, n = sim.scene, sim.scene.num_objects
+    keys = jnp.stack([layout.layout_key(seed, setup, i) for i in range(SIM_BATCH)])
+    if setup == 1:  # world i holds object i
+        return jax.vmap(lambda k, t: layout.single(k, t, n, CFG))(keys, jnp.arange(SIM_BATCH) % n)
+    if setup == 2:
+        return jax.vmap(lambda k: layout.grouped(k, scene.footprint_radius, CFG))(keys)
+    return jax.vmap(lambda k: layout.dense(k, scene.object_points, CFG))(keys)
+
+
+def _settled(sim, setup):
+    data = sim.reset(sim.empty(SIM_BATCH), *_layouts(sim, setup))
+    return sim.hold_still(data, sim.scene.sim.settle_time * (3 if setup == 3 else 1))
+
+
+def _cpu_penetration(scene, qpos, eq_active):
+    """Deepest penetration (m, >= 0) by CPU MuJoCo with no contact cap (independent check)."""
+    model = scene.mj_model
+    model.numeric_data[:] = -1  # no max_contact_points: every contact
+    data = mujoco.MjData(model)
+    data.qpos[:], data.eq_active[:] = qpos, eq_active
+    mujoco.mj_forward(model, data)
+    return max([-c.dist for c in data.contact[: data.ncon]], default=0.0)
+
+
+@pytest.mark.parametrize("scene_name, setup", [("basic", 1), ("basic", 2), ("basic", 3),
+                                               ("industrial", 1)])
+def test_layouts_settle_on_the_table(basic_sim, industrial_sim, scene_name, setup):
+    sim = basic_sim if scene_name == "basic" else industrial_sim
+    scene = sim.scene
+    data = _settled(sim, setup)
+    qpos, qvel = np.asarray(data.qpos), np.asarray(data.qvel)
+    active = np.asarray(_layouts(sim, setup)[2])
+    assert np.isfinite(qpos).all() and np.isfinite(qvel).all()
+    for w in range(SIM_BATCH):
+        assert _cpu_penetration(scene, qpos[w], np.asarray(data.eq_active[w])) < 0.002
+        for i in range(scene.num_objects):
+            a = scene.object_qpos[i]
+            rot = np.asarray(quat_to_matrix(jnp.asarray(qpos[w, a + 3:a + 7])))
+            lowest = (scene.object_points[i] @ rot.T)[:, 2].min() + qpos[w, a + 2]
+            if active[w, i]:
+                assert lowest > -0.002  # on (not in) the table
+                assert np.abs(qvel[w, scene.object_qvel[i]:scene.object_qvel[i] + 3]).max() < 0.05
+            else:  # parked objects stay where they hang
+                np.testing.assert_allclose(qpos[w, a:a + 3], scene.park_pos[i], atol=0.002)
+    if setup == 1:  # a lone object rests in its designed pose
+        for w in range(SIM_BATCH):
+            a = scene.object_qpos[w]
+            up = np.asarray(quat_to_matrix(jnp.asarray(qpos[w, a + 3:a + 7])))[2, 2]
+            assert up > np.cos(np.deg2rad(2.0)), scene.letters[w]
+
+
+def _place(sim, poses):
+    """Worlds with objects at given (x, y, yaw) poses: poses[w] = {object index: (x, y, yaw)}."""
+    n = sim.scene.num_objects
+    pos = np.zeros((SIM_BATCH, n, 3))
+    quat = np.tile([1.0, 0, 0, 0], (SIM_BATCH, n, 1))
+    active = np.zeros((SIM_BATCH, n), bool)
+    for w, world in enumerate(poses):
+        for i, (x, y, yaw) in world.items():
+            pos[w, i] = (x, y, 0.001)
+            quat[w, i] = (np.cos(yaw / 2), 0, 0, np.sin(yaw / 2))
+            active[w, i] = True
+    data = sim.reset(sim.empty(SIM_BATCH), jnp.asarray(pos), jnp.asarray(quat), jnp.asarray(active))
+    return sim.hold_still(data, 0.2)
+
+
+def _grasps(rows):
+    """GraspPose batch from rows of (tcp, closing axis, valid); approach straight down."""
+    tcp = jnp.array([r[0] for r in rows], jnp.float32)
+    closing = jnp.array([r[1] for r in rows], jnp.float32)
+    return GraspPose(tcp, jnp.tile(jnp.array([0.0, 0.0, -1.0]), (len(rows), 1)), closing,
+                     jnp.array([r[2] for r in rows]))
+
+
+def test_grasps_in_the_basic_scene(basic_sim):
+    """Cube (a, 5 cm) and block (f, 7 x 4 x 3 cm) grasped top-down, 2 cm below their tops."""
+    cube, block = 0, 5
+    worlds = [{cube: (0.0, 0.0, 0.0)},  # 0: across the cube
+              {cube: (0.02, -0.01, 0.5)},  # 1: across the cube, turned with it
+              {block: (0.0, 0.0, 0.0)},  # 2: across the block's 4 cm side
+              {cube: (0.0, 0.0, 0.0)},  # 3: 20 cm beside the cube, in the air
+              {cube: (0.0, 0.0, 0.0), block: (0.1, 0.0, 0.0)},  # 4: grasps the block, target cube
+              {cube: (0.0, 0.0, 0.0)}]  # 5: no grasp
+    data = _place(basic_sim, worlds)
+    rows = [((0, 0, 0.03), (1, 0, 0), True),
+            ((0.02, -0.01, 0.03), (np.cos(0.5), np.sin(0.5), 0), True),
+            ((0, 0, 0.01), (0, 1, 0), True),
+            ((0.2, 0.0, 0.03), (1, 0, 0), True),
+            ((0.1, 0, 0.01), (0, 1, 0), True),
+            ((0, 0, 0.03), (1, 0, 0), False)]
+    target = jnp.array([cube, cube, block, cube, cube, cube])
+    _, attempt = basic_sim.execute(data, _grasps(rows), target)
+    expected = [Outcome.SUCCESS, Outcome.SUCCESS, Outcome.SUCCESS, Outcome.MISSED,
+                Outcome.WRONG_OBJECT, Outcome.NOT_EXECUTED]
+    assert [Outcome(o) for o in attempt.outcome] == expected
+    lift = basic_sim.scene.sim.lift_height
+    np.testing.assert_allclose(attempt.rise[:3], lift, atol=0.01)  # lifted with the hand
+    # The jaws stop on the part: half the opening is half its width (5, 5, 4 cm).
+    np.testing.assert_allclose(attempt.opening[:3], [0.025, 0.025, 0.02], atol=0.002)
+    assert attempt.lifted_object.tolist() == [cube, cube, block, -1, block, -1]
+    assert abs(attempt.rise[5]) < 1e-3  # nothing touched the cube
+
+
+def test_grasps_in_the_industrial_scene(industrial_sim):
+    """Concave parts grasped at their features: knob, gear section, cup, gear teeth."""
+    gear, candlestick, mill, shaft = 0, 1, 2, 4
+    worlds = [{mill: (0.0, 0.0, 0.0)}, {shaft: (0.0, 0.0, 0.0)},
+              {candlestick: (0.0, 0.0, 0.0)}, {gear: (0.0, 0.0, 0.0)},
+              {gear: (0.0, 0.0, 0.0)}, {candlestick: (0.0, 0.0, 0.0)}]
+    data = _place(industrial_sim, worlds)
+    top_of_gear = 2 * 0.022 * np.cos(np.pi / 16)
+    rows = [((0, 0, 0.130 - 0.010), (1, 0, 0), True),  # the pepper mill by its knob
+            ((0, 0, top_of_gear - 0.015), (0, 1, 0), True),  # across the shaft's gear section
+            ((0, 0, 0.122 - 0.015), (1, 0, 0), True),  # across the candlestick's cup
+            ((0, 0, 0.005), (1, 0, 0), True),  # across the gear, tooth to tooth
+            ((0, 0, 0.005), (np.cos(np.pi / 8), np.sin(np.pi / 8), 0), True),  # between teeth
+            ((0, 0, 0.122 - 0.015), (1, 0, 0), False)]
+    target = jnp.array([mill, shaft, candlestick, gear, gear, candlestick])
+    _, attempt = industrial_sim.execute(data, _grasps(rows), target)
+    assert [Outcome(o) for o in attempt.outcome] == [Outcome.SUCCESS] * 5 + [Outcome.NOT_EXECUTED]
+    # The jaws stop at the part's width: knob, gear section and cup diameters (flat to flat).
+    flat = np.cos(np.pi / 12), np.cos(np.pi / 16)
+    np.testing.assert_allclose(attempt.opening[:3], [0.011 * flat[0], 0.022 * flat[1],
+                                                     0.022 * flat[1]], atol=0.002)
+
+
+def test_side_wider_than_the_opening_is_not_grasped():
+    """A 4 cm gripper over the 5 cm cube: the fingers come down on its top and are stopped."""
+    from graspjax.config import GripperConfig
+    from graspjax.sim import Simulator, build_scene
+
+    narrow = Simulator(build_scene("a", gripper=GripperConfig(opening=0.04)))
+    data = _place(narrow, [{0: (0.0, 0.0, 0.0)}] * SIM_BATCH)
+    rows = [((0, 0, 0.03), (np.cos(a), np.sin(a), 0), True)
+            for a in np.linspace(0, np.pi / 2, SIM_BATCH)]
+    _, attempt = narrow.execute(data, _grasps(rows), jnp.zeros(SIM_BATCH, jnp.int32))
+    assert all(Outcome(o) == Outcome.COLLISION for o in attempt.outcome)
+    assert (np.abs(attempt.rise) < 0.01).all()  # the cube stays on the table
