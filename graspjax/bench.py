@@ -102,3 +102,148 @@ def format_perception(r: dict) -> str:
     lines.append(f"single image (detect+align): {r['single_latency_ms']:.2f} ms after a "
                  f"{r['single_compile_s']:.1f} s compile")
     return "\n".join(lines)
+
+
+def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024,
+                      seconds: float = 1.0, config: Config = Config(), progress=print) -> dict:
+    """World-steps/s of a scene (settling and grasp execution) and depth images/s.
+
+    Compile time is measured apart. The layout is random (seeded) for `setup`.
+    """
+    from graspjax.geometry import look_down
+    from graspjax.sim import layout
+    from graspjax.sim.scene import build_scene
+    from graspjax.sim.world import GraspPose, Simulator, render
+
+    start = time.perf_counter()
+    scene = build_scene(letters, config.gripper, config.sim, objects_collide=setup != 1)
+    sim = Simulator(scene)
+    build_s = time.perf_counter() - start
+    n = scene.num_objects
+    keys = jax.vmap(lambda i: layout.layout_key(0, setup, i))(jnp.arange(batch))
+    if setup == 1:
+        pos, quat, active = jax.vmap(lambda k, t: layout.single(k, t, n, config.layout))(
+            keys, jnp.arange(batch) % n)
+    elif setup == 2:
+        pos, quat, active = jax.vmap(lambda k: layout.grouped(k, scene.footprint_radius,
+                                                              config.layout))(keys)
+    else:
+        pos, quat, active = jax.vmap(lambda k: layout.dense(k, scene.object_points,
+                                                            config.layout))(keys)
+    data = sim.reset(sim.empty(batch), pos, quat, active)
+    seg = config.sim.segment_steps * config.sim.timestep
+    progress(f"compiling the physics of {letters} (batch {batch}) ...")
+    t0 = time.perf_counter()
+    data = jax.block_until_ready(sim.hold_still(data, seg))
+    compile_s = time.perf_counter() - t0
+    data = jax.block_until_ready(sim.hold_still(data, 0.5))  # let the drop settle a little
+
+    progress("timing settling ...")
+    t0 = time.perf_counter()
+    data = jax.block_until_ready(sim.hold_still(data, seconds))
+    settle_s = time.perf_counter() - t0
+    steps = config.sim.segments(seconds) * config.sim.segment_steps
+
+    # A top-down grasp over each world's first active object (physics with finger contacts).
+    kin = sim.kinematics(data)
+    first = jnp.argmax(active, axis=1)
+    centre = kin.xpos[jnp.arange(batch), jnp.asarray(scene.object_body)[first]]
+    grasp = GraspPose(tcp=centre + jnp.array([0.0, 0.0, 0.01]),
+                      approach=jnp.broadcast_to(jnp.array([0.0, 0.0, -1.0]), (batch, 3)),
+                      closing=jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0]), (batch, 3)),
+                      valid=jnp.ones(batch, bool))
+    sim.execute(data, grasp, first)  # compile the helpers
+    t0 = time.perf_counter()
+    _, attempt = sim.execute(data, grasp, first)
+    execute_s = time.perf_counter() - t0
+    s = config.sim
+    execute_steps = s.segment_steps * sum(s.segments(t) for t in (s.approach_time, s.close_time,
+                                                                   s.lift_time, s.hold_time))
+
+    camera = config.camera.camera()
+    rot, eye = look_down(jnp.array([0.0, 0.0, 0.55]))
+    draw = jax.jit(jax.vmap(lambda d: render(scene, d, rot, eye, camera, config.camera)))
+    t0 = time.perf_counter()
+    jax.block_until_ready(draw(kin))
+    render_compile_s = time.perf_counter() - t0
+    render_s = _median_seconds(lambda: draw(kin), 5)
+    return {
+        "scene": letters, "setup": setup, "batch": batch, "build_s": build_s,
+        "compile_s": compile_s, "settle_world_steps_per_s": batch * steps / settle_s,
+        "execute_world_steps_per_s": batch * execute_steps / execute_s,
+        "execute_s": execute_s, "grasp_success_fraction": float(np.mean(attempt.outcome == 0)),
+        "render_compile_s": render_compile_s, "render_images_per_s": batch / render_s,
+        "render_resolution": [camera.width, camera.height],
+        "ncon": int(sim.empty(1)._impl.ncon),
+        **device_info(),
+    }
+
+
+def format_physics(r: dict) -> str:
+    return (f"device: {r['device']} ({r['platform']}), jax {r['jax']}\n"
+            f"scene {r['scene']}, setup {r['setup']}, batch {r['batch']} worlds, "
+            f"{r['ncon']} contact slots; physics compile {r['compile_s']:.1f} s\n"
+            f"settling:  {r['settle_world_steps_per_s']:>12,.0f} world-steps/s\n"
+            f"execution: {r['execute_world_steps_per_s']:>12,.0f} world-steps/s "
+            f"({100 * r['grasp_success_fraction']:.0f}% of blind top-down grasps lifted)\n"
+            f"rendering: {r['render_images_per_s']:>12,.0f} depth images/s at "
+            f"{r['render_resolution'][0]}x{r['render_resolution'][1]} "
+            f"(compile {r['render_compile_s']:.1f} s)")
+
+
+def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), trials: int = 100,
+                       batch: int | None = None, config: Config = Config(),
+                       progress=print) -> dict:
+    """Grasp attempts/s end to end, and the share of time in physics, perception and rendering.
+
+    The job runs twice with the same seed: the first run includes compilation,
+    the second is timed as the steady state.
+    """
+    from graspjax.experiment import Job, default_batch, round_runner, run_jobs
+    from graspjax.geometry import look_down
+    from graspjax.sim.world import render
+
+    job = Job(tuple(objects), tuple(setups), trials)
+    size = batch or default_batch(len(job.worlds))
+    progress(f"first run (compiles): {len(job.worlds)} worlds x {len(job.objects)} attempts ...")
+    t0 = time.perf_counter()
+    run_jobs([job], config, 0, size)
+    first_s = time.perf_counter() - t0
+    progress("second run (steady state) ...")
+    t0 = time.perf_counter()
+    rows, timings = run_jobs([job], config, 0, size)
+    wall_s = time.perf_counter() - t0
+    physics_s = sum(t["physics_s"] for t in timings)
+    perception_s = sum(t["perception_s"] for t in timings)
+
+    # Rendering alone, on a batch of this scene, to split it out of perception.
+    runner = round_runner(job, config)
+    sim, camera = runner.sim, config.camera.camera()
+    rot, eye = look_down(jnp.array([0.0, 0.0, config.procedure.camera_height]))
+    data = sim.kinematics(sim.empty(size))
+    draw = jax.jit(jax.vmap(lambda d: render(sim.scene, d, rot, eye, camera, config.camera)))
+    jax.block_until_ready(draw(data))
+    per_batch = _median_seconds(lambda: draw(data), 5)
+    images = (2 + config.procedure.max_reorientations) * len(job.objects)  # per world and round
+    chunks = -(-len(job.worlds) // size)
+    render_s = per_batch * images * chunks
+    attempts = len(rows)
+    return {
+        "objects": objects, "setups": list(setups), "trials": trials, "batch": size,
+        "attempts": attempts, "success_rate": float(np.mean([r["success"] for r in rows])),
+        "first_run_s": first_s, "wall_s": wall_s, "compile_s_estimate": first_s - wall_s,
+        "attempts_per_s": attempts / wall_s,
+        "physics_share": physics_s / wall_s, "perception_share": perception_s / wall_s,
+        "render_share": render_s / wall_s, "render_images_per_s": size / per_batch,
+        **device_info(),
+    }
+
+
+def format_pipeline(r: dict) -> str:
+    return (f"device: {r['device']} ({r['platform']}), jax {r['jax']}\n"
+            f"objects {r['objects']}, setups {r['setups']}, {r['trials']} trials, batch {r['batch']}"
+            f": {r['attempts']} attempts ({100 * r['success_rate']:.0f}% success)\n"
+            f"first run {r['first_run_s']:.1f} s (compiles ~{r['compile_s_estimate']:.1f} s), "
+            f"steady {r['wall_s']:.1f} s = {r['attempts_per_s']:,.1f} attempts/s\n"
+            f"time shares: physics {100 * r['physics_share']:.0f}%, perception incl. rendering "
+            f"{100 * r['perception_share']:.0f}% (rendering alone ~{100 * r['render_share']:.0f}%)")

@@ -160,18 +160,201 @@ def cmd_bench(args) -> int:
     from graspjax.bench import format_perception, perception_benchmark
     from graspjax.config import Config, override
 
-    if args.batch < 1 or args.repeats < 1:
+    if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
     config = override(Config(), args.set or [])
-    result = perception_benchmark(batch=args.batch, width=args.width, height=args.height,
-                                  repeats=args.repeats, config=config,
-                                  progress=lambda m: print(m, file=sys.stderr))
+    progress = lambda m: print(m, file=sys.stderr)  # noqa: E731
+    if args.what == "perception":
+        result = perception_benchmark(batch=args.batch or 4096, width=args.width, height=args.height,
+                                      repeats=args.repeats, config=config, progress=progress)
+        text = format_perception(result)
+    elif args.what == "pipeline":
+        from graspjax.bench import format_pipeline, pipeline_benchmark
+        from graspjax.sim.objects import parse_letters
+
+        try:
+            letters = "".join(parse_letters(args.objects))
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+        setups = _ints(str(args.setup), "--setup", (1, 2, 3))
+        result = pipeline_benchmark(letters, setups, args.trials, args.batch, config, progress)
+        text = format_pipeline(result)
+    else:
+        from graspjax.bench import format_physics, physics_benchmark
+        from graspjax.sim.objects import parse_letters
+
+        try:
+            letters = "".join(parse_letters(args.objects))
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+        setup = _ints(str(args.setup), "--setup", (1, 2, 3))[0]
+        import jax
+
+        batch = args.batch or (4096 if jax.default_backend() == "gpu" else 16)
+        result = physics_benchmark(letters, setup, batch, args.seconds, config, progress)
+        text = format_physics(result)
     if args.out:
         from graspjax.io import write_atomic
 
         write_atomic(args.out, (json.dumps(_jsonable(result), indent=2) + "\n").encode())
-    print(format_perception(result))
+    print(text)
     return 0
+
+
+def _ints(text: str, name: str, allowed) -> tuple[int, ...]:
+    try:
+        values = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise UsageError(f"{name} takes comma-separated integers, got {text!r}") from None
+    bad = [v for v in values if v not in allowed]
+    if bad or not values:
+        raise UsageError(f"{name} must be among {', '.join(map(str, allowed))}, got {text!r}")
+    return values
+
+
+def _jobs(args):
+    """Jobs from --table or --setup/--objects, validated (no compilation yet)."""
+    from graspjax.experiment import Job, table_jobs
+    from graspjax.sim.objects import parse_letters
+
+    if args.trials < 1:
+        raise UsageError(f"--trials must be >= 1, got {args.trials}")
+    if args.seed < 0:
+        raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    if args.batch is not None and args.batch < 1:
+        raise UsageError(f"--batch must be >= 1, got {args.batch}")
+    if (args.table is None) == (args.setup is None):
+        raise UsageError("give either --table 1|2|1,2 or --setup S [--objects ...]")
+    if args.table is not None:
+        if args.objects is not None:
+            raise UsageError("--objects goes with --setup; the tables fix their objects")
+        return [table_jobs(t, args.trials) for t in _ints(args.table, "--table", (1, 2))]
+    try:
+        objects = parse_letters(args.objects or "abcdef")
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    return [Job(objects, _ints(args.setup, "--setup", (1, 2, 3)), args.trials)]
+
+
+def _grid(items: list[str], base):
+    """--grid key=v1,v2,... -> (keys, list of (values dict, config)); every point validated.
+
+    Keys joined by ':' vary together: --grid camera.width:camera.height=80:60,160:120.
+    """
+    import itertools
+
+    from graspjax.config import override, parse_assignments
+
+    axes = []
+    for name, text in parse_assignments(items).items():
+        names = name.split(":")
+        values = [v.strip().split(":") for v in text.split(",") if v.strip()]
+        if not values:
+            raise UsageError(f"--grid {name}= has no values")
+        if any(len(v) != len(names) for v in values):
+            raise UsageError(f"--grid {name}: every value needs {len(names)} parts joined by ':'")
+        axes.append([dict(zip(names, v, strict=True)) for v in values])
+    keys = [k for axis in axes for k in axis[0]]
+    points = []
+    for combo in itertools.product(*axes):
+        assignment = {k: v for part in combo for k, v in part.items()}
+        points.append((assignment, override(base, assignment)))
+    return keys, points
+
+
+def _progress(total: int, quiet: bool):
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit="attempt", disable=quiet, dynamic_ncols=True, file=sys.stderr,
+               smoothing=0.05)
+
+    def log(message):
+        if not quiet:
+            bar.write(message, file=sys.stderr)
+
+    return bar, log
+
+
+def _experiment(args, grid_items=None) -> int:
+    import dataclasses
+
+    from graspjax.config import Config, differences, override
+    from graspjax.experiment import run_jobs
+    from graspjax.outputs import attempts_frame, check_output_folder, run_id, write_run
+
+    out = check_output_folder(args.out)
+    config = override(Config(), args.set or [])
+    jobs = _jobs(args)
+    keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
+    attempts = sum(len(j.worlds) * len(j.objects) for j in jobs) * len(points)
+    bar, log = _progress(attempts, args.quiet)
+    meta = {"seed": args.seed, "jobs": [dataclasses.asdict(j) for j in jobs],
+            "overrides": differences(config, Config()),
+            "grid": {k: [p[0][k] for p in points] for k in keys}, "points": len(points)}
+    rid = run_id({**meta, "overrides": {**meta["overrides"], "grid": meta["grid"]}})
+    frames, timings = [], []
+    import pandas as pd
+
+    with bar:
+        for i, (assignment, point_config) in enumerate(points):
+            if assignment:
+                log(f"grid point {i + 1}/{len(points)}: "
+                    + ", ".join(f"{k}={v}" for k, v in assignment.items()) + f" (seed {args.seed + i})")
+            rows, chunk_times = run_jobs(jobs, point_config, args.seed + i, args.batch,
+                                         bar.update, log)
+            frame = attempts_frame(rows, point_config, keys, rid)
+            if grid_items is not None:
+                frame.insert(1, "point", i)
+            frames.append(frame)
+            timings += [{"point": i, **t} for t in chunk_times]
+    frame = pd.concat(frames, ignore_index=True)
+    files = write_run(out, frame, timings, meta, config)
+    print(f"{len(frame)} attempts, success {frame['success'].mean():.1%}; wrote "
+          + ", ".join(p.name for p in files) + f" to {out}")
+    for name in ("table1.md", "table2.md"):
+        if (out / name).exists() and grid_items is None:
+            print((out / name).read_text())
+    return 0
+
+
+def cmd_run(args) -> int:
+    """Run grasp attempts and write attempts, tables and figures."""
+    return _experiment(args)
+
+
+def cmd_sweep(args) -> int:
+    """Run a full parameter grid; every point has its own seed (seed + point index)."""
+    if not args.grid:
+        raise UsageError("sweep needs at least one --grid key=v1,v2,...")
+    return _experiment(args, args.grid)
+
+
+def cmd_report(args) -> int:
+    from graspjax.report import write_report
+
+    folder = Path(args.folder)
+    if not folder.is_dir():
+        raise InputError(f"no such directory: {folder}")
+    try:
+        files = write_report(folder)
+    except (FileNotFoundError, ValueError) as exc:
+        raise InputError(str(exc).splitlines()[0]) from None
+    print("wrote " + ", ".join(p.name for p in files) + f" to {folder}")
+    return 0
+
+
+def _add_experiment_arguments(p) -> None:
+    p.add_argument("--table", help="paper preset: 1 (a-f, Setups 1-3), 2 (g-l, Setup 1) or 1,2")
+    p.add_argument("--setup", help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
+    p.add_argument("--objects", help="objects to attempt, e.g. a,b,c (default a-f)")
+    p.add_argument("--trials", type=int, default=10,
+                   help="trials per object (Setup 1) or rounds (Setups 2, 3); paper: 10")
+    p.add_argument("--seed", type=int, default=0, help="base seed of every layout and key")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a configuration value, e.g. align.window_px=10")
+    p.add_argument("--batch", type=int, help="worlds per compiled batch (default: device-sized)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -197,9 +380,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a configuration value, e.g. align.window_px=10")
     p.set_defaults(func=cmd_detect)
 
+    p = sub.add_parser("run", help="grasp attempts in simulation: attempts, tables, figures")
+    _add_experiment_arguments(p)
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("sweep", help="a parameter grid of runs (e.g. --grid align.window_px=5,15)")
+    _add_experiment_arguments(p)
+    p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
+                   help="values of one configuration key; several --grid give the full grid")
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
+    p.add_argument("folder", help="a run or sweep output directory")
+    p.set_defaults(func=cmd_report)
+
     p = sub.add_parser("bench", help="benchmarks (print numbers; compile time apart)")
-    p.add_argument("what", choices=["perception"], help="what to measure")
-    p.add_argument("--batch", type=int, default=4096, help="images per batched call")
+    p.add_argument("what", choices=["perception", "physics", "pipeline"], help="what to measure")
+    p.add_argument("--objects", default="abcdef", help="physics, pipeline: objects of the scene")
+    p.add_argument("--setup", default="3", help="physics: setup 1, 2 or 3; pipeline: e.g. 1,2,3")
+    p.add_argument("--seconds", type=float, default=1.0, help="physics: simulated time timed")
+    p.add_argument("--trials", type=int, default=100, help="pipeline: trials (or rounds)")
+    p.add_argument("--batch", type=int,
+                   help="perception: images per call (default 4096); physics: worlds (default 4096 "
+                        "on a GPU, 16 on the CPU); pipeline: worlds per batch (default: device-sized)")
     p.add_argument("--width", type=int, default=160)
     p.add_argument("--height", type=int, default=120)
     p.add_argument("--repeats", type=int, default=10, help="timed calls (median is reported)")
@@ -209,9 +412,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _compilation_cache() -> None:
+    """Keep compiled programs across runs (set GRASPJAX_CACHE=0 to switch off)."""
+    import os
+
+    folder = os.environ.get("GRASPJAX_CACHE", os.path.expanduser("~/.cache/graspjax/jax"))
+    if folder in ("0", "off", ""):
+        return
+    import jax
+
+    jax.config.update("jax_compilation_cache_dir", folder)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    _compilation_cache()
     try:
         return args.func(args)
     except (InputError, ConfigError, UsageError) as exc:

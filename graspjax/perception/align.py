@@ -95,12 +95,13 @@ def _pixel_scale(camera: Camera, z_min, config: AlignConfig):
 
 
 def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConfig(),
-               key: jax.Array | None = None) -> Alignment:
+               key: jax.Array | None = None, seed_mask: jax.Array | None = None) -> Alignment:
     """Score candidate planes around z_min and pick the one with most inliers.
 
     depth: metric depth (H, W) float32, 0 or nan = invalid. key: PRNG key,
-    needed only for `hypotheses="random"`. Pure and static-shaped: jit it,
-    and vmap it over a leading batch axis of `depth` (and `key`).
+    needed only for `hypotheses="random"`. seed_mask: optional (H, W) bool,
+    the pixels where z_min (the anchor A) may be taken. Pure and static-
+    shaped: jit it, and vmap it over a leading batch axis of `depth` (and `key`).
     """
     depth = jnp.asarray(depth, jnp.float32)
     height, width = depth.shape
@@ -109,7 +110,7 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
                          f"({camera.height}, {camera.width})")
     valid = valid_mask(depth)
     clean = jnp.where(valid, depth, 0.0)
-    anchor, z_min = nearest_pixel(depth, valid)
+    anchor, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
     any_valid = jnp.isfinite(z_min)
     scale = _pixel_scale(camera, jnp.where(any_valid, z_min, 1.0), config)
 

@@ -102,24 +102,29 @@ def _finger_points(center, axis, gripper: GripperConfig, samples: int):
     return place(corners), place(grid)
 
 
-def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig()
+def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
+                    seed_mask: jax.Array | None = None
                     ) -> tuple[jax.Array, jax.Array, jax.Array, Contour]:
     """The detector's first stage: z_min pixel `(2,)`, surface cluster `(H, W)`, its depth, contour.
 
-    The depth is 1.0 when the cluster is empty (every later result is masked).
+    seed_mask: optional (H, W) bool, the pixels where z_min may be taken. The
+    depth is 1.0 when the cluster is empty (every later result is masked).
     """
     valid = valid_mask(depth)
-    seed, z_min = nearest_pixel(depth, valid)
+    seed, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
     cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
     return seed, cluster, z_s, trace_contour(cluster, config.max_contour)
 
 
 def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
-                 gripper: GripperConfig = GripperConfig()) -> Grasp:
+                 gripper: GripperConfig = GripperConfig(),
+                 seed_mask: jax.Array | None = None) -> Grasp:
     """Find a parallel-jaw grasp on the surface nearest the camera.
 
-    depth: metric depth (H, W) float32, 0 or nan = invalid. Pure and static-
+    depth: metric depth (H, W) float32, 0 or nan = invalid. seed_mask:
+    optional (H, W) bool restricting where the nearest point (the target) may
+    be taken; the surface itself is grown over all pixels. Pure and static-
     shaped: jit it, and vmap it over a leading batch axis of `depth`.
     """
     if config.grasp_depth > gripper.finger_length:
@@ -129,8 +134,8 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
         raise ValueError(f"depth shape {depth.shape} does not match the camera "
                          f"({camera.height}, {camera.width})")
     valid = valid_mask(depth)
-    any_valid = jnp.any(valid)
-    seed, cluster, z_s, contour = surface_contour(depth, config)
+    any_valid = jnp.any(valid if seed_mask is None else valid & seed_mask)
+    seed, cluster, z_s, contour = surface_contour(depth, config, seed_mask)
     n_surface = jnp.sum(cluster)
     edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
                       split_angle_deg=config.split_angle_deg,

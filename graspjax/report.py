@@ -1,0 +1,311 @@
+"""Tables and figures computed from `attempts.csv` alone (plus the paper's published numbers).
+
+- `summary.csv`: one row per cell (setup, object, and every configuration
+  column that varies in the file): n, successes, rate, 95% Wilson interval,
+  the paper's rate, and counts per outcome.
+- `table1.md/.tex`, `table2.md/.tex`: the paper's Table 1 (a-f, Setups 1-3)
+  and Table 2 (g-l, Setup 1) layouts, ours beside the paper's.
+- `success_by_object.png`: our rates with intervals beside the paper's bars;
+  `outcomes.png`: what happened in every cell.
+- Sweeps (configuration columns `cfg.*` that vary): `sweep_summary.csv`,
+  `sweep_<key>.png` (success against each parameter) and, for two-parameter
+  grids, `sweep_heatmap.png`.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+TABLE_OBJECTS = {1: tuple("abcdef"), 2: tuple("ghijkl")}
+REQUIRED = ("setup", "object", "trial", "round", "seed", "success", "outcome", "reason")
+
+
+def wilson(successes, n, z: float = 1.959964):
+    """95% Wilson score interval (low, high) for `successes` out of `n` (arrays or scalars)."""
+    successes, n = np.asarray(successes, float), np.asarray(n, float)
+    p = np.where(n > 0, successes / np.maximum(n, 1), np.nan)
+    denom = 1 + z**2 / np.maximum(n, 1)
+    centre = (p + z**2 / (2 * np.maximum(n, 1))) / denom
+    half = z * np.sqrt(p * (1 - p) / np.maximum(n, 1) + z**2 / (4 * np.maximum(n, 1) ** 2)) / denom
+    low, high = np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+    return np.fmin(low, p), np.fmax(high, p)  # rounding must never leave p outside
+
+
+def paper_tables() -> pd.DataFrame:
+    """The paper's Tables 1 and 2: table, setup, object, success_pct, trials."""
+    text = resources.files("graspjax").joinpath("data/paper_tables.csv").read_text()
+    return pd.read_csv(io.StringIO(text))
+
+
+def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
+    """Attempt rows from CSV text, checking the columns the report needs."""
+    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""],
+                        dtype={"object": str, "lifted_object": str})
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    if missing:
+        raise ValueError(f"{name} lacks columns: {', '.join(missing)}")
+    if frame.empty:
+        raise ValueError(f"{name} has no attempts")
+    return frame
+
+
+def load_attempts(folder: str | Path) -> pd.DataFrame:
+    """Read `attempts.csv` from a run or sweep folder."""
+    path = Path(folder) / "attempts.csv"
+    if not path.is_file():
+        raise FileNotFoundError(f"no attempts.csv in {folder}")
+    return parse_attempts(path.read_text(), str(path))
+
+
+def varying_config(frame: pd.DataFrame) -> list[str]:
+    """Configuration columns (`cfg.*`) whose value changes within the file: the sweep keys."""
+    return [c for c in frame.columns if c.startswith("cfg.") and frame[c].nunique(dropna=False) > 1]
+
+
+def sweep_axes(frame: pd.DataFrame) -> list[list[str]]:
+    """Sweep keys grouped into axes: keys that vary together (one-to-one) form one axis."""
+    axes: list[list[str]] = []
+    for key in varying_config(frame):
+        for axis in axes:
+            n = frame[[axis[0], key]].drop_duplicates().shape[0]
+            if n == frame[axis[0]].nunique() == frame[key].nunique():
+                axis.append(key)
+                break
+        else:
+            axes.append([key])
+    return axes
+
+
+def summarize(frame: pd.DataFrame) -> pd.DataFrame:
+    """Per cell: n, successes, rate, Wilson interval, the paper's rate, outcome counts."""
+    keys = [*varying_config(frame), "setup", "object"]
+    grouped = frame.groupby(keys, dropna=False)
+    summary = grouped["success"].agg(n="size", successes="sum").reset_index()
+    summary["rate"] = summary["successes"] / summary["n"]
+    summary["ci_low"], summary["ci_high"] = wilson(summary["successes"], summary["n"])
+    summary["table"] = summary["object"].map(lambda c: 1 if c in TABLE_OBJECTS[1] else 2)
+    paper = paper_tables().rename(columns={"success_pct": "paper_pct", "trials": "paper_n"})
+    summary = summary.merge(paper[["setup", "object", "paper_pct", "paper_n"]],
+                            on=["setup", "object"], how="left")
+    counts = frame.groupby(keys, dropna=False)["outcome"].value_counts().unstack(fill_value=0)
+    counts.columns = [f"n_{c.lower()}" for c in counts.columns]
+    return summary.merge(counts.reset_index(), on=keys, how="left")
+
+
+def _cell(row) -> str:
+    return f"{100 * row.rate:.0f} % [{100 * row.ci_low:.0f}-{100 * row.ci_high:.0f}]"
+
+
+def _table_rows(summary: pd.DataFrame, table: int):
+    """(label, cells, n cells) per setup and source, for present setups of a table."""
+    objects = TABLE_OBJECTS[table]
+    rows = []
+    for setup in sorted(summary["setup"].unique()):
+        part = summary[(summary["setup"] == setup) & summary["object"].isin(objects)]
+        if part.empty:
+            continue
+        by_obj = part.set_index("object")
+        ours = [_cell(by_obj.loc[c]) if c in by_obj.index else "" for c in objects]
+        total_k, total_n = part["successes"].sum(), part["n"].sum()
+        lo, hi = wilson(total_k, total_n)
+        ours.append(f"{100 * total_k / total_n:.0f} % [{100 * lo:.0f}-{100 * hi:.0f}]")
+        ns = [str(int(by_obj.loc[c, "n"])) if c in by_obj.index else "" for c in objects]
+        ns.append(str(int(total_n)))
+        rows.append((f"Setup {setup}, ours", ours, ns))
+        if part["paper_pct"].notna().any():
+            paper = [f"{by_obj.loc[c, 'paper_pct']:.0f} %" if c in by_obj.index
+                     and not math.isnan(by_obj.loc[c, "paper_pct"]) else "" for c in objects]
+            known = part["paper_pct"].dropna()
+            paper.append(f"{known.mean():.0f} %" if len(known) == len(objects) else "")
+            rows.append((f"Setup {setup}, paper", paper, None))
+    return rows
+
+
+def table_markdown(summary: pd.DataFrame, table: int) -> str:
+    objects = TABLE_OBJECTS[table]
+    title = {1: "Table 1: grasp success in Setups 1-3, objects a-f",
+             2: "Table 2: grasp success in Setup 1, objects g-l"}[table]
+    lines = [f"# {title}", "",
+             "Ours: success rate with its 95% Wilson interval; paper: the published rate "
+             "(10 trials per cell). `all` pools the row's attempts (paper: mean of the row).", "",
+             "| | " + " | ".join(f"{c})" for c in objects) + " | all |",
+             "|---" * (len(objects) + 2) + "|"]
+    ns = []
+    for label, cells, n in _table_rows(summary, table):
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+        if n is not None:
+            ns.append(f"| {label.split(',')[0]}, n | " + " | ".join(n) + " |")
+    return "\n".join(lines + ns) + "\n"
+
+
+def table_latex(summary: pd.DataFrame, table: int) -> str:
+    objects = TABLE_OBJECTS[table]
+    caption = {1: "Grasp success in Setups 1--3 for objects a--f (ours with 95\\% Wilson "
+                  "intervals beside the paper's).",
+               2: "Grasp success in Setup 1 for objects g--l (ours with 95\\% Wilson "
+                  "intervals beside the paper's)."}[table]
+    lines = ["\\begin{table}[t]", "\\centering", f"\\caption{{{caption}}}",
+             f"\\label{{tab:graspjax-table{table}}}",
+             "\\begin{tabular}{l" + "c" * (len(objects) + 1) + "}", "\\toprule",
+             " & " + " & ".join(f"{c})" for c in objects) + " & all \\\\", "\\midrule"]
+    for label, cells, n in _table_rows(summary, table):
+        cells = [c.replace("%", "\\%") for c in cells]
+        lines.append(f"{label} & " + " & ".join(cells) + " \\\\")
+        if n is not None:
+            lines.append("\\quad $n$ & " + " & ".join(n) + " \\\\")
+    lines += ["\\bottomrule", "\\end{tabular}", "\\end{table}"]
+    return "\n".join(lines) + "\n"
+
+
+def _figure():
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(dpi=120)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buffer, format="png")
+    return buffer.getvalue()
+
+
+def success_figure(summary: pd.DataFrame) -> bytes:
+    """Bars per object and setup: ours with 95% intervals, the paper's beside them."""
+    panels = [(t, s) for t in (1, 2) for s in sorted(summary["setup"].unique())
+              if ((summary["setup"] == s) & (summary["table"] == t)).any()]
+    fig = _figure()
+    fig.set_size_inches(4.2 * max(1, len(panels)), 3.6)
+    axes = fig.subplots(1, max(1, len(panels)), squeeze=False)[0]
+    for ax, (table, setup) in zip(axes, panels, strict=False):
+        part = summary[(summary["setup"] == setup) & (summary["table"] == table)]
+        part = part.sort_values("object")
+        x = np.arange(len(part))
+        err = np.maximum(0, np.vstack([part["rate"] - part["ci_low"],
+                                       part["ci_high"] - part["rate"]])) * 100
+        ax.bar(x - 0.2, 100 * part["rate"], 0.4, yerr=err, capsize=3, color="tab:blue",
+               label="ours (95% CI)")
+        if part["paper_pct"].notna().any():
+            ax.bar(x + 0.2, part["paper_pct"], 0.4, color="none", edgecolor="tab:orange",
+                   hatch="//", label="paper")
+        ax.set_xticks(x, [f"{c})" for c in part["object"]])
+        ax.set_ylim(0, 105)
+        ax.set_title(f"Setup {setup}, objects {part['object'].iloc[0]}-{part['object'].iloc[-1]}")
+        ax.set_ylabel("grasp success (%)")
+        ax.legend(loc="lower left", fontsize=7)
+    return _png(fig)
+
+
+def outcomes_figure(frame: pd.DataFrame) -> bytes:
+    """Stacked shares of outcomes (and perception failures) per setup and object."""
+    label = frame["reason"].where(frame["outcome"] == "NOT_EXECUTED", frame["outcome"])
+    label = label.str.replace("detection: ", "no grasp: ").str.replace("alignment: ", "align: ")
+    cells = frame["setup"].astype(str) + "/" + frame["object"]
+    shares = pd.crosstab(cells, label, normalize="index") * 100
+    order = sorted(shares.index, key=lambda c: (int(c.split("/")[0]), c.split("/")[1]))
+    shares = shares.loc[order]
+    fig = _figure()
+    fig.set_size_inches(max(6.0, 0.45 * len(shares) + 3), 4.2)
+    ax = fig.subplots()
+    bottom = np.zeros(len(shares))
+    cmap = __import__("matplotlib").colormaps["tab20"]
+    for i, column in enumerate(shares.columns):
+        ax.bar(np.arange(len(shares)), shares[column], bottom=bottom, label=column,
+               color="tab:green" if column == "SUCCESS" else cmap(i % 20))
+        bottom += shares[column].to_numpy()
+    ax.set_xticks(np.arange(len(shares)), shares.index, rotation=90, fontsize=7)
+    ax.set_ylabel("share of attempts (%)")
+    ax.set_xlabel("setup / object")
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    return _png(fig)
+
+
+def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
+    """Success against each swept parameter, per setup; a heat map for two-parameter grids."""
+    keys = varying_config(frame)
+    if not keys:
+        return {}
+    out = {}
+    pooled = frame.groupby([*keys, "setup"], dropna=False)["success"].agg(
+        n="size", successes="sum").reset_index()
+    pooled["rate"] = pooled["successes"] / pooled["n"]
+    pooled["ci_low"], pooled["ci_high"] = wilson(pooled["successes"], pooled["n"])
+    out["sweep_summary.csv"] = pooled.to_csv(index=False).encode()
+    axes = sweep_axes(frame)
+    for axis in axes:
+        key = axis[0]
+        per = frame.groupby([key, "setup"], dropna=False)["success"].agg(
+            n="size", successes="sum").reset_index()
+        per["rate"] = per["successes"] / per["n"]
+        per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
+        fig = _figure()
+        fig.set_size_inches(5.5, 3.8)
+        ax = fig.subplots()
+        for setup, part in per.groupby("setup"):
+            part = part.sort_values(key)
+            values = part[key].to_numpy()
+            numeric = np.issubdtype(values.dtype, np.number)
+            x = values if numeric else np.arange(len(values))
+            ax.errorbar(x, 100 * part["rate"], yerr=100 * np.maximum(0, np.vstack(
+                [part["rate"] - part["ci_low"], part["ci_high"] - part["rate"]])),
+                marker="o", capsize=3, label=f"Setup {setup}")
+            if not numeric:
+                ax.set_xticks(x, values)
+        ax.set_xlabel(" : ".join(k[len("cfg."):] for k in axis))
+        ax.set_ylabel("grasp success (%)")
+        ax.set_ylim(0, 105)
+        ax.legend(fontsize=8)
+        ax.set_title("other swept keys pooled" if len(axes) > 1 else "")
+        out[f"sweep_{key[len('cfg.'):]}.png"] = _png(fig)
+    if len(axes) == 2:
+        keys = [axes[0][0], axes[1][0]]
+        grid = frame.groupby(keys)["success"].mean().unstack(keys[1]) * 100
+        fig = _figure()
+        fig.set_size_inches(6, 4.5)
+        ax = fig.subplots()
+        image = ax.imshow(grid.to_numpy(), origin="lower", cmap="viridis", vmin=0, vmax=100,
+                          aspect="auto")
+        ax.set_yticks(np.arange(len(grid.index)), grid.index)
+        ax.set_xticks(np.arange(len(grid.columns)), grid.columns)
+        ax.set_ylabel(keys[0][len("cfg."):])
+        ax.set_xlabel(keys[1][len("cfg."):])
+        for (i, j), value in np.ndenumerate(grid.to_numpy()):
+            ax.text(j, i, f"{value:.0f}", ha="center", va="center", color="w", fontsize=8)
+        fig.colorbar(image, ax=ax, label="grasp success (%), all setups and objects")
+        out["sweep_heatmap.png"] = _png(fig)
+    return out
+
+
+def build(frame: pd.DataFrame) -> dict[str, bytes]:
+    """Every report file (name -> bytes) from the attempt rows."""
+    summary = summarize(frame)
+    files = {"summary.csv": summary.to_csv(index=False).encode()}
+    if not varying_config(frame):
+        for table in (1, 2):
+            if summary["object"].isin(TABLE_OBJECTS[table]).any():
+                files[f"table{table}.md"] = table_markdown(summary, table).encode()
+                files[f"table{table}.tex"] = table_latex(summary, table).encode()
+        files["success_by_object.png"] = success_figure(summary)
+    files["outcomes.png"] = outcomes_figure(frame)
+    files.update(sweep_outputs(frame))
+    return files
+
+
+def write_report(folder: str | Path) -> list[Path]:
+    """Rebuild every table and figure of a run or sweep folder from its attempts.csv."""
+    from graspjax.io import write_atomic
+
+    folder = Path(folder)
+    files = build(load_attempts(folder))
+    for name, data in files.items():
+        write_atomic(folder / name, data)
+    return [folder / name for name in files]

@@ -1,0 +1,98 @@
+"""The procedure's steps in one world: target selection, centring, re-alignment geometry."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import SIM_BATCH
+
+from graspjax.config import Config
+from graspjax.geometry import axis_angle, look_down
+from graspjax.perception import Alignment
+from graspjax.pipeline import centred_pose, select_target, view
+
+CONFIG = Config()
+CAMERA = CONFIG.camera.camera()
+
+
+def _world(sim, poses):
+    """First world of a batch with objects at (x, y, yaw); settled briefly, after kinematics."""
+    n = sim.scene.num_objects
+    pos, quat = np.zeros((SIM_BATCH, n, 3)), np.tile([1.0, 0, 0, 0], (SIM_BATCH, n, 1))
+    active = np.zeros((SIM_BATCH, n), bool)
+    for i, (x, y, yaw) in poses.items():
+        pos[:, i] = (x, y, 0.001)
+        quat[:, i] = (np.cos(yaw / 2), 0, 0, np.sin(yaw / 2))
+        active[:, i] = True
+    data = sim.reset(sim.empty(SIM_BATCH), jnp.asarray(pos), jnp.asarray(quat),
+                     jnp.asarray(active))
+    data = sim.kinematics(sim.hold_still(data, 0.2))
+    return jax.tree.map(lambda x: x[0], data)
+
+
+def test_target_is_the_nearest_eligible_object(basic_sim):
+    # cube (5 cm tall) at x = -6 cm, cylinder (7 cm) at x = +6 cm, block (3 cm) at y = 8 cm
+    data = _world(basic_sim, {0: (-0.06, 0.0, 0.0), 4: (0.06, 0.0, 0.0), 5: (0.0, 0.08, 0.3)})
+    select = jax.jit(lambda d, e: select_target(basic_sim.scene, d, e, CAMERA, CONFIG,
+                                                jax.random.key(0)))
+    everything = jnp.array([True] * 6)
+    target = select(data, everything)
+    assert int(target.index) == 4  # the cylinder's top is nearest to the camera
+    np.testing.assert_allclose(np.asarray(target.point)[2], 0.07, atol=1e-3)
+    assert np.linalg.norm(np.asarray(target.point)[:2] - [0.06, 0.0]) < 0.026
+    no_cylinder = everything.at[4].set(False)
+    assert int(select(data, no_cylinder).index) == 0  # then the cube
+    assert int(select(data, jnp.zeros(6, bool)).index) == -1  # nothing eligible
+
+
+def test_centring_keeps_the_height_and_aims_at_the_target():
+    from graspjax.pipeline import Target
+
+    target = Target(index=jnp.int32(2), point=jnp.array([0.05, -0.03, 0.04]))
+    rotation, position = centred_pose(target, CONFIG)
+    np.testing.assert_allclose(position, [0.05, -0.03, CONFIG.procedure.camera_height])
+    axis = np.asarray(rotation[:, 2])
+    # The optical axis passes through the target point.
+    along = np.asarray(target.point) - np.asarray(position)
+    np.testing.assert_allclose(np.cross(axis, along), 0.0, atol=1e-7)
+
+
+def test_realigned_view_looks_along_the_negative_normal(basic_sim):
+    """A wedge (c): its sloped top is the best plane; the new view faces it at the same range."""
+    data = _world(basic_sim, {2: (0.0, 0.0, 0.0)})
+    rotation, position = look_down(jnp.array([0.0, 0.0, 0.5]))
+    v = jax.jit(lambda d: view(basic_sim.scene, d, rotation, position, jnp.int32(2), CAMERA,
+                               CONFIG, jax.random.key(1)))(data)
+    a: Alignment = v.alignment
+    assert bool(a.found) and bool(v.can_realign)
+    # The wedge's top rises 3 cm over 6.5 cm along +x: its upward normal, in the world.
+    slope = np.arctan2(0.03, 0.065)
+    expected = np.array([-np.sin(slope), 0.0, np.cos(slope)])
+    normal_world = np.asarray(rotation @ a.normal)
+    assert normal_world @ expected > np.cos(np.deg2rad(2.0))
+    new_axis = np.asarray(v.next_rotation[:, 2])
+    np.testing.assert_allclose(new_axis, -normal_world, atol=1e-5)
+    point = np.asarray(rotation @ a.point + position)
+    assert np.linalg.norm(np.asarray(v.next_position) - point) == pytest.approx(
+        float(np.linalg.norm(a.point)), rel=1e-5)
+    # The new frame is a proper rotation: orthonormal, right-handed.
+    r = np.asarray(v.next_rotation)
+    np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-5)
+    assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-5)
+
+
+def test_grasp_pose_in_the_world(basic_sim):
+    """A cube seen from a tilted camera: the world grasp is the cube's top, closing across it."""
+    data = _world(basic_sim, {0: (0.0, 0.0, 0.0)})
+    tilt = axis_angle(jnp.array([1.0, 0.0, 0.0]), jnp.deg2rad(10.0))
+    rotation = tilt @ look_down(jnp.zeros(3))[0]
+    position = jnp.array([0.0, 0.0, 0.05]) - 0.45 * rotation[:, 2]
+    v = jax.jit(lambda d: view(basic_sim.scene, d, rotation, position, jnp.int32(0), CAMERA,
+                               CONFIG, jax.random.key(2)))(data)
+    g = v.grasp_pose
+    assert bool(g.valid)
+    np.testing.assert_allclose(np.asarray(g.approach), np.asarray(rotation[:, 2]), atol=1e-6)
+    assert abs(float(g.approach @ g.closing)) < 1e-5
+    # The finger tips go grasp_depth (2 cm) below the cube's top, near its centre.
+    assert np.linalg.norm(np.asarray(g.tcp)[:2]) < 0.01
+    assert float(g.tcp[2]) == pytest.approx(0.05 - 0.02 * float(-g.approach[2]), abs=0.004)

@@ -1,0 +1,76 @@
+"""Tables and figures from hand-made attempt rows with known counts."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from graspjax.report import build, paper_tables, parse_attempts, summarize, sweep_axes, wilson
+
+
+def test_wilson_interval_known_values():
+    # Reference values of the 95% Wilson score interval (z = 1.96).
+    low, high = wilson(9, 10)
+    assert (low, high) == pytest.approx((0.5958, 0.9821), abs=1e-4)
+    assert wilson(0, 10) == pytest.approx((0.0, 0.2775), abs=1e-4)
+    assert wilson(10, 10) == pytest.approx((0.7225, 1.0), abs=1e-4)
+    assert wilson(50, 100) == pytest.approx((0.4038, 0.5962), abs=1e-4)
+
+
+def test_paper_tables_are_the_published_numbers():
+    paper = paper_tables()
+    assert len(paper) == 24 and (paper["trials"] == 10).all()
+    cell = paper.set_index(["setup", "object"])["success_pct"]
+    assert (cell[(1, "a")], cell[(3, "d")], cell[(1, "h")]) == (90, 50, 30)
+
+
+def _frame(cells, extra=None):
+    """Attempt rows: cells = {(setup, object): (successes, n)}."""
+    rows = []
+    for (setup, obj), (k, n) in cells.items():
+        for t in range(n):
+            rows.append({"setup": setup, "object": obj, "trial": t, "round": t, "seed": 0,
+                         "success": int(t < k), "outcome": "SUCCESS" if t < k else "MISSED",
+                         "reason": "SUCCESS" if t < k else "MISSED", **(extra or {})})
+    return pd.DataFrame(rows)
+
+
+def test_table_cells_put_ours_beside_the_paper():
+    frame = _frame({(1, "a"): (9, 10), (1, "b"): (6, 10), (3, "a"): (5, 10), (1, "g"): (0, 4)})
+    files = build(parse_attempts(frame.to_csv(index=False)))
+    table1 = files["table1.md"].decode()
+    assert "| Setup 1, ours | 90 % [60-98] | 60 % [31-83] |" in table1
+    assert "| Setup 1, paper | 90 % | 60 % |" in table1
+    assert "| Setup 3, ours | 50 % [24-76] |" in table1
+    assert "| Setup 1, n | 10 | 10 |" in table1
+    table2 = files["table2.md"].decode()
+    assert "| Setup 1, ours | 0 % [0-49] |" in table2 and "| Setup 1, paper | 60 % |" in table2
+    assert "90 \\% [60-98]" in files["table1.tex"].decode()
+    for name in ("summary.csv", "success_by_object.png", "outcomes.png"):
+        assert files[name]
+    summary = summarize(frame).set_index(["setup", "object"])
+    assert summary.loc[(1, "b"), "n_missed"] == 4 and summary.loc[(1, "b"), "paper_pct"] == 60
+
+
+def test_sweeps_group_by_the_varying_configuration():
+    parts = []
+    for window, k in ((5, 2), (15, 8), (25, 5)):
+        part = _frame({(1, "a"): (k, 10), (2, "a"): (k // 2, 10)})
+        part["cfg.align.window_px"] = window
+        part["cfg.camera.width"] = 8 * window  # varies together with the window: one axis
+        part["cfg.align.distance_threshold"] = 0.3  # constant: not a sweep key
+        parts.append(part)
+    frame = pd.concat(parts, ignore_index=True)
+    assert sweep_axes(frame) == [["cfg.align.window_px", "cfg.camera.width"]]
+    files = build(frame)
+    assert "table1.md" not in files  # grid points are not pooled into the paper's tables
+    sweep = pd.read_csv(pd.io.common.BytesIO(files["sweep_summary.csv"]))
+    row = sweep[(sweep["cfg.align.window_px"] == 15) & (sweep["setup"] == 1)].iloc[0]
+    assert (row.n, row.successes) == (10, 8)
+    assert "sweep_align.window_px.png" in files and "sweep_heatmap.png" not in files
+    frame["cfg.align.distance_threshold"] = np.tile([0.1, 0.5], len(frame) // 2)
+    assert "sweep_heatmap.png" in build(frame)
+
+
+def test_parse_attempts_checks_columns():
+    with pytest.raises(ValueError, match="lacks columns: success"):
+        parse_attempts("setup,object,trial,round,seed,outcome,reason\n1,a,0,0,0,MISSED,x\n")
