@@ -80,7 +80,7 @@ class DetectorConfig:
     surface_tolerance: float = 0.005  # half-width of the depth band of the target surface (m)
     min_surface_pixels: int = 12  # smaller surface clusters are rejected
     max_contour: int = 1024  # contour buffer length (pixels); longer contours are truncated
-    tangent_window: int = 3  # contour points each side used for the local edge direction
+    tangent_window: int = 3  # contour points each side for the edge direction (max; contour/16 if less)
     split_angle_deg: float = 20.0  # a new straight edge starts where the direction turns more
     min_edge_pixels: int = 4  # shorter runs of contour points are not edges
     max_edges: int = 32  # static maximum of straight edges kept (longest first)

@@ -137,8 +137,8 @@ class RoundRunner:
             timings[phase] += time.perf_counter() - start
             return out
 
-        round_keys = jnp.stack([layout.layout_key(seed, int(s), int(t))
-                                for s, t in zip(setup, trial, strict=True)])
+        round_keys = jax.vmap(lambda s, t: layout.layout_key(seed, s, t))(
+            jnp.asarray(setup), jnp.asarray(trial))
         pos, quat, active = self._round_layout(round_keys, jnp.asarray(setup),
                                                jnp.broadcast_to(jnp.asarray(members), (batch, n)))
         data = sim.reset(sim.empty(batch), pos, quat, active)
@@ -154,8 +154,9 @@ class RoundRunner:
         is_single = jnp.asarray(setup == 1)
         for k, obj in enumerate(order):
             # Setup 1: the k-th object alone on the table, with its own layout.
-            keys = jnp.stack([layout.layout_key(seed, 1, LETTER_INDEX[scene.letters[obj]], int(t))
-                              for t in trial])
+            letter = LETTER_INDEX[scene.letters[obj]]
+            keys = jax.vmap(lambda t, c=letter: layout.layout_key(seed, 1, c, t))(
+                jnp.asarray(trial))
             single = sim.reset(data, *self._single_layout(keys, jnp.full(batch, obj, jnp.int32)))
             data = self._where(is_single, single, data)
             data = timed("physics_s", sim.hold_still, data, cfg.sim.settle_time)

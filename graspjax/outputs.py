@@ -56,7 +56,7 @@ def attempts_frame(rows: list[dict], config: Config, keys: list[str], rid: str) 
     frame = pd.DataFrame(rows)
     frame.insert(0, "run_id", rid)
     values = flatten(config)
-    for key in sorted(set(keys) | set(differences(config, Config()))):
+    for key in [*keys, *sorted(set(differences(config, Config())) - set(keys))]:
         frame[f"cfg.{key}"] = values[key]
     frame["attempt_order"] = frame["attempt"].where(frame["attempt"] >= 0, 99)
     frame = frame.sort_values(["setup", "round", "attempt_order", "object"], kind="stable")
@@ -92,7 +92,7 @@ def write_run(folder: str | Path, frame: pd.DataFrame, timings: list[dict], meta
     folder = Path(folder)
     parquet = io.BytesIO()
     frame.to_parquet(parquet, index=False)
-    csv_text = frame.to_csv(index=False)
+    csv_text = frame.to_csv(index=False, float_format="%.7g")  # float32 precision
     meta = {**meta, "config": flatten(config), **environment()}
     data_files = {
         "attempts.csv": csv_text.encode(),

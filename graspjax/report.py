@@ -56,11 +56,16 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
 
 
 def load_attempts(folder: str | Path) -> pd.DataFrame:
-    """Read `attempts.csv` from a run or sweep folder."""
+    """Read `attempts.csv` (or a gzipped `attempts.csv.gz`) from a run or sweep folder."""
+    import gzip
+
     path = Path(folder) / "attempts.csv"
-    if not path.is_file():
-        raise FileNotFoundError(f"no attempts.csv in {folder}")
-    return parse_attempts(path.read_text(), str(path))
+    if path.is_file():
+        return parse_attempts(path.read_text(), str(path))
+    if path.with_suffix(".csv.gz").is_file():
+        text = gzip.decompress(path.with_suffix(".csv.gz").read_bytes()).decode()
+        return parse_attempts(text, str(path.with_suffix(".csv.gz")))
+    raise FileNotFoundError(f"no attempts.csv in {folder}")
 
 
 def varying_config(frame: pd.DataFrame) -> list[str]:

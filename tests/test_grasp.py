@@ -192,3 +192,12 @@ def test_candidates_report_every_placement(camera, detect, render):
 def test_grasp_depth_longer_than_the_fingers_is_refused(camera):
     with pytest.raises(ValueError, match="finger_length"):
         detect_grasp(jnp.zeros((120, 160)), camera, DetectorConfig(grasp_depth=0.06))
+
+
+def test_small_round_surface_keeps_its_edges(camera, detect, render):
+    """A 2.2 cm 12-gon knob 13 cm tall (about 9 px across): still four sides and a grasp."""
+    knob = regular_prism(12, 0.011, 0.13, yaw=0.2)
+    g = detect(jnp.asarray(render([knob])), camera)
+    assert bool(g.found), _reason(g)
+    flat_to_flat = 2 * 0.011 * np.cos(np.pi / 12)
+    assert abs(float(g.width) - flat_to_flat) <= _pixel(camera, 0.37)

@@ -8,7 +8,8 @@ edge points "with a set of rules". Ours:
    clockwise on screen, with Jacob's stopping rule);
 2. give every contour point a direction from the chord between the points
    `tangent_window` steps before and after it, which averages out the
-   staircase of a rotated edge;
+   staircase of a rotated edge (shorter on contours under 48 points, so
+   that small surfaces keep their corners apart);
 3. start at the sharpest turn and walk the contour once: a point joins the
    current edge while its direction is within `split_angle_deg` of the edge's
    mean direction, otherwise it starts a new edge;
@@ -127,7 +128,9 @@ def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window:
     origin = contour.points[0]
     local = (contour.points - origin).astype(jnp.float32) * scale  # metric, exact differences
 
-    k = tangent_window
+    # A chord of +-k points blurs each corner over 2k points, so short contours (small
+    # surfaces) get a shorter chord: at most one sixteenth of the contour each way.
+    k = jnp.clip(n // 16, 1, tangent_window)
     ahead, here, behind = contour.points[(idx + k) % n], contour.points, contour.points[(idx - k) % n]
 
     def direction_of(delta):
