@@ -91,12 +91,14 @@ class DetectorConfig:
     min_grasp_depth: float = 0.008  # shallowest acceptable finger-tip depth (m)
     depth_clearance: float = 0.003  # free space kept below the finger tips (m)
     finger_samples: int = 3  # depth-check grid per finger (n x n points over its footprint)
+    min_wall_angle_deg: float = 45.0  # each gripped side must fall at least this steeply (0: off)
 
     def __post_init__(self):
         _positive(self, "surface_tolerance", "min_surface_pixels", "max_contour",
                   "tangent_window", "min_edge_pixels", "max_edges", "min_width",
                   "grasp_depth", "min_grasp_depth")
         _in_range(self, "split_angle_deg", 1.0, 90.0)
+        _in_range(self, "min_wall_angle_deg", 0.0, 89.0)
         _in_range(self, "antipodal_tolerance_deg", 0.0, 90.0)
         _require(self.clearance >= 0, f"DetectorConfig.clearance must be >= 0, got {self.clearance!r}")
         _require(self.depth_clearance >= 0,

@@ -201,3 +201,73 @@ def test_small_round_surface_keeps_its_edges(camera, detect, render):
     assert bool(g.found), _reason(g)
     flat_to_flat = 2 * 0.011 * np.cos(np.pi / 12)
     assert abs(float(g.width) - flat_to_flat) <= _pixel(camera, 0.37)
+
+
+def _wedge(slope_deg, length=0.065, width=0.05, low=0.01):
+    """A ramp: `length` along x, `width` along y, top rising from `low` at -x by `slope_deg`."""
+    from graspjax.synthetic import Solid
+
+    t = np.deg2rad(slope_deg)
+    top = np.array([-np.sin(t), 0.0, np.cos(t)])
+    point = np.array([-length / 2, 0.0, low])
+    normals = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, -1], top], float)
+    offsets = np.array([length / 2, length / 2, width / 2, width / 2, 0.0, top @ point])
+    return Solid(normals, offsets)
+
+
+def _lying_prism(sides_deg, base=0.055, length=0.08):
+    """A ridge: triangular prism along y lying on its base, sides rising at `sides_deg`."""
+    from graspjax.synthetic import Solid
+
+    t = np.deg2rad(sides_deg)
+    left, right = np.array([-np.sin(t), 0, np.cos(t)]), np.array([np.sin(t), 0, np.cos(t)])
+    normals = np.array([left, right, [0, 1, 0], [0, -1, 0], [0, 0, -1]], float)
+    offsets = np.array([left @ [-base / 2, 0, 0], right @ [base / 2, 0, 0], length / 2,
+                        length / 2, 0.0])
+    return Solid(normals, offsets)
+
+
+def test_a_band_cut_from_a_gentle_slope_has_no_wall(camera, detect, render):
+    """From above, a 25 degree ramp's depth band is a strip of the slope: across it, one finger
+    would press on the slope, outside the pads' friction cone: NO_WALL."""
+    g = detect(jnp.asarray(render([_wedge(25.0)])), camera)
+    assert _reason(g) == GraspReason.NO_WALL and not bool(g.found)
+    # Without the wall check, the paper's checks alone accept the strip (its high side is a
+    # real wall, its low side an iso-depth line on the slope).
+    unchecked = detect(jnp.asarray(render([_wedge(25.0)])), camera,
+                       DetectorConfig(min_wall_angle_deg=0.0))
+    assert bool(unchecked.found)
+    assert float(unchecked.width) < 0.03  # the strip, far narrower than the 5 x 6.5 cm ramp
+
+
+@pytest.mark.parametrize("shift_px", [0.0, 0.3, 0.55])
+def test_a_ridge_between_steep_sides_is_grasped_across(camera, detect, render, shift_px):
+    """60 degree sides (an equilateral prism): steeper than the friction cone, so the narrow
+    band along the ridge is a grasp, wherever the ridge falls on the pixel grid."""
+    ridge = _lying_prism(60.0).moved(np.eye(3), [shift_px * 0.46 / camera.fx, 0.0, 0.0])
+    g = detect(jnp.asarray(render([ridge])), camera)
+    assert bool(g.found), _reason(g)
+    assert abs(float(g.closing_axis[0])) > np.cos(np.deg2rad(3.0))  # across the ridge
+    gentle = detect(jnp.asarray(render([_lying_prism(30.0)])), camera)
+    assert _reason(gentle) in (GraspReason.NO_WALL, GraspReason.TOO_NARROW)
+
+
+def test_the_slope_seen_head_on_is_grasped_across_the_ramp(camera, detect):
+    """Camera on the ramp's normal: the whole slope is one face, grasped across its 5 cm."""
+    from graspjax.synthetic import render_depth, rot_y, top_down_pose
+
+    slope = np.deg2rad(25.0)
+    normal = np.array([-np.sin(slope), 0.0, np.cos(slope)])
+    centre = np.array([0.0, 0.0, 0.025])  # middle of the slope (low 1 cm, high 4 cm)
+    down, _ = top_down_pose(0.0)
+    rotation = rot_y(-slope) @ down  # optical axis along -normal
+    np.testing.assert_allclose(rotation[:, 2], -normal, atol=1e-12)
+    # No table: tilted with the view, it would come nearer than the ramp at the image border
+    # (the procedure passes the target's pixels as `seed_mask` for that).
+    depth = render_depth(camera, rotation, centre + 0.4 * normal, [_wedge(25.0)], ground=None)
+    g = detect(jnp.asarray(depth), camera)
+    assert bool(g.found), _reason(g)
+    assert float(g.surface_depth) == pytest.approx(0.4, abs=1e-4)
+    assert abs(float(g.width) - 0.05) <= _pixel(camera, 0.4)
+    closing_world = rotation @ np.asarray(g.closing_axis)
+    assert abs(closing_world[1]) > np.cos(np.deg2rad(3.0))  # across the ramp (world y)

@@ -6,9 +6,10 @@ grouped into straight edges (`contour.py`), and a T-beam the size of the
 opened gripper is placed at the centre S of every edge with its closing axis
 along the edge's normal. A placement is a grasp when an antipodal edge lies
 at a distance c that fits the opening, the four outer finger corners lie
-outside the cluster and the depth under both finger footprints leaves room
-to reach the grasp depth. The grasp centre is Eq. 1, read as
-G = S - (c / 2) * n (half-way between the two antipodal edges; the paper
+outside the cluster, the depth under both finger footprints leaves room
+to reach the grasp depth, and both gripped sides are walls steep enough for
+the finger pads to hold (a depth band cut from a gentle slope is not). The
+grasp centre is Eq. 1, read as G = S - (c / 2) * n (half-way between the two antipodal edges; the paper
 writes it in pixels with c / 2 converted by d_p, we work in metres on the
 surface plane). Among valid placements the one whose G is closest to the
 cluster's centroid wins (most central, least likely to push the object);
@@ -102,6 +103,18 @@ def _finger_points(center, axis, gripper: GripperConfig, samples: int):
     return place(corners), place(grid)
 
 
+def _wall_points(center, axis, offset, gripper: GripperConfig, samples: int):
+    """Points `(..., 2*samples, 2)` at `offset` (...) from `center` on both sides along `axis`,
+    spread over the finger width."""
+    along = jnp.stack([-axis[..., 1], axis[..., 0]], axis=-1)
+    lateral = jnp.asarray(np.linspace(-gripper.finger_width / 2, gripper.finger_width / 2,
+                                      samples), jnp.float32)
+    side = jnp.asarray([1.0] * samples + [-1.0] * samples, jnp.float32)
+    lat = jnp.concatenate([lateral, lateral])
+    return (center[..., None, :] + (side * offset[..., None])[..., None] * axis[..., None, :]
+            + lat[:, None] * along[..., None, :])
+
+
 def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
                     seed_mask: jax.Array | None = None
                     ) -> tuple[jax.Array, jax.Array, jax.Array, Contour]:
@@ -173,10 +186,25 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     reach = jnp.minimum(config.grasp_depth, jnp.min(free, -1) - config.depth_clearance)
     room = reach >= config.min_grasp_depth
 
+    # Walls: a closing finger touches each side at its tip depth; the contact holds only if
+    # the side falls at least min_wall_angle steeply (inside the pads' friction cone). So at
+    # `beyond` past each edge the surface must lie `beyond * tan(angle)` below the top,
+    # where `beyond` reaches the finger tips (capped at the open finger).
+    if config.min_wall_angle_deg > 0:
+        slope = float(np.tan(np.deg2rad(config.min_wall_angle_deg)))
+        beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
+        wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
+        wall_free, _ = _sample(jnp.where(valid, depth - z_s, jnp.inf), to_pixels(wall_points),
+                               jnp.inf)
+        walls = jnp.all(wall_free >= (beyond * slope)[..., None], -1)
+    else:
+        walls = jnp.ones_like(room)
+
     reason = jnp.select(
-        [~antipodal, ~wide_enough, ~fits, ~in_view, collision, ~room],
+        [~antipodal, ~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],
         [GraspReason.NO_ANTIPODAL, GraspReason.TOO_NARROW, GraspReason.TOO_WIDE,
-         GraspReason.OUT_OF_VIEW, GraspReason.COLLISION, GraspReason.NO_ROOM],
+         GraspReason.OUT_OF_VIEW, GraspReason.COLLISION, GraspReason.NO_ROOM,
+         GraspReason.NO_WALL],
         GraspReason.FOUND).astype(jnp.int32)
     ok = reason == GraspReason.FOUND
 

@@ -21,6 +21,7 @@ class GraspReason(IntEnum):
     OUT_OF_VIEW = 7  # the T-beam leaves the image
     COLLISION = 8  # a T-beam corner lies inside the surface cluster
     NO_ROOM = 9  # the depth at the fingers leaves no room to reach grasp depth
+    NO_WALL = 10  # beyond an edge the surface falls too gently for a finger to hold it
 
 
 # Stage order of the candidate checks: a larger stage got further.
@@ -31,7 +32,8 @@ CANDIDATE_STAGE = {
     GraspReason.OUT_OF_VIEW: 3,
     GraspReason.COLLISION: 4,
     GraspReason.NO_ROOM: 5,
-    GraspReason.FOUND: 6,
+    GraspReason.NO_WALL: 6,
+    GraspReason.FOUND: 7,
 }
 
 
