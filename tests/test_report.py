@@ -74,3 +74,22 @@ def test_sweeps_group_by_the_varying_configuration():
 def test_parse_attempts_checks_columns():
     with pytest.raises(ValueError, match="lacks columns: success"):
         parse_attempts("setup,object,trial,round,seed,outcome,reason\n1,a,0,0,0,MISSED,x\n")
+
+
+def test_gzipped_attempts_give_the_same_report(tmp_path):
+    """Large reference runs keep attempts.csv gzipped; the report reads either form."""
+    import gzip
+
+    from graspjax.report import load_attempts, write_report
+
+    text = _frame({(1, "a"): (7, 10), (2, "c"): (3, 10)}).to_csv(index=False)
+    plain, packed = tmp_path / "plain", tmp_path / "packed"
+    plain.mkdir()
+    packed.mkdir()
+    (plain / "attempts.csv").write_text(text)
+    (packed / "attempts.csv.gz").write_bytes(gzip.compress(text.encode()))
+    pd.testing.assert_frame_equal(load_attempts(plain), load_attempts(packed))
+    write_report(packed)
+    assert (packed / "table1.md").read_text() == build(parse_attempts(text))["table1.md"].decode()
+    with pytest.raises(FileNotFoundError, match="no attempts.csv"):
+        load_attempts(tmp_path)
