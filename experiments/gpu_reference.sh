@@ -7,7 +7,8 @@
 #   experiments/gpu_reference.sh studies2  # re-orientation budget and resolution studies
 #   experiments/gpu_reference.sh wall      # the wall-check ablation (300 trials per point)
 # Every step writes into $OUT (a log per step; run folders and records packed into tarballs, since
-# the machine returns at most 8 files) and prints a short summary last. The compilation cache is shared between the steps of one call.
+# the machine returns at most 8 files) and prints a short summary last. The steps of one call
+# share the persistent compilation cache.
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 gj() { python3 -m graspjax.cli "$@"; }

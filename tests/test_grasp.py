@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from graspjax import DetectorConfig, GraspReason, GripperConfig, detect_grasp
-from graspjax.synthetic import box, regular_prism
+from graspjax.synthetic import box, prism, regular_prism, rot_x
 
 
 def _pixel(camera, z):
@@ -203,28 +203,23 @@ def test_small_round_surface_keeps_its_edges(camera, detect, render):
     assert abs(float(g.width) - flat_to_flat) <= _pixel(camera, 0.37)
 
 
+def _lying(profile, length):
+    """A solid lying along y: the convex x-z `profile` (counter-clockwise) extruded over
+    `length` and centred on y = 0 (an upright `prism` turned about x)."""
+    return prism(profile, length).moved(rot_x(np.pi / 2), [0.0, length / 2, 0.0])
+
+
 def _wedge(slope_deg, length=0.065, width=0.05, low=0.01):
     """A ramp: `length` along x, `width` along y, top rising from `low` at -x by `slope_deg`."""
-    from graspjax.synthetic import Solid
-
-    t = np.deg2rad(slope_deg)
-    top = np.array([-np.sin(t), 0.0, np.cos(t)])
-    point = np.array([-length / 2, 0.0, low])
-    normals = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, -1], top], float)
-    offsets = np.array([length / 2, length / 2, width / 2, width / 2, 0.0, top @ point])
-    return Solid(normals, offsets)
+    high = low + length * np.tan(np.deg2rad(slope_deg))
+    return _lying([(-length / 2, 0), (length / 2, 0), (length / 2, high), (-length / 2, low)],
+                  width)
 
 
 def _lying_prism(sides_deg, base=0.055, length=0.08):
     """A ridge: triangular prism along y lying on its base, sides rising at `sides_deg`."""
-    from graspjax.synthetic import Solid
-
-    t = np.deg2rad(sides_deg)
-    left, right = np.array([-np.sin(t), 0, np.cos(t)]), np.array([np.sin(t), 0, np.cos(t)])
-    normals = np.array([left, right, [0, 1, 0], [0, -1, 0], [0, 0, -1]], float)
-    offsets = np.array([left @ [-base / 2, 0, 0], right @ [base / 2, 0, 0], length / 2,
-                        length / 2, 0.0])
-    return Solid(normals, offsets)
+    ridge = base / 2 * np.tan(np.deg2rad(sides_deg))
+    return _lying([(-base / 2, 0), (base / 2, 0), (0, ridge)], length)
 
 
 def test_a_band_cut_from_a_gentle_slope_has_no_wall(camera, detect, render):

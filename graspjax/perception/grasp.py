@@ -9,9 +9,9 @@ at a distance c that fits the opening, the four outer finger corners lie
 outside the cluster, the depth under both finger footprints leaves room
 to reach the grasp depth, and both gripped sides are walls steep enough for
 the finger pads to hold (a depth band cut from a gentle slope is not). The
-grasp centre is Eq. 1, read as G = S - (c / 2) * n (half-way between the two antipodal edges; the paper
-writes it in pixels with c / 2 converted by d_p, we work in metres on the
-surface plane). Among valid placements the one whose G is closest to the
+grasp centre is Eq. 1, read as G = S - (c / 2) * n (half-way between the two
+antipodal edges; the paper writes it in pixels with c / 2 converted by d_p,
+we work in metres on the surface plane). Among valid placements the one whose G is closest to the
 cluster's centroid wins (most central, least likely to push the object);
 near-ties go to the first placement.
 """
@@ -85,34 +85,33 @@ def _sample(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array
     return jnp.where(inside, value, fill), inside
 
 
+def _beam_points(center, axis, across, lateral):
+    """Points `(..., P, 2)` in the T-beam frame: `across` `(..., P)` along the closing axis and
+    `lateral` `(P,)` along the edge, from `center` `(..., 2)`."""
+    along = jnp.stack([-axis[..., 1], axis[..., 0]], axis=-1)
+    return (center[..., None, :] + across[..., None] * axis[..., None, :]
+            + jnp.asarray(lateral, jnp.float32)[:, None] * along[..., None, :])
+
+
 def _finger_points(center, axis, gripper: GripperConfig, samples: int):
     """Outer corners `(..., 4, 2)` and footprint grids `(..., 2*samples^2, 2)` of both fingers."""
-    along = jnp.stack([-axis[..., 1], axis[..., 0]], axis=-1)
     inner, outer = gripper.opening / 2, gripper.opening / 2 + gripper.finger_thickness
     half_w = gripper.finger_width / 2
-    corners = [(side * outer, lateral) for side in (1.0, -1.0) for lateral in (half_w, -half_w)]
+    corners = np.array([(side * outer, lateral) for side in (1.0, -1.0)
+                        for lateral in (half_w, -half_w)], np.float32)
     a = np.linspace(inner, outer, samples)
     b = np.linspace(-half_w, half_w, samples)
-    grid = [(side * x, y) for side in (1.0, -1.0) for x in a for y in b]
-
-    def place(offsets):
-        off = jnp.asarray(offsets, jnp.float32)  # (P, 2) in (axis, along) coordinates
-        return (center[..., None, :] + off[:, 0, None] * axis[..., None, :]
-                + off[:, 1, None] * along[..., None, :])
-
-    return place(corners), place(grid)
+    grid = np.array([(side * x, y) for side in (1.0, -1.0) for x in a for y in b], np.float32)
+    return (_beam_points(center, axis, jnp.asarray(corners[:, 0]), corners[:, 1]),
+            _beam_points(center, axis, jnp.asarray(grid[:, 0]), grid[:, 1]))
 
 
 def _wall_points(center, axis, offset, gripper: GripperConfig, samples: int):
-    """Points `(..., 2*samples, 2)` at `offset` (...) from `center` on both sides along `axis`,
+    """Points `(..., 2*samples, 2)` at `offset` `(...)` from `center` on both sides along `axis`,
     spread over the finger width."""
-    along = jnp.stack([-axis[..., 1], axis[..., 0]], axis=-1)
-    lateral = jnp.asarray(np.linspace(-gripper.finger_width / 2, gripper.finger_width / 2,
-                                      samples), jnp.float32)
-    side = jnp.asarray([1.0] * samples + [-1.0] * samples, jnp.float32)
-    lat = jnp.concatenate([lateral, lateral])
-    return (center[..., None, :] + (side * offset[..., None])[..., None] * axis[..., None, :]
-            + lat[:, None] * along[..., None, :])
+    lateral = np.tile(np.linspace(-gripper.finger_width / 2, gripper.finger_width / 2, samples), 2)
+    side = jnp.asarray(np.repeat([1.0, -1.0], samples), jnp.float32)
+    return _beam_points(center, axis, side * offset[..., None], lateral)
 
 
 def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
@@ -179,8 +178,8 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
                           camera.fy * xy[..., 1] / z_s + camera.cy], axis=-1)
 
     corner_in_cluster, corner_inside = _sample(cluster, to_pixels(corners), False)
-    free, foot_inside = _sample(jnp.where(valid, depth - z_s, jnp.inf), to_pixels(footprint),
-                                jnp.inf)
+    below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
+    free, foot_inside = _sample(below_surface, to_pixels(footprint), jnp.inf)
     in_view = jnp.all(corner_inside, -1) & jnp.all(foot_inside, -1)
     collision = jnp.any(corner_in_cluster, -1)
     reach = jnp.minimum(config.grasp_depth, jnp.min(free, -1) - config.depth_clearance)
@@ -194,8 +193,7 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
         slope = float(np.tan(np.deg2rad(config.min_wall_angle_deg)))
         beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
         wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
-        wall_free, _ = _sample(jnp.where(valid, depth - z_s, jnp.inf), to_pixels(wall_points),
-                               jnp.inf)
+        wall_free, _ = _sample(below_surface, to_pixels(wall_points), jnp.inf)
         walls = jnp.all(wall_free >= (beyond * slope)[..., None], -1)
     else:
         walls = jnp.ones_like(room)
