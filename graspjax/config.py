@@ -1,11 +1,17 @@
 """Configuration: frozen dataclasses with the paper's defaults.
 
-Every config is immutable, hashable and registered as a *static* JAX pytree,
-so it can be passed straight into `jax.jit`/`jax.vmap`-ed functions (a new
-value means a new compile, never a silent retrace inside a batch). Values are
-validated when a config is constructed, so a bad value fails before anything
-compiles, with a one-line `ConfigError` that names the field.
+Every config is immutable, hashable and a JAX pytree with two kinds of field:
 
+- *static* fields (shapes, loop lengths, model geometry, modes) are part of
+  the pytree's structure: a new value means a new compile, never a silent
+  retrace inside a batch;
+- *traced* fields (declared with `traced(default)`: thresholds, tolerances,
+  frictions, noise levels...) are its leaves: they enter `jax.jit`-ed
+  functions as data, so a sweep over them compiles once, and a batch of
+  worlds can carry one value per world (`stack_configs`).
+
+Values are validated when a config is constructed, so a bad value fails
+before anything compiles, with a one-line `ConfigError` that names the field.
 `override(config, ["align.window_px=10"])` replaces values by dotted name,
 parsing each string by the field's declared type.
 """
@@ -20,16 +26,40 @@ from collections.abc import Iterable, Mapping
 from typing import Any, Literal
 
 import jax
+import numpy as np
+
+MAX_WINDOW_PX = 32  # largest Eq. 3 window (and triangle radius): the static size of the scored patch
 
 
 class ConfigError(ValueError):
     """A configuration value or key is invalid (the message is one line)."""
 
 
-def _static(cls):
-    """Freeze a dataclass and register it as a leafless (static) pytree."""
+def traced(default):
+    """A field whose value is data under `jax.jit` (see the module docstring)."""
+    return dataclasses.field(default=default, metadata={"traced": True})
+
+
+def _config(cls):
+    """Freeze a dataclass and register it as a pytree: traced fields are leaves, the rest static."""
     cls = dataclasses.dataclass(frozen=True)(cls)
-    jax.tree_util.register_static(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    leaves = tuple(f.name for f in dataclasses.fields(cls)
+                   if f.metadata.get("traced") or dataclasses.is_dataclass(f.default))
+    statics = tuple(n for n in names if n not in leaves)
+
+    def flatten(obj):
+        return [getattr(obj, n) for n in leaves], tuple(getattr(obj, n) for n in statics)
+
+    def unflatten(aux, children):
+        obj = object.__new__(cls)  # no validation: leaves may be tracers or batched arrays
+        for name, value in zip(statics, aux, strict=True):
+            object.__setattr__(obj, name, value)
+        for name, value in zip(leaves, children, strict=True):
+            object.__setattr__(obj, name, value)
+        return obj
+
+    jax.tree_util.register_pytree_node(cls, flatten, unflatten)
     return cls
 
 
@@ -52,7 +82,7 @@ def _in_range(obj: Any, name: str, lo: float, hi: float) -> None:
     )
 
 
-@_static
+@_config
 class GripperConfig:
     """The parallel-jaw gripper, shared by the double T-beam and the physics.
 
@@ -65,33 +95,33 @@ class GripperConfig:
     finger_width: float = 0.02  # finger extent along the grasped edge (m)
     finger_thickness: float = 0.012  # finger extent along the closing axis (m)
     finger_length: float = 0.05  # how far the fingers reach below the palm (m)
-    grip_force: float = 40.0  # squeezing force of the closed jaws (N)
-    friction: float = 1.0  # finger-pad sliding friction coefficient
+    grip_force: float = traced(40.0)  # squeezing force of the closed jaws (N)
+    friction: float = traced(1.0)  # finger-pad sliding friction coefficient
 
     def __post_init__(self):
         _positive(self, "opening", "finger_width", "finger_thickness", "finger_length",
                   "grip_force", "friction")
 
 
-@_static
+@_config
 class DetectorConfig:
     """Grasp point detection with the double T-beam (paper section 3.1)."""
 
-    surface_tolerance: float = 0.005  # half-width of the depth band of the target surface (m)
-    min_surface_pixels: int = 12  # smaller surface clusters are rejected
+    surface_tolerance: float = traced(0.005)  # half-width of the depth band of the target surface (m)
+    min_surface_pixels: int = traced(12)  # smaller surface clusters are rejected
     max_contour: int = 1024  # contour buffer length (pixels); longer contours are truncated
     tangent_window: int = 3  # contour points each side for the edge direction (max; contour/16 if less)
     split_angle_deg: float = 20.0  # a new straight edge starts where the direction turns more
     min_edge_pixels: int = 4  # shorter runs of contour points are not edges
     max_edges: int = 32  # static maximum of straight edges kept (longest first)
-    antipodal_tolerance_deg: float = 15.0  # max deviation from opposite normals
-    clearance: float = 0.005  # free space kept between each open jaw and the object (m)
-    min_width: float = 0.004  # narrower antipodal pairs are not graspable (m)
-    grasp_depth: float = 0.02  # desired finger-tip depth below the surface (m)
-    min_grasp_depth: float = 0.008  # shallowest acceptable finger-tip depth (m)
-    depth_clearance: float = 0.003  # free space kept below the finger tips (m)
+    antipodal_tolerance_deg: float = traced(15.0)  # max deviation from opposite normals
+    clearance: float = traced(0.005)  # free space kept between each open jaw and the object (m)
+    min_width: float = traced(0.004)  # narrower antipodal pairs are not graspable (m)
+    grasp_depth: float = traced(0.02)  # desired finger-tip depth below the surface (m)
+    min_grasp_depth: float = traced(0.008)  # shallowest acceptable finger-tip depth (m)
+    depth_clearance: float = traced(0.003)  # free space kept below the finger tips (m)
     finger_samples: int = 3  # depth-check grid per finger (n x n points over its footprint)
-    min_wall_angle_deg: float = 45.0  # each gripped side must fall at least this steeply (0: off)
+    min_wall_angle_deg: float = traced(45.0)  # each gripped side must fall at least this steeply (0: off)
 
     def __post_init__(self):
         _positive(self, "surface_tolerance", "min_surface_pixels", "max_contour",
@@ -109,19 +139,19 @@ class DetectorConfig:
         _require(self.finger_samples >= 2, "DetectorConfig.finger_samples must be >= 2")
 
 
-@_static
+@_config
 class AlignConfig:
     """End-tool alignment by plane scoring (paper section 3.2, Eq. 2 and 3)."""
 
     hypotheses: Literal["triangles", "random"] = "triangles"  # paper: fixed triangles around A
     num_triangles: int = 8  # triangles around the z_min point A (paper: 8, 45 degrees apart)
-    triangle_radius_px: float = 5.0  # distance of the triangle corners B, C from A (pixels)
+    triangle_radius_px: float = traced(5.0)  # distance of the triangle corners B, C from A (pixels)
     num_random: int = 64  # random-triangle hypotheses when hypotheses == "random"
-    window_px: int = 15  # inlier window around the triangle centroid in x, y and z (pixels)
-    distance_threshold: float = 0.3  # max point-to-plane distance of an inlier (pixel units)
+    window_px: int = traced(15)  # inlier window around the triangle centroid in x, y and z (pixels)
+    distance_threshold: float = traced(0.3)  # max point-to-plane distance of an inlier (pixel units)
     pixel_scale: Literal["paper", "footprint"] = "paper"  # Eq. 2 as written, or the true footprint
     refit: bool = False  # least-squares refit of the winning plane to its inliers
-    min_inliers: int = 10  # fewer inliers means no usable plane
+    min_inliers: int = traced(10)  # fewer inliers means no usable plane
 
     def __post_init__(self):
         _require(self.hypotheses in ("triangles", "random"),
@@ -130,11 +160,12 @@ class AlignConfig:
                  f"AlignConfig.pixel_scale must be 'paper' or 'footprint', got {self.pixel_scale!r}")
         _in_range(self, "num_triangles", 3, 64)
         _in_range(self, "num_random", 1, 4096)
-        _in_range(self, "window_px", 1, 200)
-        _positive(self, "triangle_radius_px", "distance_threshold", "min_inliers")
+        _in_range(self, "window_px", 1, MAX_WINDOW_PX)
+        _in_range(self, "triangle_radius_px", 1.0, MAX_WINDOW_PX)
+        _positive(self, "distance_threshold", "min_inliers")
 
 
-@_static
+@_config
 class CameraConfig:
     """The tool camera: the paper's Kinect, downsampled, noise-free by default."""
 
@@ -142,9 +173,9 @@ class CameraConfig:
     height: int = 120
     fov_x_deg: float = 57.0  # Kinect horizontal field of view
     fov_y_deg: float = 43.0  # Kinect vertical field of view
-    min_range: float = 0.05  # nearer returns are invalid (m)
-    max_range: float = 3.5  # farther returns are invalid (m)
-    noise_std: float = 0.0  # depth noise sigma at 1 m; sigma(z) = noise_std * z^2 (0: off, as the paper)
+    min_range: float = traced(0.05)  # nearer returns are invalid (m)
+    max_range: float = traced(3.5)  # farther returns are invalid (m)
+    noise_std: float = traced(0.0)  # depth noise sigma(z) = noise_std * z^2 (m; 0: off, as the paper)
 
     def __post_init__(self):
         _in_range(self, "width", 16, 1280)
@@ -162,7 +193,7 @@ class CameraConfig:
         return Camera.from_fov(self.width, self.height, self.fov_x_deg, self.fov_y_deg)
 
 
-@_static
+@_config
 class SimConfig:
     """MuJoCo MJX physics of the table, the objects and the floating gripper.
 
@@ -175,8 +206,9 @@ class SimConfig:
     ls_iterations: int = 4  # solver line-search iterations
     impratio: float = 10.0  # friction-to-normal impedance ratio: firm grip without creep
     condim: int = 3  # sliding friction; finger pads touch at several points, which resists twisting
-    max_contact_points: int = 48  # MJX keeps this many most-penetrating contacts per step
-    object_friction: float = 0.5  # sliding friction of objects and table (wood, plastic, metal)
+    max_contact_points: int = 48  # MJX keeps this many most-penetrating contacts per step (piles)
+    max_contact_points_alone: int = 24  # ... in scenes of one object at a time (Setup 1)
+    object_friction: float = traced(0.5)  # sliding friction of objects and table (wood, plastic, metal)
     hand_mass: float = 0.7  # palm and housing (kg), like a Franka Hand's 0.73 kg
     finger_mass: float = 0.05  # each finger (kg)
     finger_armature: float = 0.5  # reflected inertia of the geared finger drive (kg)
@@ -184,20 +216,24 @@ class SimConfig:
     finger_damping: float = 30.0  # each finger slide (N s/m): the coupled pair about critically damped
     grip_timeconst: float = 0.02  # time constant of the weld pulling the hand to its target (s)
     segment_steps: int = 50  # physics steps per compiled call; phases are whole segments
-    settle_time: float = 0.4  # settling after a layout is placed (s; Setup 3 drops: 3x)
+    settle_time: float = 0.4  # settling before each attempt's overview (s)
+    group_settle_time: float = 0.4  # Setup 2: extra settling of a freshly placed group (s)
+    pile_settle_time: float = 1.2  # Setup 3: extra settling of a freshly dropped pile (s)
     approach_time: float = 0.3  # pre-grasp to grasp pose along the approach axis (s)
     close_time: float = 0.3  # closing the jaws (s)
     lift_time: float = 0.4  # lifting by lift_height (s)
     hold_time: float = 0.3  # holding still before the outcome is judged (s)
-    pregrasp_distance: float = 0.06  # start of the approach, back along the approach axis (m)
-    lift_height: float = 0.10  # how far the gripper lifts (m)
-    min_lift: float = 0.05  # success: the target ends at least this much above its start (m)
-    approach_tolerance: float = 0.015  # hand further than this from its target: blocked (m)
+    pregrasp_distance: float = traced(0.06)  # start of the approach, back along the approach axis (m)
+    lift_height: float = traced(0.10)  # how far the gripper lifts (m)
+    min_lift: float = traced(0.05)  # success: the target ends at least this much above its start (m)
+    approach_tolerance: float = traced(0.015)  # hand further than this from its target: blocked (m)
 
     def __post_init__(self):
         _positive(self, "timestep", "iterations", "ls_iterations", "impratio", "max_contact_points",
+                  "max_contact_points_alone",
                   "object_friction", "hand_mass", "finger_mass", "finger_armature", "finger_kp",
                   "finger_damping", "grip_timeconst", "segment_steps", "settle_time",
+                  "group_settle_time", "pile_settle_time",
                   "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
                   "min_lift", "approach_tolerance")
         _require(self.condim in (1, 3, 4, 6), f"SimConfig.condim must be 1, 3, 4 or 6, got {self.condim}")
@@ -209,17 +245,17 @@ class SimConfig:
         return max(1, math.ceil(round(seconds / (self.segment_steps * self.timestep), 6)))
 
 
-@_static
+@_config
 class LayoutConfig:
     """Random object layouts of the three setups (paper Fig. 7)."""
 
-    workspace: float = 0.08  # Setup 1: object centre uniform in a square of this half-size (m)
-    gap_min: float = 0.02  # Setup 2: smallest gap between neighbouring objects (m)
-    gap_max: float = 0.05  # Setup 2: largest gap between neighbouring objects (m)
-    dense_radius: float = 0.05  # Setup 3: object centres uniform in a disc of this radius (m)
-    dense_tilt_deg: float = 20.0  # Setup 3: initial tilt uniform in [0, this] (deg)
-    drop_clearance: float = 0.003  # initial height above the resting pose (m)
-    stack_gap: float = 0.005  # Setup 3: vertical gap between objects stacked for the drop (m)
+    workspace: float = traced(0.08)  # Setup 1: object centre uniform in a square of this half-size (m)
+    gap_min: float = traced(0.02)  # Setup 2: smallest gap between neighbouring objects (m)
+    gap_max: float = traced(0.05)  # Setup 2: largest gap between neighbouring objects (m)
+    dense_radius: float = traced(0.05)  # Setup 3: object centres uniform in a disc of this radius (m)
+    dense_tilt_deg: float = traced(20.0)  # Setup 3: initial tilt uniform in [0, this] (deg)
+    drop_clearance: float = traced(0.003)  # initial height above the resting pose (m)
+    stack_gap: float = traced(0.005)  # Setup 3: vertical gap between objects stacked for the drop (m)
 
     def __post_init__(self):
         _positive(self, "workspace", "gap_max", "dense_radius")
@@ -229,13 +265,13 @@ class LayoutConfig:
         _require(self.drop_clearance >= 0, "LayoutConfig.drop_clearance must be >= 0")
 
 
-@_static
+@_config
 class ProcedureConfig:
     """The paper's procedure (Fig. 1): overview, select, centre, detect, re-align, execute."""
 
     max_reorientations: int = 1  # re-alignments allowed after a failed detection (paper: 1)
-    camera_height: float = 0.5  # overview and centred views: camera height above the table (m)
-    min_view_height: float = 0.05  # a re-aligned camera must stay this high above the table (m)
+    camera_height: float = traced(0.5)  # overview and centred views: camera height above the table (m)
+    min_view_height: float = traced(0.05)  # a re-aligned camera must stay this high above the table (m)
 
     def __post_init__(self):
         _in_range(self, "max_reorientations", 0, 10)
@@ -347,7 +383,19 @@ def flatten(config: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-@_static
+def stack_configs(configs: list[Any]) -> Any:
+    """One config whose traced leaves are stacked along a new leading axis (one value per world).
+
+    Every config must have the same static values (the same compiled program).
+    """
+    structure = jax.tree.structure(configs[0])
+    for other in configs[1:]:
+        if jax.tree.structure(other) != structure:
+            raise ConfigError("configs stacked into one batch must agree on every static field")
+    return jax.tree.map(lambda *values: np.asarray(values), *configs)
+
+
+@_config
 class Config:
     """Everything one run needs, addressed by dotted names (`--set align.window_px=10`)."""
 

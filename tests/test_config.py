@@ -1,16 +1,19 @@
 import dataclasses
 
 import jax
+import numpy as np
 import pytest
 
 from graspjax.config import (
     AlignConfig,
+    Config,
     ConfigError,
     DetectorConfig,
     GripperConfig,
     differences,
     override,
     parse_assignments,
+    stack_configs,
 )
 
 
@@ -20,9 +23,32 @@ def test_paper_defaults():
     assert a.pixel_scale == "paper" and a.hypotheses == "triangles" and not a.refit
 
 
-def test_configs_are_hashable_static_pytrees():
-    assert jax.tree_util.tree_leaves(AlignConfig()) == []
+def test_traced_values_are_leaves_and_static_values_the_structure():
+    a, b = AlignConfig(), AlignConfig(distance_threshold=0.5, window_px=10)
+    assert jax.tree.structure(a) == jax.tree.structure(b)  # one compiled program for both
+    assert jax.tree.structure(a) != jax.tree.structure(AlignConfig(num_triangles=6))
+    assert jax.tree.leaves(a) == [a.triangle_radius_px, a.window_px, a.distance_threshold,
+                                  a.min_inliers]
     assert hash(DetectorConfig()) == hash(DetectorConfig())
+    traces = []
+
+    @jax.jit
+    def inliers_below(config, d):
+        traces.append(1)
+        return d < config.distance_threshold
+
+    assert bool(inliers_below(a, 0.4)) is False and bool(inliers_below(b, 0.4)) is True
+    assert len(traces) == 1
+
+
+def test_stacked_configs_carry_one_value_per_world():
+    stacked = stack_configs([Config(), override(Config(), ["align.distance_threshold=0.5"])])
+    np.testing.assert_allclose(stacked.align.distance_threshold, [0.3, 0.5])
+    assert stacked.align.num_triangles == 8  # static values stay Python values
+    one = jax.vmap(lambda c: c.align.distance_threshold * 2)(stacked)
+    np.testing.assert_allclose(one, [0.6, 1.0])
+    with pytest.raises(ConfigError, match="static field"):
+        stack_configs([Config(), override(Config(), ["align.num_triangles=6"])])
 
 
 @pytest.mark.parametrize("make, match", [

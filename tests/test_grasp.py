@@ -189,9 +189,13 @@ def test_candidates_report_every_placement(camera, detect, render):
     assert np.all(np.asarray(g.candidates.reason)[~np.asarray(g.candidates.valid)] != 0)
 
 
-def test_grasp_depth_longer_than_the_fingers_is_refused(camera):
-    with pytest.raises(ValueError, match="finger_length"):
-        detect_grasp(jnp.zeros((120, 160)), camera, DetectorConfig(grasp_depth=0.06))
+def test_grasp_depth_is_capped_by_the_finger_length(camera, detect, render):
+    """A tall cube: asked for 6 cm with 5 cm fingers, the tips go 5 cm down, no deeper."""
+    cube = box((0.05, 0.05, 0.12), (0.0, 0.0, 0.0), 0.3)
+    deep = DetectorConfig(grasp_depth=0.06, min_grasp_depth=0.01)
+    g = detect(jnp.asarray(render([cube])), camera, deep)
+    assert bool(g.found), _reason(g)
+    assert float(g.depth) == pytest.approx(GripperConfig().finger_length, abs=1e-6)
 
 
 def test_small_round_surface_keeps_its_edges(camera, detect, render):

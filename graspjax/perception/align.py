@@ -11,8 +11,9 @@ looks along its negative normal. Normals are reported in the metric camera
 frame (from the triangle's back-projected corners, or a least-squares fit to
 the inliers when `refit`), pointing from the surface toward the camera.
 
-Scoring only looks at a `(2 * window_px + 3)^2` patch around each centroid,
-which is exactly the set of pixels the window admits.
+Scoring only looks at a `(2 * MAX_WINDOW_PX + 3)^2` patch around each
+centroid, which holds every pixel the window admits; the window itself and
+the threshold are traced values (a sweep over them compiles once).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import jax.numpy as jnp
 from jax import lax
 
 from graspjax.camera import Camera
-from graspjax.config import AlignConfig
+from graspjax.config import MAX_WINDOW_PX, AlignConfig
 from graspjax.perception.cluster import nearest_pixel, valid_mask
 from graspjax.perception.reasons import AlignReason
 
@@ -123,9 +124,9 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
     hyp_valid = jnp.all(corner_ok, -1) & (n_norm > 1e-6) & any_valid
 
     # --- Eq. 3 on a patch around each centroid --------------------------------------------
-    w = config.window_px
+    w = MAX_WINDOW_PX  # static patch half-size; Eq. 3 applies the configured window inside it
     size = 2 * w + 3
-    pad = size + int(max(config.triangle_radius_px, w)) + 2  # slices never clamp at the border
+    pad = size + w + 2  # slices never clamp at the border (triangle radius <= MAX_WINDOW_PX)
     padded_z = jnp.pad(clean, pad)
     padded_ok = jnp.pad(valid, pad)
     grid = jnp.arange(size)

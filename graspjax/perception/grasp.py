@@ -139,8 +139,6 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     be taken; the surface itself is grown over all pixels. Pure and static-
     shaped: jit it, and vmap it over a leading batch axis of `depth`.
     """
-    if config.grasp_depth > gripper.finger_length:
-        raise ValueError("DetectorConfig.grasp_depth exceeds GripperConfig.finger_length")
     depth = jnp.asarray(depth, jnp.float32)
     if depth.shape != (camera.height, camera.width):
         raise ValueError(f"depth shape {depth.shape} does not match the camera "
@@ -182,21 +180,20 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     free, foot_inside = _sample(below_surface, to_pixels(footprint), jnp.inf)
     in_view = jnp.all(corner_inside, -1) & jnp.all(foot_inside, -1)
     collision = jnp.any(corner_in_cluster, -1)
-    reach = jnp.minimum(config.grasp_depth, jnp.min(free, -1) - config.depth_clearance)
+    wanted = jnp.minimum(config.grasp_depth, gripper.finger_length)  # no deeper than the fingers
+    reach = jnp.minimum(wanted, jnp.min(free, -1) - config.depth_clearance)
     room = reach >= config.min_grasp_depth
 
     # Walls: a closing finger touches each side at its tip depth; the contact holds only if
     # the side falls at least min_wall_angle steeply (inside the pads' friction cone). So at
     # `beyond` past each edge the surface must lie `beyond * tan(angle)` below the top,
     # where `beyond` reaches the finger tips (capped at the open finger).
-    if config.min_wall_angle_deg > 0:
-        slope = float(np.tan(np.deg2rad(config.min_wall_angle_deg)))
-        beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
-        wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
-        wall_free, _ = _sample(below_surface, to_pixels(wall_points), jnp.inf)
-        walls = jnp.all(wall_free >= (beyond * slope)[..., None], -1)
-    else:
-        walls = jnp.ones_like(room)
+    slope = jnp.tan(jnp.deg2rad(config.min_wall_angle_deg))
+    beyond = jnp.clip(jnp.minimum(reach / jnp.maximum(slope, 1e-6), (gripper.opening - c) / 2),
+                      0.0, None)
+    wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
+    wall_free, _ = _sample(below_surface, to_pixels(wall_points), jnp.inf)
+    walls = (config.min_wall_angle_deg <= 0) | jnp.all(wall_free >= (beyond * slope)[..., None], -1)
 
     reason = jnp.select(
         [~antipodal, ~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],

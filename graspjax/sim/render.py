@@ -94,8 +94,8 @@ def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_
 
     geom_xpos, geom_xmat: (ngeom, 3), (ngeom, 3, 3) or (ngeom, 9) world poses of
     all geoms (MJX `Data` fields after kinematics); rotation: camera-to-world
-    (3, 3); position: camera centre (3,). key: PRNG key for the noise model
-    (only used when `config.noise_std > 0`).
+    (3, 3); position: camera centre (3,). key: PRNG key of the noise model
+    (None: exact depth).
     """
     ids = geometry.geom_ids
     rot_g = geom_xmat[ids].reshape(-1, 3, 3)  # (G, 3, 3)
@@ -130,9 +130,7 @@ def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_
     (depth, piece), _ = jax.lax.scan(
         nearest, (jnp.full(shape, jnp.inf), jnp.full(shape, -1, jnp.int32)),
         (normal_cam, offset_cam, jnp.arange(len(ids), dtype=jnp.int32)))
-    if config.noise_std > 0:
-        if key is None:
-            raise ValueError("CameraConfig.noise_std > 0 needs a PRNG key")
+    if key is not None:
         # depth noise: N(0, (noise_std * z^2)^2), Kinect-like growth with distance
         depth = depth + config.noise_std * depth**2 * jax.random.normal(key, depth.shape)
     valid = jnp.isfinite(depth) & (depth >= config.min_range) & (depth <= config.max_range)
