@@ -108,55 +108,59 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
                       seconds: float = 1.0, config: Config = Config(), progress=print) -> dict:
     """World-steps/s of a scene (settling and grasp execution) and depth images/s.
 
-    Compile time is measured apart. The layout is random (seeded) for `setup`.
+    The per-world functions of the runner (`procedure.start_round`,
+    `world.play`) vmapped over `batch` worlds of `setup`; compile time apart.
     """
+    from graspjax.config import stack_configs
     from graspjax.geometry import look_down
-    from graspjax.sim import layout
-    from graspjax.sim.scene import build_scene
-    from graspjax.sim.world import GraspPose, Simulator, render
+    from graspjax.procedure import WorldSpec, start_round
+    from graspjax.sim.scene import mjx, scene_for
+    from graspjax.sim.world import GraspPose, physics_model, play, render
 
     start = time.perf_counter()
-    scene = build_scene(letters, config.gripper, config.sim, objects_collide=setup != 1)
-    sim = Simulator(scene)
+    scene = scene_for(tuple(letters), config, setup != 1)
     build_s = time.perf_counter() - start
-    n = scene.num_objects
-    keys = jax.vmap(lambda i: layout.layout_key(0, setup, i))(jnp.arange(batch))
-    if setup == 1:
-        pos, quat, active = jax.vmap(lambda k, t: layout.single(k, t, n, config.layout))(
-            keys, jnp.arange(batch) % n)
-    elif setup == 2:
-        pos, quat, active = jax.vmap(lambda k: layout.grouped(k, scene.footprint_radius,
-                                                              config.layout))(keys)
-    else:
-        pos, quat, active = jax.vmap(lambda k: layout.dense(k, scene.object_points,
-                                                            config.layout))(keys)
-    data = sim.reset(sim.empty(batch), pos, quat, active)
-    seg = config.sim.segment_steps * config.sim.timestep
+    n, s = scene.num_objects, config.sim
+    order = np.tile(np.arange(n, dtype=np.int32), (batch, 1))
+    order[:, 0] = np.arange(batch) % n  # Setup 1: world i holds object i mod n
+    spec = WorldSpec(seed=np.zeros(batch, np.int32), setup=np.full(batch, setup, np.int32),
+                     trial=np.arange(batch, dtype=np.int32), order=order,
+                     members=np.ones((batch, n), bool), config=stack_configs([config] * batch))
+    template = mjx.make_data(scene.mj_model)
+    data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w).data))(spec)
+
+    def run(d, w, grasp, target, segments, execute):
+        return play(scene, physics_model(scene, w.config), d, grasp, target, segments, execute,
+                    w.config)
+
+    simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, None)), static_argnums=5)
+    nan = jnp.full((batch, 3), jnp.nan)
+    idle = GraspPose(nan, nan, nan, jnp.zeros(batch, bool))
+    zero = jnp.zeros(batch, jnp.int32)
+    settle = s.segments(seconds)
     progress(f"compiling the physics of {letters} (batch {batch}) ...")
     t0 = time.perf_counter()
-    data = jax.block_until_ready(sim.hold_still(data, seg))
+    data, _ = jax.block_until_ready(simulate(data, spec, idle, zero, zero + 1, False))
     compile_s = time.perf_counter() - t0
-    data = jax.block_until_ready(sim.hold_still(data, 0.5))  # let the drop settle a little
+    data, _ = jax.block_until_ready(simulate(data, spec, idle, zero, zero + 5, False))  # drop
 
     progress("timing settling ...")
     t0 = time.perf_counter()
-    data = jax.block_until_ready(sim.hold_still(data, seconds))
+    data, _ = jax.block_until_ready(simulate(data, spec, idle, zero, zero + settle, False))
     settle_s = time.perf_counter() - t0
-    steps = config.sim.segments(seconds) * config.sim.segment_steps
 
-    # A top-down grasp over each world's first active object (physics with finger contacts).
-    kin = sim.kinematics(data)
-    first = jnp.argmax(active, axis=1)
+    # A top-down grasp over each world's first object (physics with finger contacts).
+    kin = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))(data)
+    first = jnp.asarray(order[:, 0])
     centre = kin.xpos[jnp.arange(batch), jnp.asarray(scene.object_body)[first]]
     grasp = GraspPose(tcp=centre + jnp.array([0.0, 0.0, 0.01]),
                       approach=jnp.broadcast_to(jnp.array([0.0, 0.0, -1.0]), (batch, 3)),
                       closing=jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0]), (batch, 3)),
                       valid=jnp.ones(batch, bool))
-    sim.execute(data, grasp, first)  # compile the helpers
+    jax.block_until_ready(simulate(data, spec, grasp, first, zero, True))  # compile
     t0 = time.perf_counter()
-    _, attempt = sim.execute(data, grasp, first)
+    _, done = jax.block_until_ready(simulate(data, spec, grasp, first, zero, True))
     execute_s = time.perf_counter() - t0
-    s = config.sim
     execute_steps = s.segment_steps * sum(s.segments(t) for t in (s.approach_time, s.close_time,
                                                                    s.lift_time, s.hold_time))
 
@@ -169,12 +173,14 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     render_s = _median_seconds(lambda: draw(kin), 5)
     return {
         "scene": letters, "setup": setup, "batch": batch, "build_s": build_s,
-        "compile_s": compile_s, "settle_world_steps_per_s": batch * steps / settle_s,
+        "compile_s": compile_s,
+        "settle_world_steps_per_s": batch * settle * s.segment_steps / settle_s,
         "execute_world_steps_per_s": batch * execute_steps / execute_s,
-        "execute_s": execute_s, "grasp_success_fraction": float(np.mean(attempt.outcome == 0)),
+        "execute_s": execute_s,
+        "grasp_success_fraction": float(np.mean(np.asarray(done.outcome) == 0)),
         "render_compile_s": render_compile_s, "render_images_per_s": batch / render_s,
         "render_resolution": [camera.width, camera.height],
-        "ncon": int(sim.empty(1)._impl.ncon),
+        "ncon": int(template._impl.ncon),
         **device_info(),
     }
 
@@ -194,56 +200,42 @@ def format_physics(r: dict) -> str:
 def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), trials: int = 100,
                        batch: int | None = None, config: Config = Config(),
                        progress=print) -> dict:
-    """Grasp attempts/s end to end, and the share of time in physics, perception and rendering.
+    """Grasp attempts/s end to end (layout, settle, overview, centre, detect, re-align, execute,
+    judge, rows on the host), compile time apart.
 
-    The job runs twice with the same seed: the first run includes compilation,
-    the second is timed as the steady state.
+    The runner compiles the job's programs, then runs every chunk; the run is
+    timed from its first chunk to its last rows.
     """
-    from graspjax.experiment import Job, default_batch, round_runner, run_jobs
-    from graspjax.geometry import look_down
-    from graspjax.sim.world import render
+    from graspjax import runner
 
-    job = Job(tuple(objects), tuple(setups), trials)
-    size = batch or default_batch(len(job.worlds))
-    progress(f"first run (compiles): {len(job.worlds)} worlds x {len(job.objects)} attempts ...")
+    job = runner.Job(tuple(objects), tuple(setups), trials)
+    size = batch or runner.default_batch()
+    groups = runner.plan([job], [config], 0)
+    progress(f"{sum(len(g.worlds) for g in groups)} worlds, {job.attempts} attempts, "
+             f"batch {size} ...")
     t0 = time.perf_counter()
-    run_jobs([job], config, 0, size)
-    first_s = time.perf_counter() - t0
-    progress("second run (steady state) ...")
-    t0 = time.perf_counter()
-    rows, timings = run_jobs([job], config, 0, size)
-    wall_s = time.perf_counter() - t0
-    physics_s = sum(t["physics_s"] for t in timings)
-    perception_s = sum(t["perception_s"] for t in timings)
-
-    # Rendering alone, on a batch of this scene, to split it out of perception.
-    runner = round_runner(job, config)
-    sim, camera = runner.sim, config.camera.camera()
-    rot, eye = look_down(jnp.array([0.0, 0.0, config.procedure.camera_height]))
-    data = sim.kinematics(sim.empty(size))
-    draw = jax.jit(jax.vmap(lambda d: render(sim.scene, d, rot, eye, camera, config.camera)))
-    jax.block_until_ready(draw(data))
-    per_batch = _median_seconds(lambda: draw(data), 5)
-    images = (2 + config.procedure.max_reorientations) * len(job.objects)  # per world and round
-    chunks = -(-len(job.worlds) // size)
-    render_s = per_batch * images * chunks
-    attempts = len(rows)
+    compile_s, frames, first = 0.0, [], None
+    for _, frame, timings, _ in runner.run(groups, [config], size, log=progress):
+        compile_s += timings["compile_s"]
+        first = first or t0 + compile_s
+        frames.append(frame)
+    wall_s = time.perf_counter() - first
+    attempts = sum(int((f["attempt"] >= 0).sum()) for f in frames)
+    success = float(np.mean(np.concatenate([f["success"].to_numpy() for f in frames])))
     return {
         "objects": objects, "setups": list(setups), "trials": trials, "batch": size,
-        "attempts": attempts, "success_rate": float(np.mean([r["success"] for r in rows])),
-        "first_run_s": first_s, "wall_s": wall_s, "compile_s_estimate": first_s - wall_s,
-        "attempts_per_s": attempts / wall_s,
-        "physics_share": physics_s / wall_s, "perception_share": perception_s / wall_s,
-        "render_share": render_s / wall_s, "render_images_per_s": size / per_batch,
+        "attempts": attempts, "success_rate": success, "compile_s": compile_s,
+        "run_s": wall_s, "attempts_per_s": attempts / wall_s,
+        "deterministic": "xla_gpu_deterministic_ops=true" in __import__("os").environ.get(
+            "XLA_FLAGS", ""),
         **device_info(),
     }
 
 
 def format_pipeline(r: dict) -> str:
-    return (f"device: {r['device']} ({r['platform']}), jax {r['jax']}\n"
+    return (f"device: {r['device']} ({r['platform']}) x{r['device_count']}, jax {r['jax']}, "
+            f"deterministic ops {'on' if r['deterministic'] else 'off'}\n"
             f"objects {r['objects']}, setups {r['setups']}, {r['trials']} trials, batch {r['batch']}"
             f": {r['attempts']} attempts ({100 * r['success_rate']:.0f}% success)\n"
-            f"first run {r['first_run_s']:.1f} s (compiles ~{r['compile_s_estimate']:.1f} s), "
-            f"steady {r['wall_s']:.1f} s = {r['attempts_per_s']:,.1f} attempts/s\n"
-            f"time shares: physics {100 * r['physics_share']:.0f}%, perception incl. rendering "
-            f"{100 * r['perception_share']:.0f}% (rendering alone ~{100 * r['render_share']:.0f}%)")
+            f"compile {r['compile_s']:.1f} s, run {r['run_s']:.1f} s = "
+            f"{r['attempts_per_s']:,.1f} attempts/s")

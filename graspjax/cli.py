@@ -214,7 +214,7 @@ def _ints(text: str, name: str, allowed) -> tuple[int, ...]:
 
 def _jobs(args):
     """Jobs from --table or --setup/--objects, validated (no compilation yet)."""
-    from graspjax.experiment import Job, table_jobs
+    from graspjax.runner import Job, table_job
     from graspjax.sim.objects import parse_letters
 
     if args.trials < 1:
@@ -223,12 +223,17 @@ def _jobs(args):
         raise UsageError(f"--seed must be >= 0, got {args.seed}")
     if args.batch is not None and args.batch < 1:
         raise UsageError(f"--batch must be >= 1, got {args.batch}")
+    if args.max_views < 0:
+        raise UsageError(f"--max-views must be >= 0, got {args.max_views}")
+    if args.resume and args.overwrite:
+        raise UsageError("give --resume or --overwrite, not both")
+    _part(args.part)
     if (args.table is None) == (args.setup is None):
         raise UsageError("give either --table 1|2|1,2 or --setup S [--objects ...]")
     if args.table is not None:
         if args.objects is not None:
             raise UsageError("--objects goes with --setup; the tables fix their objects")
-        return [table_jobs(t, args.trials) for t in _ints(args.table, "--table", (1, 2))]
+        return [table_job(t, args.trials) for t in _ints(args.table, "--table", (1, 2))]
     try:
         objects = parse_letters(args.objects or "abcdef")
     except ValueError as exc:
@@ -262,11 +267,11 @@ def _grid(items: list[str], base):
     return keys, points
 
 
-def _progress(total: int, quiet: bool):
+def _progress(total: int, quiet: bool, initial: int = 0):
     from tqdm import tqdm
 
-    bar = tqdm(total=total, unit="attempt", disable=quiet, dynamic_ncols=True, file=sys.stderr,
-               smoothing=0.05)
+    bar = tqdm(total=total, initial=initial, unit="attempt", disable=quiet, dynamic_ncols=True,
+               file=sys.stderr, smoothing=0.05)
 
     def log(message):
         if not quiet:
@@ -278,43 +283,72 @@ def _progress(total: int, quiet: bool):
 def _experiment(args, grid_items=None) -> int:
     import dataclasses
 
-    from graspjax.config import Config, differences, override
-    from graspjax.experiment import run_jobs
-    from graspjax.outputs import attempts_frame, check_output_folder, run_id, write_run
+    from graspjax import runner
+    from graspjax.config import Config, differences, flatten, override
+    from graspjax.outputs import RunFolder, check_output_folder, environment, finish_frame, run_id
+    from graspjax.views import ViewSaver
 
-    out = check_output_folder(args.out)
-    config = override(Config(), args.set or [])
     jobs = _jobs(args)
+    part, parts = _part(args.part)
+    out = check_output_folder(args.out, args.resume or parts > 1, args.overwrite)
+    config = override(Config(), args.set or [])
     keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
-    attempts = sum(len(j.worlds) * len(j.objects) for j in jobs) * len(points)
-    bar, log = _progress(attempts, args.quiet)
+    configs = [c for _, c in points]
+    batch = args.batch or runner.default_batch()
+    groups = runner.plan(jobs, configs, args.seed)
+    chunks = runner.chunks(groups, batch)
     meta = {"seed": args.seed, "jobs": [dataclasses.asdict(j) for j in jobs],
             "overrides": differences(config, Config()),
-            "grid": {k: [p[0][k] for p in points] for k in keys}, "points": len(points)}
-    rid = run_id({**meta, "overrides": {**meta["overrides"], "grid": meta["grid"]}})
-    frames, timings = [], []
+            "grid": {k: [p[0][k] for p in points] for k in keys}, "points": len(points),
+            "config": flatten(config),
+            "batch": batch, "deterministic": not args.fast,
+            "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": args.save_views,
+            **environment()}
+    meta = {"run_id": run_id(meta), **meta}
+    folder = RunFolder(out, meta, len(chunks), args.resume, shared=parts > 1)
+    skip = folder.done | {c.index for c in chunks if c.index % parts != part}
+    per_chunk = {c.index: sum(len(w.objects) for w in c.worlds) for c in chunks
+                 if c.index % parts == part}
+    bar, log = _progress(sum(per_chunk.values()), args.quiet,
+                         sum(n for c, n in per_chunk.items() if c in folder.done))
+    if grid_items is not None:
+        log(f"{len(points)} grid points of {', '.join(keys)}; point i has seed {args.seed} + i")
+    saver = ViewSaver(out, args.save_views, args.max_views, configs)
+    with bar:
+        for chunk, frame, timings, views in runner.run(
+                groups, configs, batch, skip, keep_views=args.save_views != "none",
+                progress=bar.update, log=log):
+            frame = finish_frame(frame, configs, keys, meta["run_id"], config)
+            folder.add(chunk.index, frame, timings)
+            if views is not None:
+                saver.save(chunk, frame, views)
+    files = folder.finish()
+    if not files:
+        print(f"part {part}/{parts} done; {len(folder.done)} of {len(chunks)} chunks of the run are "
+              f"done in {out} (the part that completes the last chunk writes the results)")
+        return 0
     import pandas as pd
 
-    with bar:
-        for i, (assignment, point_config) in enumerate(points):
-            if assignment:
-                log(f"grid point {i + 1}/{len(points)}: "
-                    + ", ".join(f"{k}={v}" for k, v in assignment.items()) + f" (seed {args.seed + i})")
-            rows, chunk_times = run_jobs(jobs, point_config, args.seed + i, args.batch,
-                                         bar.update, log)
-            frame = attempts_frame(rows, point_config, keys, rid)
-            if grid_items is not None:
-                frame.insert(1, "point", i)
-            frames.append(frame)
-            timings += [{"point": i, **t} for t in chunk_times]
-    frame = pd.concat(frames, ignore_index=True)
-    files = write_run(out, frame, timings, meta, config)
-    print(f"{len(frame)} attempts, success {frame['success'].mean():.1%}; wrote "
+    success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
+    print(f"{len(success)} attempts, success {success.mean():.1%}; wrote "
           + ", ".join(p.name for p in files) + f" to {out}")
     for name in ("table1.md", "table2.md"):
         if (out / name).exists() and grid_items is None:
             print((out / name).read_text())
     return 0
+
+
+def _part(text: str | None) -> tuple[int, int]:
+    """--part I/N -> (I, N); no --part is (0, 1)."""
+    if text is None:
+        return 0, 1
+    try:
+        part, parts = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise UsageError(f"--part takes I/N (e.g. 0/4), got {text!r}") from None
+    if not 0 <= part < parts:
+        raise UsageError(f"--part I/N needs 0 <= I < N, got {text!r}")
+    return part, parts
 
 
 def cmd_run(args) -> int:
@@ -335,11 +369,13 @@ def cmd_report(args) -> int:
     folder = Path(args.folder)
     if not folder.is_dir():
         raise InputError(f"no such directory: {folder}")
+    if args.debug < 0:
+        raise UsageError(f"--debug must be >= 0, got {args.debug}")
     try:
-        files = write_report(folder)
+        files = write_report(folder, debug=args.debug)
     except (FileNotFoundError, ValueError) as exc:
         raise InputError(str(exc).splitlines()[0]) from None
-    print("wrote " + ", ".join(p.name for p in files) + f" to {folder}")
+    print("wrote " + ", ".join(str(p.relative_to(folder)) for p in files) + f" to {folder}")
     return 0
 
 
@@ -353,7 +389,21 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
-    p.add_argument("--batch", type=int, help="worlds per compiled batch (default: device-sized)")
+    p.add_argument("--batch", type=int,
+                   help="worlds per chunk (default: 4096 per GPU, 32 on the CPU); the same seed and "
+                        "batch on the same device kind give the same attempts")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --out (same command): only unfinished chunks run")
+    p.add_argument("--overwrite", action="store_true", help="replace a run already in --out")
+    p.add_argument("--part", metavar="I/N",
+                   help="run every N-th chunk from chunk I, into a folder shared by N processes "
+                        "(one per host; see docs/running.md)")
+    p.add_argument("--fast", action="store_true",
+                   help="GPU: allow non-deterministic XLA ops (about 20%% faster, not bit-reproducible)")
+    p.add_argument("--save-views", choices=["none", "failed", "all"], default="none",
+                   help="keep the images, detections and planes of these attempts (views/*.npz)")
+    p.add_argument("--max-views", type=int, default=100,
+                   help="keep views of at most this many attempts (default 100)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -392,6 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
     p.add_argument("folder", help="a run or sweep output directory")
+    p.add_argument("--debug", type=int, default=0, metavar="N",
+                   help="also draw the first N saved attempts (views/) into DIR/debug/")
     p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("bench", help="benchmarks (print numbers; compile time apart)")
@@ -407,6 +459,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--height", type=int, default=120)
     p.add_argument("--repeats", type=int, default=10, help="timed calls (median is reported)")
     p.add_argument("--out", help="write the full record to this JSON file")
+    p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
     p.set_defaults(func=cmd_bench)
     return parser
@@ -425,9 +478,23 @@ def _compilation_cache() -> None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
+def _deterministic_gpu(args) -> None:
+    """XLA's GPU scatter-adds are not deterministic: ask for deterministic ops unless --fast.
+
+    XLA reads the flag when JAX starts its backend, so this runs before any device is used.
+    """
+    if getattr(args, "fast", True):
+        return
+    flag = "--xla_gpu_deterministic_ops=true"
+    flags = os.environ.get("XLA_FLAGS", "")
+    if flag not in flags:
+        os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    _deterministic_gpu(args)
     _compilation_cache()
     try:
         return args.func(args)

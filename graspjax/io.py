@@ -86,6 +86,15 @@ def downsample(depth: np.ndarray, factor: int) -> np.ndarray:
     return np.nan_to_num(out, nan=0.0).astype(np.float32)
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_FILE_MODE = 0o666 & ~_umask()  # what open() would give a new file
+
+
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write a file in one step (temp file + rename): never leaves a half-written file."""
     path = Path(path)
@@ -93,6 +102,7 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
+        os.chmod(tmp, _FILE_MODE)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

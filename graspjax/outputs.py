@@ -1,9 +1,25 @@
-"""Files of a run: one row per attempt (CSV and Parquet), timings, configuration, report.
+"""A run's folder, written as the run goes: nothing finished is ever lost, nothing is doubled.
 
-`attempts.csv` is deterministic: the same command with the same seed on the
-same device writes the same bytes. Wall-clock times therefore live in
-`timings.csv` (one row per batch of worlds, by phase); every attempt row
-names its batch in the `chunk` column.
+While a run is going:
+
+- `config.json`: every setting, seed, batch, devices, versions, command,
+  written before the first chunk;
+- `parts/timings-NNNNN.json` and `parts/attempts-NNNNN.parquet`: one pair
+  per finished chunk, each written atomically; a chunk is done when its
+  attempts part exists;
+- `attempts.csv`: the rows of each finished chunk appended at once (chunk
+  order), to watch a long run with any tool.
+
+When every chunk is done, `attempts.csv` and `attempts.parquet` are rebuilt
+from the parts, sorted (so a resumed or split run ends byte-identical to an
+uninterrupted one), `timings.csv` joins the chunks' timings, the report
+(`summary.csv`, tables, figures) is computed from the rows alone, and
+`parts/` is removed. `--resume` continues a killed run: it checks that the
+folder holds the same run (same run id and batch), rewrites `attempts.csv`
+from the parts (dropping a half-written append) and runs only the chunks not
+done.
+
+`attempts.csv` is deterministic: wall-clock times live in `timings.csv`.
 """
 
 from __future__ import annotations
@@ -12,6 +28,7 @@ import hashlib
 import io
 import json
 import platform
+import shutil
 import sys
 from datetime import UTC, datetime
 from importlib import metadata
@@ -22,51 +39,49 @@ import pandas as pd
 from graspjax.config import Config, differences, flatten
 from graspjax.io import InputError, write_atomic
 
-FIRST_COLUMNS = ["run_id", "setup", "object", "trial", "round", "attempt", "seed", "success",
-                 "outcome", "reason", "reorientations", "lifted_object"]
+FIRST_COLUMNS = ["run_id", "point", "setup", "object", "trial", "round", "attempt", "seed",
+                 "success", "outcome", "reason", "reorientations", "lifted_object"]
+SORT = ["point", "setup", "round", "attempt_order", "object"]
 
 
-def check_output_folder(folder: str | Path) -> Path:
-    """Fail early (one line) if results cannot be written to `folder`; creates nothing."""
-    import tempfile
+def check_output_folder(folder: str | Path, resume: bool = False, overwrite: bool = False) -> Path:
+    """Fail early (one line) if a run cannot be written to `folder`; creates nothing.
 
+    Missing parent folders are fine (they are created when the run starts); a
+    folder that already holds a run needs `resume` (continue it; also for the
+    parts of a shared run) or `overwrite`.
+    """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"--out {folder} exists and is not a directory")
-    probe = folder if folder.exists() else folder.parent
+    probe = folder
+    while not probe.exists():
+        probe = probe.parent
     if not probe.is_dir():
-        raise InputError(f"--out {folder}: {probe} is not an existing directory")
+        raise InputError(f"--out {folder}: {probe} is not a directory")
     try:
+        import tempfile
+
         with tempfile.TemporaryFile(dir=probe):
             pass
     except OSError:
         raise InputError(f"--out {folder}: {probe} is not writable") from None
+    holds_run = (folder / "config.json").is_file()
+    if holds_run and not (resume or overwrite):
+        raise InputError(f"--out {folder} already holds a run (use --resume to continue it, "
+                         "--overwrite to replace it, or another folder)")
     return folder
 
 
 def run_id(meta: dict) -> str:
-    """A short id derived from what determines the results (seed, jobs, configuration)."""
-    key = json.dumps({k: meta[k] for k in ("seed", "jobs", "overrides")}, sort_keys=True,
+    """A short id derived from what determines the results (seed, jobs, configuration, grid)."""
+    key = json.dumps({k: meta[k] for k in ("seed", "jobs", "overrides", "grid")}, sort_keys=True,
                      default=str)
     return hashlib.sha1(key.encode()).hexdigest()[:10]
 
 
-def attempts_frame(rows: list[dict], config: Config, keys: list[str], rid: str) -> pd.DataFrame:
-    """Rows -> DataFrame with `cfg.<key>` columns for `keys` and every non-default value."""
-    frame = pd.DataFrame(rows)
-    frame.insert(0, "run_id", rid)
-    values = flatten(config)
-    for key in [*keys, *sorted(set(differences(config, Config())) - set(keys))]:
-        frame[f"cfg.{key}"] = values[key]
-    frame["attempt_order"] = frame["attempt"].where(frame["attempt"] >= 0, 99)
-    frame = frame.sort_values(["setup", "round", "attempt_order", "object"], kind="stable")
-    frame = frame.drop(columns="attempt_order")
-    rest = [c for c in frame.columns if c not in FIRST_COLUMNS]
-    return frame[FIRST_COLUMNS + rest].reset_index(drop=True)
-
-
 def environment() -> dict:
-    """Package versions, device and command line, for config.json."""
+    """Package versions, devices and command line, for config.json."""
     import jax
 
     versions = {}
@@ -75,35 +90,126 @@ def environment() -> dict:
             versions[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             versions[name] = None
-    device = jax.devices()[0]
+    devices = jax.local_devices()
     return {"versions": versions, "python": platform.python_version(),
-            "device": {"platform": device.platform,
-                       "kind": getattr(device, "device_kind", str(device)),
-                       "count": jax.device_count()},
-            "command": " ".join(["graspjax", *sys.argv[1:]]),
-            "finished": datetime.now(UTC).isoformat(timespec="seconds")}
+            "devices": [f"{d.platform}:{getattr(d, 'device_kind', d)}:{d.id}" for d in devices],
+            "device": {"platform": devices[0].platform,
+                       "kind": getattr(devices[0], "device_kind", str(devices[0])),
+                       "count": len(devices)},
+            "command": " ".join(["graspjax", *sys.argv[1:]])}
 
 
-def write_run(folder: str | Path, frame: pd.DataFrame, timings: list[dict], meta: dict,
-              config: Config) -> list[Path]:
-    """Write attempts (CSV, Parquet), timings, config.json and the report into `folder`."""
-    from graspjax.report import build, parse_attempts
+def finish_frame(frame: pd.DataFrame, points: list[Config], keys: list[str], rid: str,
+                 base: Config) -> pd.DataFrame:
+    """Chunk rows -> attempt rows: run id, `cfg.<key>` columns (grid keys, then every value the
+    base configuration changes), the first columns first."""
+    frame = frame.copy()
+    frame.insert(0, "run_id", rid)
+    values = [flatten(p) for p in points]
+    for key in [*keys, *sorted(set(differences(base, Config())) - set(keys))]:
+        frame[f"cfg.{key}"] = [values[p][key] for p in frame["point"]]
+    rest = [c for c in frame.columns if c not in FIRST_COLUMNS]
+    return frame[FIRST_COLUMNS + rest]
 
-    folder = Path(folder)
-    parquet = io.BytesIO()
-    frame.to_parquet(parquet, index=False)
-    csv_text = frame.to_csv(index=False, float_format="%.7g")  # float32 precision
-    meta = {**meta, "config": flatten(config), **environment()}
-    data_files = {
-        "attempts.csv": csv_text.encode(),
-        "attempts.parquet": parquet.getvalue(),
-        "timings.csv": pd.DataFrame(timings).to_csv(index=False).encode(),
-        "config.json": (json.dumps(meta, indent=2, default=str) + "\n").encode(),
-    }
-    folder.mkdir(parents=True, exist_ok=True)
-    for name, data in data_files.items():  # the results first: a report can be rebuilt
-        write_atomic(folder / name, data)
-    report = build(parse_attempts(csv_text))  # exactly what `graspjax report` rebuilds
-    for name, data in report.items():
-        write_atomic(folder / name, data)
-    return [folder / name for name in (*data_files, *report)]
+
+def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
+    """Rows in the canonical order: point, setup, round, attempt (unattempted last), object."""
+    order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
+    order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
+    return order.reset_index(drop=True)
+
+
+def _csv(frame: pd.DataFrame, header: bool) -> bytes:
+    return frame.to_csv(index=False, header=header, float_format="%.7g").encode()  # float32 precision
+
+
+class RunFolder:
+    """The files of one run (module docstring), written chunk by chunk.
+
+    A chunk is done when its part file exists (parts are written atomically),
+    so several processes may share one folder, each running its own chunks
+    (`--part I/N`); they do not append to `attempts.csv` then, and whichever
+    finds every chunk done assembles the results.
+    """
+
+    def __init__(self, folder: str | Path, meta: dict, chunks: int, resume: bool,
+                 shared: bool = False):
+        self.folder = Path(folder)
+        self.parts = self.folder / "parts"
+        self.chunks, self.meta, self.shared = chunks, meta, shared
+        config = self.folder / "config.json"
+        if config.is_file() and (resume or shared):
+            old = json.loads(config.read_text())
+            for key in ("run_id", "batch"):
+                if old.get(key) != meta.get(key):
+                    raise InputError(f"--out {self.folder} holds another run ({key} "
+                                     f"{old.get(key)!r}, this command {meta.get(key)!r})")
+        elif self.folder.exists():  # --overwrite: nothing of the old run may mix with this one
+            for stale in ("parts", "views", "debug"):
+                shutil.rmtree(self.folder / stale, ignore_errors=True)
+            for stale in ("attempts.csv", "attempts.parquet", "timings.csv"):
+                (self.folder / stale).unlink(missing_ok=True)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
+        if not self.finished:
+            self.parts.mkdir(exist_ok=True)
+            write_atomic(config, (json.dumps(meta, indent=2, default=str) + "\n").encode())
+            if not shared:
+                self._rewrite_csv()
+
+    @property
+    def done(self) -> set[int]:
+        """Chunks whose rows are kept."""
+        if self.finished:
+            return set(range(self.chunks))
+        return {int(p.stem.split("-")[1]) for p in self.parts.glob("attempts-*.parquet")}
+
+    def _part_frames(self) -> list[pd.DataFrame]:
+        return [pd.read_parquet(self.parts / f"attempts-{c:05d}.parquet") for c in sorted(self.done)]
+
+    def _rewrite_csv(self) -> None:
+        """attempts.csv = the rows of the chunks done (drops a half-written append)."""
+        frames = self._part_frames()
+        text = _csv(pd.concat(frames, ignore_index=True), True) if frames else b""
+        write_atomic(self.folder / "attempts.csv", text)
+
+    def add(self, chunk: int, frame: pd.DataFrame, timings: dict) -> None:
+        """Keep one finished chunk: its timings, its rows (the part file marks it done), the CSV."""
+        buffer = io.BytesIO()
+        frame.to_parquet(buffer, index=False)
+        write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
+        write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
+        if not self.shared:
+            csv = self.folder / "attempts.csv"
+            with open(csv, "ab") as handle:
+                handle.write(_csv(frame, header=csv.stat().st_size == 0))
+
+    def finish(self) -> list[Path]:
+        """Rebuild the attempts from the parts, sorted; write timings and the report.
+
+        Returns the files written, or an empty list while chunks are missing.
+        """
+        from graspjax.report import build, parse_attempts
+
+        if not self.finished:
+            if len(self.done) < self.chunks:
+                return []
+            frame = sort_attempts(pd.concat(self._part_frames(), ignore_index=True))
+            timings = pd.DataFrame([json.loads((self.parts / f"timings-{c:05d}.json").read_text())
+                                    for c in sorted(self.done)])
+            parquet = io.BytesIO()
+            frame.to_parquet(parquet, index=False)
+            write_atomic(self.folder / "attempts.parquet", parquet.getvalue())
+            write_atomic(self.folder / "attempts.csv", _csv(frame, True))
+            write_atomic(self.folder / "timings.csv", timings.to_csv(index=False).encode())
+            meta = {**self.meta, "finished": datetime.now(UTC).isoformat(timespec="seconds")}
+            write_atomic(self.folder / "config.json",
+                         (json.dumps(meta, indent=2, default=str) + "\n").encode())
+            if not self.shared:  # another process may still be reading them
+                shutil.rmtree(self.parts)
+            self.finished = True
+        report = build(parse_attempts((self.folder / "attempts.csv").read_text()))
+        for name, data in report.items():
+            write_atomic(self.folder / name, data)
+        data_files = ("attempts.csv", "attempts.parquet", "timings.csv", "config.json")
+        return [self.folder / name for name in (*data_files, *report)]

@@ -210,6 +210,18 @@ def success_figure(summary: pd.DataFrame) -> bytes:
     return _png(fig)
 
 
+def outcome_colours(labels) -> dict[str, object]:
+    """A distinct colour per outcome label: SUCCESS green, every failure its own non-green colour."""
+    import matplotlib
+
+    palette = [c for name in ("tab20", "tab20b") for c in matplotlib.colormaps[name].colors
+               if not (c[1] > c[0] + 0.1 and c[1] > c[2] + 0.1)]  # no greens among the failures
+    failures = sorted(label for label in set(labels) if label != "SUCCESS")
+    colours = {label: palette[i % len(palette)] for i, label in enumerate(failures)}
+    colours["SUCCESS"] = matplotlib.colors.to_rgb("tab:green")
+    return colours
+
+
 def outcomes_figure(frame: pd.DataFrame) -> bytes:
     """Stacked shares of outcomes (and perception failures) per setup and object."""
     label = frame["reason"].where(frame["outcome"] == "NOT_EXECUTED", frame["outcome"])
@@ -218,14 +230,16 @@ def outcomes_figure(frame: pd.DataFrame) -> bytes:
     shares = pd.crosstab(cells, label, normalize="index") * 100
     order = sorted(shares.index, key=lambda c: (int(c.split("/")[0]), c.split("/")[1]))
     shares = shares.loc[order]
+    columns = (["SUCCESS"] if "SUCCESS" in shares.columns else []) + sorted(
+        c for c in shares.columns if c != "SUCCESS")
+    colours = outcome_colours(columns)
     fig = _figure()
     fig.set_size_inches(max(6.0, 0.45 * len(shares) + 3), 4.2)
     ax = fig.subplots()
     bottom = np.zeros(len(shares))
-    cmap = __import__("matplotlib").colormaps["tab20"]
-    for i, column in enumerate(shares.columns):
+    for column in columns:
         ax.bar(np.arange(len(shares)), shares[column], bottom=bottom, label=column,
-               color="tab:green" if column == "SUCCESS" else cmap(i % 20))
+               color=colours[column])
         bottom += shares[column].to_numpy()
     ax.set_xticks(np.arange(len(shares)), shares.index, rotation=90, fontsize=7)
     ax.set_ylabel("share of attempts (%)")
@@ -305,12 +319,32 @@ def build(frame: pd.DataFrame) -> dict[str, bytes]:
     return files
 
 
-def write_report(folder: str | Path) -> list[Path]:
-    """Rebuild every table and figure of a run or sweep folder from its attempts.csv."""
+def write_report(folder: str | Path, debug: int = 0) -> list[Path]:
+    """Rebuild every table and figure of a run or sweep folder from its attempts.csv; with
+    `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/."""
     from graspjax.io import write_atomic
 
     folder = Path(folder)
     files = build(load_attempts(folder))
+    if debug:
+        files.update(debug_figures(folder, debug))
     for name, data in files.items():
+        (folder / name).parent.mkdir(exist_ok=True)
         write_atomic(folder / name, data)
     return [folder / name for name in files]
+
+
+def debug_figures(folder: Path, count: int) -> dict[str, bytes]:
+    """The first `count` saved attempts of a run, drawn (name -> PNG bytes)."""
+    import json
+
+    from graspjax.config import Config, override
+    from graspjax.views import load
+    from graspjax.viz import attempt_figure
+
+    saved = sorted((folder / "views").glob("*.npz"))
+    if not saved:
+        raise FileNotFoundError(f"no saved views in {folder / 'views'} (run with --save-views)")
+    meta = json.loads((folder / "config.json").read_text())
+    config = override(Config(), {k: str(v) for k, v in meta.get("overrides", {}).items()})
+    return {f"debug/{path.stem}.png": attempt_figure(load(path), config) for path in saved[:count]}

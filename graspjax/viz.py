@@ -1,8 +1,10 @@
-"""Per-image debug figure, like the paper's Figs. 2-5 and 8.
+"""Debug figures like the paper's Figs. 2-5 and 8.
 
-Three panels: the depth image with z_min; the surface cluster with its
-straight edges, every antipodal T-beam placement and the chosen grasp; the
-alignment triangles with the winning plane's inliers.
+Each view gets three panels: the depth image with z_min; the surface cluster
+with its straight edges, every antipodal T-beam placement and the chosen
+grasp; the alignment triangles with the winning plane's inliers.
+`debug_figure` draws one image; `attempt_figure` a simulated attempt's
+overview and every view it took (`graspjax report DIR --debug N`).
 """
 
 from __future__ import annotations
@@ -40,13 +42,56 @@ def debug_figure(depth: np.ndarray, camera: Camera, grasp: Grasp, alignment: Ali
     """PNG bytes of the three-panel debug figure for one image."""
     depth = np.asarray(depth, np.float32)
     seed, cluster, z_s, contour = jax.jit(surface_contour)(depth, config.detect)
-    inliers = np.asarray(jax.jit(plane_inliers)(depth, camera, alignment, config.align))
-    cluster, z_s = np.asarray(cluster), float(z_s)
-    shown = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
-
     fig = Figure(figsize=(15, 4.6), dpi=110)
     FigureCanvasAgg(fig)
-    axes = fig.subplots(1, 3)
+    draw_view(fig, fig.subplots(1, 3), depth, camera, grasp, alignment, np.asarray(seed),
+              np.asarray(cluster), float(z_s), contour, config)
+    return _png(fig, title)
+
+
+def attempt_figure(saved, config: Config = Config()) -> bytes:
+    """PNG bytes of one simulated attempt (`views.SavedAttempt`): the overview with the
+    target, then one row of three panels per view the procedure took."""
+    from graspjax.camera import Camera
+
+    height, width = saved.depth.shape[1:]
+    camera = Camera(width, height, *map(float, saved.camera))
+    rows = [v for v in range(len(saved.looked) - 1) if saved.looked[v + 1]]
+    fig = Figure(figsize=(15, 4.6 * (len(rows) + 1)), dpi=90)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(rows) + 1, 3, squeeze=False)
+    shown = np.where(saved.depth[0] > 0, saved.depth[0], np.nan)
+    image = axes[0, 0].imshow(shown, cmap="viridis", interpolation="nearest")
+    fig.colorbar(image, ax=axes[0, 0], fraction=0.035, label="depth (m)")
+    outline = np.zeros((*shown.shape, 4))
+    outline[saved.target_mask[0]] = (1.0, 0.2, 0.2, 0.5)
+    axes[0, 0].imshow(outline, interpolation="nearest")
+    axes[0, 0].set_title("overview: the target (red) holds z_min")
+    for ax in axes[0, 1:]:
+        ax.axis("off")
+    for r, v in enumerate(rows, start=1):
+        grasp, alignment, contour = saved.view(v)
+        draw_view(fig, axes[r], saved.depth[v + 1], camera, grasp, alignment, saved.seed[v],
+                  saved.cluster[v], float(saved.surface_depth[v]), contour, config,
+                  label="centred view" if v == 0 else f"re-aligned view {v}")
+    return _png(fig, saved.label)
+
+
+def _png(fig, title: str) -> bytes:
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    return buffer.getvalue()
+
+
+def draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignment, seed,
+              cluster, z_s: float, contour, config: Config, label: str = "depth") -> None:
+    """Three panels of one view: depth and z_min; the surface with its edges and T-beams; the
+    alignment triangles and the winning plane's inliers."""
+    inliers = np.asarray(jax.jit(plane_inliers)(depth, camera, alignment, config.align))
+    shown = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
     for ax in axes:
         ax.set_xlim(-0.5, camera.width - 0.5)
         ax.set_ylim(camera.height - 0.5, -0.5)
@@ -58,7 +103,7 @@ def debug_figure(depth: np.ndarray, camera: Camera, grasp: Grasp, alignment: Ali
     fig.colorbar(im, ax=axes[0], fraction=0.035, label="depth (m)")
     axes[0].plot(*np.asarray(seed), "r+", ms=12, mew=2, label="z_min")
     axes[0].legend(loc="lower right", fontsize=8)
-    axes[0].set_title("depth and nearest point z_min")
+    axes[0].set_title(f"{label} and nearest point z_min")
 
     # Zoom panels 2 and 3 on the target: its cluster (and inliers) plus the opened gripper.
     rows, cols = np.nonzero(cluster | inliers)
@@ -119,10 +164,3 @@ def debug_figure(depth: np.ndarray, camera: Camera, grasp: Grasp, alignment: Ali
                      f"normal ({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f})")
     else:
         ax.set_title(f"alignment: none ({int(counts.max(initial=0))} inliers at best)")
-
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    return buffer.getvalue()

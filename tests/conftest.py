@@ -3,15 +3,17 @@
 import os
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from graspjax import Camera, align_tool, detect_grasp
 from graspjax.synthetic import render_depth, top_down_pose
 
-# A persistent compilation cache makes local reruns fast (CI starts cold).
-jax.config.update("jax_compilation_cache_dir",
-                  os.environ.get("GRASPJAX_JAX_CACHE", os.path.expanduser("~/.cache/graspjax-jax")))
+# A persistent compilation cache makes local reruns fast (CI starts cold); the CLI in a
+# subprocess shares it through GRASPJAX_CACHE.
+os.environ.setdefault("GRASPJAX_CACHE", os.path.expanduser("~/.cache/graspjax-tests"))
+jax.config.update("jax_compilation_cache_dir", os.environ["GRASPJAX_CACHE"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 CAMERA_HEIGHT = 0.5  # metres above the table
@@ -61,24 +63,70 @@ def assert_trees_close(a, b, rtol=1e-4, atol=1e-5):
     jax.tree.map(check, a, b)
 
 
-# --- simulation: one compiled scene per object set, shared by every test ---------------------
+# --- simulation: one compiled physics program per scene, shared by every test ---------------
 SIM_BATCH = 6  # every physics test uses this many worlds, so each scene compiles once
+
+
+class Worlds:
+    """`SIM_BATCH` worlds of one scene: layouts, settling and grasps through `world.play`."""
+
+    def __init__(self, scene):
+        from graspjax.config import Config
+        from graspjax.sim.scene import mjx
+        from graspjax.sim.world import physics_model, play, reset
+
+        self.scene, config = scene, Config()
+        model = physics_model(scene, config)
+        template = mjx.make_data(scene.mj_model)
+
+        def one(data, grasp, target, segments, execute):
+            return play(scene, model, data, grasp, target, segments, execute, config)
+
+        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None)))
+        self._reset = jax.jit(jax.vmap(lambda p, q, a: reset(scene, template, p, q, a)))
+        self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))
+
+    def reset(self, pos, quat, active):
+        """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n)."""
+        return self._reset(*map(jnp.asarray, (pos, quat, active)))
+
+    def settle(self, data, seconds: float):
+        segments = self.scene.sim.segments(seconds)
+        return self._play(data, self.no_grasp(), jnp.zeros(SIM_BATCH, jnp.int32),
+                          jnp.full(SIM_BATCH, segments, jnp.int32), jnp.array(False))[0]
+
+    def execute(self, data, grasp, target):
+        """Approach, close, lift, hold, judge: (data, Execution) per world."""
+        return self._play(data, grasp, jnp.asarray(target, jnp.int32),
+                          jnp.zeros(SIM_BATCH, jnp.int32), jnp.array(True))
+
+    def kinematics(self, data):
+        return self._kinematics(data)
+
+    @staticmethod
+    def no_grasp():
+        from graspjax.sim import GraspPose
+
+        nan = jnp.full((SIM_BATCH, 3), jnp.nan, jnp.float32)  # typed: weak types recompile
+        return GraspPose(nan, nan, nan, jnp.zeros(SIM_BATCH, bool))
 
 
 @pytest.fixture(scope="session")
 def basic_sim():
-    """Simulator of the a-f scene (Setups 1-3), shared with the experiment runner."""
-    from graspjax.sim import simulator
+    """The a-f scene with object-object contacts (Setups 2, 3)."""
+    from graspjax.config import Config
+    from graspjax.sim import scene_for
 
-    return simulator(tuple("abcdef"))
+    return Worlds(scene_for(tuple("abcdef"), Config(), True))
 
 
 @pytest.fixture(scope="session")
 def industrial_sim():
-    """Simulator of the g-l scene (Setup 1; objects never meet), shared likewise."""
-    from graspjax.sim import simulator
+    """The g-l scene (Setup 1; objects never meet)."""
+    from graspjax.config import Config
+    from graspjax.sim import scene_for
 
-    return simulator(tuple("ghijkl"), objects_collide=False)
+    return Worlds(scene_for(tuple("ghijkl"), Config(), False))
 
 
 def hull_solid(points, rotation, translation):

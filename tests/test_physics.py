@@ -1,4 +1,6 @@
-"""Settling and grasp execution in MJX, judged by physics (on the CPU, small batches)."""
+"""Settling and grasp execution in MJX (`world.play`), judged by physics (CPU, small batches)."""
+
+import copy
 
 import jax
 import jax.numpy as jnp
@@ -25,16 +27,16 @@ def _layouts(sim, setup, seed=0):
 
 
 def _settled(sim, setup):
-    data = sim.reset(sim.empty(SIM_BATCH), *_layouts(sim, setup))
-    return sim.hold_still(data, sim.scene.sim.settle_time * (3 if setup == 3 else 1))
+    data = sim.reset(*_layouts(sim, setup))
+    return sim.settle(data, sim.scene.sim.settle_time * (3 if setup == 3 else 1))
 
 
-def _cpu_penetration(scene, qpos, eq_active):
+def _cpu_penetration(scene, qpos):
     """Deepest penetration (m, >= 0) by CPU MuJoCo with no contact cap (independent check)."""
-    model = scene.mj_model
+    model = copy.deepcopy(scene.mj_model)  # the scene's own model is shared: never mutate it
     model.numeric_data[:] = -1  # no max_contact_points: every contact
     data = mujoco.MjData(model)
-    data.qpos[:], data.eq_active[:] = qpos, eq_active
+    data.qpos[:] = qpos
     mujoco.mj_forward(model, data)
     return max([-c.dist for c in data.contact[: data.ncon]], default=0.0)
 
@@ -49,7 +51,7 @@ def test_layouts_settle_on_the_table(basic_sim, industrial_sim, scene_name, setu
     active = np.asarray(_layouts(sim, setup)[2])
     assert np.isfinite(qpos).all() and np.isfinite(qvel).all()
     for w in range(SIM_BATCH):
-        assert _cpu_penetration(scene, qpos[w], np.asarray(data.eq_active[w])) < 0.002
+        assert _cpu_penetration(scene, qpos[w]) < 0.002
         for i in range(scene.num_objects):
             a = scene.object_qpos[i]
             rot = np.asarray(quat_to_matrix(jnp.asarray(qpos[w, a + 3:a + 7])))
@@ -77,8 +79,7 @@ def _place(sim, poses):
             pos[w, i] = (x, y, 0.001)
             quat[w, i] = (np.cos(yaw / 2), 0, 0, np.sin(yaw / 2))
             active[w, i] = True
-    data = sim.reset(sim.empty(SIM_BATCH), jnp.asarray(pos), jnp.asarray(quat), jnp.asarray(active))
-    return sim.hold_still(data, 0.2)
+    return sim.settle(sim.reset(pos, quat, active), 0.2)
 
 
 def _grasps(rows):
@@ -106,7 +107,7 @@ def test_grasps_in_the_basic_scene(basic_sim):
             ((0.1, 0, 0.01), (0, 1, 0), True),
             ((0, 0, 0.03), (1, 0, 0), False)]
     target = jnp.array([cube, cube, block, cube, cube, cube])
-    _, attempt = basic_sim.execute(data, _grasps(rows), target)
+    after, attempt = basic_sim.execute(data, _grasps(rows), target)
     expected = [Outcome.SUCCESS, Outcome.SUCCESS, Outcome.SUCCESS, Outcome.MISSED,
                 Outcome.WRONG_OBJECT, Outcome.NOT_EXECUTED]
     assert [Outcome(o) for o in attempt.outcome] == expected
@@ -114,8 +115,15 @@ def test_grasps_in_the_basic_scene(basic_sim):
     np.testing.assert_allclose(attempt.rise[:3], lift, atol=0.01)  # lifted with the hand
     # The jaws stop on the part: half the opening is half its width (5, 5, 4 cm).
     np.testing.assert_allclose(attempt.opening[:3], [0.025, 0.025, 0.02], atol=0.002)
-    assert attempt.lifted_object.tolist() == [cube, cube, block, -1, block, -1]
-    assert abs(attempt.rise[5]) < 1e-3  # nothing touched the cube
+    assert np.asarray(attempt.lifted_object).tolist() == [cube, cube, block, -1, block, -1]
+    assert np.isnan(attempt.rise[5])  # not executed
+    # What was lifted left the scene (parked); the untouched cube of world 5 did not move.
+    scene, qpos = basic_sim.scene, np.asarray(after.qpos)
+    for w, obj in [(0, cube), (2, block), (4, block)]:
+        a = scene.object_qpos[obj]
+        np.testing.assert_allclose(qpos[w, a:a + 3], scene.park_pos[obj], atol=1e-6)
+    a = scene.object_qpos[cube]
+    np.testing.assert_allclose(qpos[5, a:a + 2], [0.0, 0.0], atol=1e-4)
 
 
 def test_grasps_in_the_industrial_scene(industrial_sim):
@@ -134,6 +142,7 @@ def test_grasps_in_the_industrial_scene(industrial_sim):
             ((0, 0, 0.122 - 0.015), (1, 0, 0), False)]
     target = jnp.array([mill, shaft, candlestick, gear, gear, candlestick])
     _, attempt = industrial_sim.execute(data, _grasps(rows), target)
+    attempt = jax.tree.map(np.asarray, attempt)
     assert [Outcome(o) for o in attempt.outcome] == [Outcome.SUCCESS] * 5 + [Outcome.NOT_EXECUTED]
     # The jaws stop at the part's width: knob, gear section and cup diameters (flat to flat).
     flat = np.cos(np.pi / 12), np.cos(np.pi / 16)
@@ -143,13 +152,16 @@ def test_grasps_in_the_industrial_scene(industrial_sim):
 
 def test_side_wider_than_the_opening_is_not_grasped():
     """A 4 cm gripper over the 5 cm cube: the fingers come down on its top and are stopped."""
-    from graspjax.config import GripperConfig
-    from graspjax.sim import Simulator, build_scene
+    from conftest import Worlds
 
-    narrow = Simulator(build_scene("a", gripper=GripperConfig(opening=0.04)))
+    from graspjax.config import GripperConfig
+    from graspjax.sim import build_scene
+
+    narrow = Worlds(build_scene("a", gripper=GripperConfig(opening=0.04)))
     data = _place(narrow, [{0: (0.0, 0.0, 0.0)}] * SIM_BATCH)
     rows = [((0, 0, 0.03), (np.cos(a), np.sin(a), 0), True)
             for a in np.linspace(0, np.pi / 2, SIM_BATCH)]
     _, attempt = narrow.execute(data, _grasps(rows), jnp.zeros(SIM_BATCH, jnp.int32))
+    attempt = jax.tree.map(np.asarray, attempt)
     assert all(Outcome(o) == Outcome.COLLISION for o in attempt.outcome)
     assert (np.abs(attempt.rise) < 0.01).all()  # the cube stays on the table

@@ -1,12 +1,11 @@
 """Simulation: objects a-l, scenes, layouts, depth rendering and the floating gripper (MuJoCo MJX).
 
-Per-world functions live in `world.py`; `Simulator` batches them with
-`jax.vmap` and compiles each once per scene.
+Everything here acts on ONE world; `graspjax.runner` batches worlds with `jax.vmap`.
 """
 
 from graspjax.sim.objects import BASIC, INDUSTRIAL, OBJECTS, ObjectSpec, parse_letters
-from graspjax.sim.scene import Scene, build_scene
-from graspjax.sim.world import Attempt, GraspPose, Outcome, Simulator, simulator
+from graspjax.sim.scene import Scene, build_scene, scene_for
+from graspjax.sim.world import Execution, GraspPose, Outcome
 
-__all__ = ["BASIC", "INDUSTRIAL", "OBJECTS", "Attempt", "GraspPose", "ObjectSpec", "Outcome",
-           "Scene", "Simulator", "build_scene", "parse_letters", "simulator"]
+__all__ = ["BASIC", "INDUSTRIAL", "OBJECTS", "Execution", "GraspPose", "ObjectSpec", "Outcome",
+           "Scene", "build_scene", "parse_letters", "scene_for"]

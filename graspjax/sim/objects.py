@@ -162,6 +162,7 @@ def _catalogue() -> dict[str, ObjectSpec]:
 
 
 OBJECTS: dict[str, ObjectSpec] = _catalogue()
+LETTER_INDEX = {c: i for i, c in enumerate(OBJECTS)}  # a = 0 ... l = 11 (layout seeds use it)
 BASIC = tuple("abcdef")  # Table 1 objects (Setups 1-3)
 INDUSTRIAL = tuple("ghijkl")  # Table 2 objects (Setup 1)
 

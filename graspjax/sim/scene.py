@@ -1,10 +1,11 @@
 """Scene models: a table, a set of objects and the floating parallel-jaw gripper.
 
 One compiled model serves every layout of its objects: an object that is not
-in the current layout is *parked*, held in the air far from the workspace by
-a weld to the world that is switched on per world (`eq_active`), so it makes
-no contacts. The a-f scene therefore serves Setups 1, 2 and 3, and the g-l
-scene Setup 1 (its objects never meet, so object-object contacts are off).
+in the current layout is *parked*, at rest in the air far from the workspace
+with gravity compensated (`world.physics_model` sets its `body_gravcomp` per
+world), so it makes no contacts and adds no constraint to the solver. The
+a-f scene with object-object contacts serves Setups 2 and 3; scenes without
+them (one object at a time, fewer contact slots) serve Setup 1.
 
 The gripper is a free-floating hand welded to a mocap target (so it follows
 any 6-D pose), with two slide-joint box fingers coupled by a joint equality
@@ -19,6 +20,7 @@ import contextlib
 import dataclasses
 import io
 
+import jax
 import mujoco
 import numpy as np
 
@@ -47,14 +49,15 @@ class Scene:
     object_body: np.ndarray  # (n,) body id of each object
     object_qpos: np.ndarray  # (n,) qpos address of each object's free joint
     object_qvel: np.ndarray  # (n,) qvel address of each object's free joint
-    park_eq: np.ndarray  # (n,) equality id of each object's parking weld
     park_pos: np.ndarray  # (n, 3) parking position of each object
     hand_body: int  # body id of the hand
     hand_qpos: int  # qpos address of the hand's free joint
     hand_qvel: int
     finger_qpos: np.ndarray  # (2,) qpos addresses of the two finger slides
     finger_qvel: np.ndarray
+    gripper_geom: np.ndarray  # (ngeom,) bool: palm and finger geoms (their friction is the pads')
     tcp_offset: float  # hand-frame z of the point between the finger tips (m)
+    object_com: np.ndarray  # (n, 3) centre of mass of each object in its frame (m)
     object_points: np.ndarray  # (n, V, 3) piece vertices in the object frame, padded by repeats
     footprint_radius: np.ndarray  # (n,) horizontal radius around the object origin (m)
     render: RenderGeometry  # half-spaces of the table and every object piece
@@ -70,16 +73,15 @@ class Scene:
 def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide: bool) -> str:
     """The MJCF text of a scene with the given objects."""
     friction = f"{sim.object_friction:g} 0.005 0.0001"
+    contacts = sim.max_contact_points if objects_collide else sim.max_contact_points_alone
     object_affinity = _TABLE | _GRIPPER | (_OBJECT if objects_collide else 0)
-    assets, bodies, parks = [], [], []
+    assets, bodies = [], []
     for i, letter in enumerate(letters):
         asset, geoms = object_mjcf(OBJECTS[letter], prefix="obj_")
         assets.append(asset)
         park = (_PARK_X + 0.5 * i, 0.0, PARK_HEIGHT)
         bodies.append(f'<body name="obj_{letter}" pos="{park[0]:g} {park[1]:g} {park[2]:g}">'
                       f'<freejoint name="obj_{letter}"/>\n{geoms}\n</body>')
-        # (body1 must be the world: MuJoCo 4.0's weld with an implied world body2 exerts no force)
-        parks.append(f'<weld name="park_{letter}" body1="world" body2="obj_{letter}"/>')
     g = gripper
     finger_z = PALM_HALF[2] + g.finger_length / 2
     finger_size = f"{g.finger_thickness / 2:g} {g.finger_width / 2:g} {g.finger_length / 2:g}"
@@ -92,7 +94,7 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
           cone="pyramidal" impratio="{sim.impratio:g}">
     <flag eulerdamp="disable"/>
   </option>
-  <custom><numeric name="max_contact_points" data="{sim.max_contact_points}"/></custom>
+  <custom><numeric name="max_contact_points" data="{contacts}"/></custom>
   <default>
     <geom condim="{sim.condim}" friction="{friction}" contype="{_OBJECT}" conaffinity="{object_affinity}"/>
     <default class="gripper">
@@ -111,7 +113,7 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
           material="default"/>
 {chr(10).join(bodies)}
     <body name="gripper_target" mocap="true" pos="{home}"/>
-    <body name="hand" pos="{home}">
+    <body name="hand" pos="{home}" gravcomp="1">
       <freejoint name="hand"/>
       <geom name="palm" class="gripper" type="box" size="{PALM_HALF[0]:g} {PALM_HALF[1]:g} {PALM_HALF[2]:g}"
             mass="{sim.hand_mass:g}"/>
@@ -131,7 +133,6 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
   <equality>
     <weld name="grip" body1="gripper_target" body2="hand" solref="{sim.grip_timeconst:g} 1"/>
     <joint joint1="finger_1" joint2="finger_2"/>
-{chr(10).join(parks)}
   </equality>
   <actuator>
     <position name="jaws" joint="finger_1" kp="{sim.finger_kp:g}" ctrlrange="0 {g.opening / 2:g}"
@@ -139,6 +140,22 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
   </actuator>
 </mujoco>
 """
+
+
+_SCENES: dict = {}
+
+
+def scene_for(letters, config, objects_collide: bool) -> Scene:
+    """The shared compiled scene of these objects under `config`'s static values.
+
+    Traced values (frictions, grip force) do not change the model: worlds set
+    them with `world.physics_model`, so every sweep point shares one scene.
+    """
+    key = (tuple(letters), jax.tree.structure(config.gripper), jax.tree.structure(config.sim),
+           bool(objects_collide))
+    if key not in _SCENES:
+        _SCENES[key] = build_scene(letters, config.gripper, config.sim, objects_collide)
+    return _SCENES[key]
 
 
 def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfig = SimConfig(),
@@ -154,6 +171,8 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
     joints = np.array([obj_id(mujoco.mjtObj.mjOBJ_JOINT, f"obj_{c}") for c in letters])
     hand = obj_id(mujoco.mjtObj.mjOBJ_JOINT, "hand")
     fingers = np.array([obj_id(mujoco.mjtObj.mjOBJ_JOINT, f"finger_{k}") for k in (1, 2)])
+    hand_body = int(mj_model.jnt_bodyid[hand])
+    finger_bodies = [int(b) for b in mj_model.jnt_bodyid[fingers]]
     table = obj_id(mujoco.mjtObj.mjOBJ_GEOM, "table")
     visible = [table] + [g for g in range(mj_model.ngeom) if mj_model.geom_bodyid[g] in bodies]
     points = [OBJECTS[c].points() for c in letters]
@@ -166,14 +185,15 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         object_body=bodies,
         object_qpos=mj_model.jnt_qposadr[joints],
         object_qvel=mj_model.jnt_dofadr[joints],
-        park_eq=np.array([obj_id(mujoco.mjtObj.mjOBJ_EQUALITY, f"park_{c}") for c in letters]),
         park_pos=mj_model.body_pos[bodies].copy(),
-        hand_body=int(mj_model.jnt_bodyid[hand]),
+        hand_body=hand_body,
         hand_qpos=int(mj_model.jnt_qposadr[hand]),
         hand_qvel=int(mj_model.jnt_dofadr[hand]),
         finger_qpos=mj_model.jnt_qposadr[fingers],
         finger_qvel=mj_model.jnt_dofadr[fingers],
+        gripper_geom=np.isin(mj_model.geom_bodyid, [hand_body, *finger_bodies]),
         tcp_offset=float(PALM_HALF[2] + gripper.finger_length),
+        object_com=mj_model.body_ipos[bodies].copy(),
         object_points=padded,
         footprint_radius=np.array([OBJECTS[c].footprint_radius for c in letters]),
         render=render_geometry(mj_model, visible),

@@ -1,15 +1,17 @@
-"""Per-world physics: reset to a layout, move the gripper, step, render, judge a grasp.
+"""One world's physics: reset to a layout, execute a grasp, judge it, settle.
 
-Every function here acts on ONE world's `mjx.Data`; `Simulator` vmaps and
-jits them once per scene (and per batch size), so a whole experiment compiles
-the physics step exactly once: settling, approaching, closing, lifting and
-holding are all the same `segment` call with different gripper targets.
+Every function here acts on ONE world's `mjx.Data` (batch with `jax.vmap`
+at the edge). A grasp attempt's physics is one loop over *segments* of
+`segment_steps` steps: the execution phases (approach, close, lift, hold)
+follow a static waypoint schedule, then the judge decides the outcome, the
+lifted object leaves the scene, the hand returns home, and the world settles
+for its own number of segments. One loop means one copy of the MJX step in
+the compiled program, whatever the phases.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 from enum import IntEnum
 
 import jax
@@ -17,12 +19,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.config import CameraConfig, GripperConfig, SimConfig
-from graspjax.geometry import frame_from_axes, matrix_to_quat
+from graspjax.config import CameraConfig, Config
+from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
 from graspjax.sim.render import render_depth
-from graspjax.sim.scene import GRIPPER_HOME, Scene, build_scene, mjx
+from graspjax.sim.scene import GRIPPER_HOME, Scene, mjx
 
-_HOME_QUAT = jnp.array([0.0, 1.0, 0.0, 0.0])  # hand z (approach) pointing down
+HOME_QUAT = np.array([0.0, 1.0, 0.0, 0.0])  # hand z (approach) pointing down
 _HELD_MARGIN = 0.01  # target centre of mass within the jaw span plus this (m)
 _CLOSED = 0.001  # finger opening below this means the jaws closed on nothing (m)
 
@@ -51,7 +53,7 @@ class GraspPose:
 
 @dataclasses.dataclass(frozen=True)
 class Snapshot:
-    """What the judge needs from one moment of one world."""
+    """What the judge needs from one moment of one world (read from qpos alone)."""
 
     object_pos: jax.Array  # (n, 3) object frame origins
     object_com: jax.Array  # (n, 3) object centres of mass
@@ -62,13 +64,42 @@ class Snapshot:
     finite: jax.Array  # () bool
 
 
-for _cls in (GraspPose, Snapshot):
+@dataclasses.dataclass(frozen=True)
+class Execution:
+    """What executing (or not) one grasp did to one world."""
+
+    outcome: jax.Array  # () int32 Outcome
+    lifted_object: jax.Array  # () int32 object index, -1 if none
+    rise: jax.Array  # () target rise after the hold (m)
+    opening: jax.Array  # () half jaw opening after closing (m)
+
+
+for _cls in (GraspPose, Snapshot, Execution):
     jax.tree_util.register_dataclass(
         _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
 
 
-# ---------------------------------------------------------------------------
-# One world
+def physics_model(scene: Scene, config: Config) -> mjx.Model:
+    """The scene's model with this world's traced physics values (frictions, grip force)."""
+    model = scene.model
+    pad = jnp.asarray(scene.gripper_geom)
+    friction = jnp.asarray(model.geom_friction)
+    sliding = jnp.where(pad, config.gripper.friction, config.sim.object_friction)
+    force = 2 * config.gripper.grip_force  # each finger presses with half the servo force
+    return model.replace(geom_friction=friction.at[:, 0].set(sliding),
+                         actuator_forcerange=jnp.array([[-force, force]], jnp.float32))
+
+
+def parked(scene: Scene, data: mjx.Data) -> jax.Array:
+    """Objects (n,) bool off the table, at their parking spots (far beyond any layout)."""
+    return jnp.stack([data.qpos[a] for a in scene.object_qpos]) > scene.park_pos[0, 0] - 1.0
+
+
+def with_parking(scene: Scene, model: mjx.Model, data: mjx.Data) -> mjx.Model:
+    """`model` with gravity compensated for the parked objects of `data`: they float at rest."""
+    gravcomp = jnp.asarray(model.body_gravcomp).at[scene.object_body].set(
+        parked(scene, data).astype(jnp.float32))
+    return model.replace(body_gravcomp=gravcomp)
 
 
 def reset(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
@@ -80,9 +111,9 @@ def reset(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
         a = scene.object_qpos[i]
         qpos = qpos.at[a:a + 3].set(jnp.where(active[i], pos[i], scene.park_pos[i]))
         qpos = qpos.at[a + 3:a + 7].set(jnp.where(active[i], quat[i], park_quat))
-    eq_active = data.eq_active.at[scene.park_eq].set(~active)
-    data = data.replace(qpos=qpos, qvel=qvel, eq_active=eq_active, time=jnp.zeros(()))
-    return move_hand(scene, data, jnp.asarray(GRIPPER_HOME, jnp.float32), _HOME_QUAT, opened=True)
+    data = data.replace(qpos=qpos, qvel=qvel, time=jnp.zeros(()))
+    return move_hand(scene, data, jnp.asarray(GRIPPER_HOME, jnp.float32), jnp.asarray(HOME_QUAT),
+                     opened=True)
 
 
 def move_hand(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
@@ -100,7 +131,8 @@ def move_hand(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
 
 
 def park(scene: Scene, data: mjx.Data, which: jax.Array) -> mjx.Data:
-    """Take the objects flagged in `which` (n,) bool off the table, back to their parking spots."""
+    """Take the objects flagged in `which` (n,) bool off the table, to their parking spots, at rest
+    (`with_parking` then compensates their gravity)."""
     qpos, qvel = data.qpos, data.qvel
     for i in range(scene.num_objects):
         a, v = scene.object_qpos[i], scene.object_qvel[i]
@@ -108,35 +140,37 @@ def park(scene: Scene, data: mjx.Data, which: jax.Array) -> mjx.Data:
                                 jnp.array([1.0, 0.0, 0.0, 0.0])])
         qpos = qpos.at[a:a + 7].set(jnp.where(which[i], pose, qpos[a:a + 7]))
         qvel = qvel.at[v:v + 6].set(jnp.where(which[i], 0.0, qvel[v:v + 6]))
-    eq_active = data.eq_active.at[scene.park_eq].set(data.eq_active[scene.park_eq] | which)
-    return data.replace(qpos=qpos, qvel=qvel, eq_active=eq_active)
+    return data.replace(qpos=qpos, qvel=qvel)
 
 
-def segment(scene: Scene, data: mjx.Data, start: jax.Array, end: jax.Array, quat: jax.Array,
-            ctrl: jax.Array) -> mjx.Data:
-    """`segment_steps` physics steps; the hand target moves linearly from `start` to `end`."""
+def segment(scene: Scene, model: mjx.Model, data: mjx.Data, start: jax.Array, end: jax.Array,
+            quat: jax.Array, ctrl: jax.Array) -> mjx.Data:
+    """`segment_steps` physics steps; the hand target moves linearly from `start` to `end` (3,)."""
     n = scene.sim.segment_steps
 
     def step(d, i):
         target = start + (end - start) * (i + 1) / n
         d = d.replace(mocap_pos=d.mocap_pos.at[0].set(target),
                       mocap_quat=d.mocap_quat.at[0].set(quat), ctrl=jnp.full_like(d.ctrl, ctrl))
-        return mjx.step(scene.model, d), None
+        return mjx.step(model, d), None
 
     data, _ = jax.lax.scan(step, data, jnp.arange(n))
     return data
 
 
 def snapshot(scene: Scene, data: mjx.Data) -> Snapshot:
-    """Positions the judge needs, from a state after kinematics."""
-    hand = scene.hand_body
+    """Positions the judge needs, from the joint positions (exact at any step)."""
+    qpos = data.qpos
+    pos = jnp.stack([qpos[a:a + 3] for a in scene.object_qpos])
+    rot = jax.vmap(quat_to_matrix)(jnp.stack([qpos[a + 3:a + 7] for a in scene.object_qpos]))
+    h = scene.hand_qpos
     return Snapshot(
-        object_pos=data.xpos[scene.object_body],
-        object_com=data.xipos[scene.object_body],
-        hand_pos=data.xpos[hand],
-        hand_rot=data.xmat[hand].reshape(3, 3),
+        object_pos=pos,
+        object_com=pos + jnp.einsum("nij,nj->ni", rot, jnp.asarray(scene.object_com, jnp.float32)),
+        hand_pos=qpos[h:h + 3],
+        hand_rot=quat_to_matrix(qpos[h + 3:h + 7]),
         target_pos=data.mocap_pos[0],
-        opening=data.qpos[scene.finger_qpos[0]],
+        opening=qpos[scene.finger_qpos[0]],
         finite=jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel)),
     )
 
@@ -148,158 +182,130 @@ def render(scene: Scene, data: mjx.Data, rotation: jax.Array, position: jax.Arra
                         config, key)
 
 
-def hand_waypoints(scene: Scene, grasp: GraspPose):
-    """Hand positions (pre-grasp, grasp, lifted) and orientation for a grasp pose."""
+def hand_waypoints(scene: Scene, grasp: GraspPose, config: Config):
+    """Hand positions (pre-grasp, grasp, lifted, home) (4, 3) and orientation (4,) of a grasp."""
     rot = frame_from_axes(grasp.approach, grasp.closing)
     at_grasp = grasp.tcp - scene.tcp_offset * rot[:, 2]
-    pre = at_grasp - scene.sim.pregrasp_distance * rot[:, 2]
-    lifted = at_grasp + jnp.array([0.0, 0.0, scene.sim.lift_height])
+    pre = at_grasp - config.sim.pregrasp_distance * rot[:, 2]
+    lifted = at_grasp + jnp.array([0.0, 0.0, 1.0]) * config.sim.lift_height
     home = jnp.asarray(GRIPPER_HOME, jnp.float32)
-    quat = jnp.where(grasp.valid, matrix_to_quat(rot), _HOME_QUAT)
-    return (jnp.where(grasp.valid, pre, home), jnp.where(grasp.valid, at_grasp, home),
-            jnp.where(grasp.valid, lifted, home), quat)
+    quat = jnp.where(grasp.valid, matrix_to_quat(rot), jnp.asarray(HOME_QUAT, jnp.float32))
+    return jnp.stack([pre, at_grasp, lifted, home]), quat
 
 
-def judge(scene: Scene, start: Snapshot, approached: Snapshot, closed: Snapshot, held: Snapshot,
-          target: jax.Array, executed: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Outcome code and the index of the lifted object (-1 if none) of one attempt."""
+def judge(scene: Scene, config: Config, start: Snapshot, approached: Snapshot, closed: Snapshot,
+          held: Snapshot, target: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Outcome code and the index of the lifted object (-1 if none) of one executed attempt."""
     rise = held.object_pos[:, 2] - start.object_pos[:, 2]
-    lifted = rise >= scene.sim.min_lift
+    lifted = rise >= config.sim.min_lift
     com_local = held.hand_rot.T @ (held.object_com[target] - held.hand_pos)
     between = (held.opening > _CLOSED) & (jnp.abs(com_local[0]) <= held.opening + _HELD_MARGIN)
     success = lifted[target] & between
     others = lifted & (jnp.arange(scene.num_objects) != target)
-    blocked = jnp.linalg.norm(approached.hand_pos - approached.target_pos) > scene.sim.approach_tolerance
+    lag = jnp.linalg.norm(approached.hand_pos - approached.target_pos)
+    blocked = lag > config.sim.approach_tolerance
     something = closed.opening > _CLOSED
     finite = start.finite & approached.finite & closed.finite & held.finite
     outcome = jnp.select(
-        [~finite, ~executed, success, jnp.any(others), blocked, something],
-        [Outcome.DIVERGED, Outcome.NOT_EXECUTED, Outcome.SUCCESS, Outcome.WRONG_OBJECT,
-         Outcome.COLLISION, Outcome.SLIPPED], Outcome.MISSED).astype(jnp.int32)
+        [~finite, success, jnp.any(others), blocked, something],
+        [Outcome.DIVERGED, Outcome.SUCCESS, Outcome.WRONG_OBJECT, Outcome.COLLISION,
+         Outcome.SLIPPED], Outcome.MISSED).astype(jnp.int32)
     lifted_object = jnp.where(success, target,
                               jnp.where(jnp.any(others), jnp.argmax(jnp.where(others, rise, -1)), -1))
     return outcome, lifted_object.astype(jnp.int32)
 
 
-# ---------------------------------------------------------------------------
-# Batches of worlds
-
-
 @dataclasses.dataclass(frozen=True)
-class Attempt:
-    """Batched result of executing grasps: arrays with a leading world axis (numpy)."""
+class Schedule:
+    """The static waypoint schedule of a grasp's execution, one row per segment.
 
-    outcome: np.ndarray  # (B,) int32 Outcome
-    lifted_object: np.ndarray  # (B,) int32 object index, -1 if none
-    rise: np.ndarray  # (B,) target rise after the hold (m)
-    opening: np.ndarray  # (B,) half jaw opening after closing (m)
-
-
-class Simulator:
-    """Jitted, vmapped world functions of one scene; inputs and outputs have a world axis.
-
-    Compile once per scene and batch size: keep the batch size fixed (pad).
+    Waypoints are indexed as `hand_waypoints` returns them: 0 pre-grasp,
+    1 grasp, 2 lifted, 3 home. Segment i moves the hand target from
+    `lerp(start[i], end[i], f0[i])` to `lerp(start[i], end[i], f1[i])`.
     """
 
-    def __init__(self, scene: Scene):
-        self.scene = scene
-        self._device = jax.devices()[0]
-        template = mjx.make_data(scene.mj_model)
-        self._template = template
-        s = scene
+    start: np.ndarray  # (S,) int32 waypoint the phase starts from
+    end: np.ndarray  # (S,) int32 waypoint the phase goes to
+    f0: np.ndarray  # (S,) float32 fraction of the phase done at the segment's start
+    f1: np.ndarray  # (S,) float32 ... and at its end
+    closed: np.ndarray  # (S,) bool jaws commanded closed
+    approached: int  # segment after which the approach is judged
+    closed_at: int  # segment after which the jaws are judged
 
-        def batched(fn):
-            """jit(vmap(fn)) with the scene bound, keeping fn's name for logs and profiles."""
-            def one_world(*args):
-                return fn(s, *args)
-            one_world.__name__ = fn.__name__
-            return jax.jit(jax.vmap(one_world))
+    @property
+    def segments(self) -> int:
+        return len(self.start)
 
-        def kinematics(_, d):
-            return mjx.kinematics(s.model, d)
-
-        self._reset = batched(reset)
-        self._segment = batched(segment)
-        self._kinematics = batched(kinematics)
-        self._snapshot = batched(snapshot)
-        self._move_hand = batched(move_hand)
-        self._park = batched(park)
-        self._waypoints = batched(hand_waypoints)
-        self._judge = batched(judge)
-
-    def empty(self, batch: int) -> mjx.Data:
-        """`batch` copies of the model's initial state."""
-        return jax.tree.map(lambda x: jnp.broadcast_to(x, (batch, *x.shape)), self._template)
-
-    def reset(self, data, pos, quat, active) -> mjx.Data:
-        return self._reset(data, pos, quat, active)
-
-    def _step(self, data, start, end, quat, ctrl) -> mjx.Data:
-        """One segment; host-made inputs are committed to the device so that jit's cache
-        key (which includes placement) never differs between calls."""
-        start, end, quat, ctrl = jax.device_put((start, end, quat, ctrl), self._device)
-        return self._segment(data, start, end, quat, ctrl)
-
-    def hold_still(self, data: mjx.Data, seconds: float) -> mjx.Data:
-        """Simulate with the hand held where it is and the jaws as commanded (settling)."""
-        for _ in range(self.scene.sim.segments(seconds)):
-            here = data.mocap_pos[:, 0]
-            data = self._step(data, here, here, data.mocap_quat[:, 0], data.ctrl[:, 0])
-        return data
-
-    def kinematics(self, data: mjx.Data) -> mjx.Data:
-        """Positions of every body and geom of the current state (needed before rendering)."""
-        return self._kinematics(data)
-
-    def park(self, data: mjx.Data, which) -> mjx.Data:
-        return self._park(data, which)
-
-    def go_home(self, data: mjx.Data) -> mjx.Data:
-        """Teleport the gripper back to its waiting pose, jaws open."""
-        batch = data.qpos.shape[0]
-        home = jnp.broadcast_to(jnp.asarray(GRIPPER_HOME, jnp.float32), (batch, 3))
-        return self._move_hand(data, home, jnp.broadcast_to(_HOME_QUAT, (batch, 4)),
-                               jnp.ones(batch, bool))
-
-    def _move(self, data, start, end, quat, ctrl, seconds):
-        n = self.scene.sim.segments(seconds)
-        for k in range(n):
-            a = start + (end - start) * (k / n)
-            b = start + (end - start) * ((k + 1) / n)
-            data = self._step(data, a, b, quat, ctrl)
-        return data
-
-    def execute(self, data: mjx.Data, grasp: GraspPose, target) -> tuple[mjx.Data, Attempt]:
-        """Approach, close, lift and hold in every world; judge each attempt.
-
-        grasp: GraspPose with a world axis; target: (B,) index of the object to lift.
-        Worlds whose grasp is not valid keep the gripper at home (NOT_EXECUTED).
-        """
-        sim = self.scene.sim
-        batch = data.qpos.shape[0]
-        pre, at_grasp, lifted, quat = self._waypoints(grasp)
-        opened = jnp.full(batch, self.scene.gripper.opening / 2, dtype=jnp.float32)
-        closed = jnp.zeros(batch, jnp.float32)
-        data = self._move_hand(data, pre, quat, jnp.ones(batch, bool))
-        start = self._snapshot(self.kinematics(data))
-        data = self._move(data, pre, at_grasp, quat, opened, sim.approach_time)
-        approached = self._snapshot(self.kinematics(data))
-        data = self._move(data, at_grasp, at_grasp, quat, closed, sim.close_time)
-        gripped = self._snapshot(self.kinematics(data))
-        data = self._move(data, at_grasp, lifted, quat, closed, sim.lift_time)
-        data = self._move(data, lifted, lifted, quat, closed, sim.hold_time)
-        data = self.kinematics(data)
-        held = self._snapshot(data)
-        target = jnp.asarray(target, jnp.int32)
-        outcome, lifted_object = self._judge(start, approached, gripped, held, target, grasp.valid)
-        rise = jnp.take_along_axis(held.object_pos[..., 2] - start.object_pos[..., 2],
-                                   target[:, None], axis=1)[:, 0]
-        result = Attempt(*(np.asarray(x) for x in (outcome, lifted_object, rise, gripped.opening)))
-        return data, result
+    @classmethod
+    def of(cls, config: Config) -> Schedule:
+        s = config.sim
+        phases = [(0, 1, s.segments(s.approach_time), False),  # approach: pre-grasp -> grasp
+                  (1, 1, s.segments(s.close_time), True),  # close the jaws
+                  (1, 2, s.segments(s.lift_time), True),  # lift
+                  (2, 2, s.segments(s.hold_time), True)]  # hold
+        rows = [(a, b, k / n, (k + 1) / n, shut) for a, b, n, shut in phases for k in range(n)]
+        start, end, f0, f1, closed = (np.array(col) for col in zip(*rows, strict=True))
+        n_approach, n_close = phases[0][2], phases[1][2]
+        return cls(start.astype(np.int32), end.astype(np.int32), f0.astype(np.float32),
+                   f1.astype(np.float32), closed, n_approach - 1, n_approach + n_close - 1)
 
 
-@functools.lru_cache(maxsize=8)
-def simulator(letters: tuple[str, ...], gripper: GripperConfig = GripperConfig(),
-              sim: SimConfig = SimConfig(), objects_collide: bool = True) -> Simulator:
-    """The shared `Simulator` of a scene: every caller reuses its compiled functions."""
-    return Simulator(build_scene(letters, gripper, sim, objects_collide))
+def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, target: jax.Array,
+         settle_segments: jax.Array, execute: jax.Array, config: Config
+         ) -> tuple[mjx.Data, Execution]:
+    """Execute `grasp` on object `target`, judge it, remove what was lifted, then settle.
+
+    Execution (when `execute` and `grasp.valid`): the hand appears at the
+    pre-grasp pose with open jaws, approaches, closes, lifts and holds
+    (`Schedule`); the judge then decides the outcome, the lifted object is
+    parked and the hand returns home with open jaws. Then the world settles
+    for `settle_segments` () int32 segments, hand at home. Worlds that do not
+    execute only settle. `execute` is () bool, the same for every world.
+    """
+    plan = Schedule.of(config)
+    n_exec = plan.segments
+    waypoints, quat = hand_waypoints(scene, grasp, config)
+    executing = execute & grasp.valid
+    opened = scene.gripper.opening / 2
+    data = where_tree(executing, move_hand(scene, data, waypoints[0], quat, opened=True), data)
+    start = snapshot(scene, data)
+    no = Execution(outcome=jnp.int32(Outcome.NOT_EXECUTED), lifted_object=jnp.int32(-1),
+                   rise=jnp.float32(jnp.nan), opening=jnp.float32(jnp.nan))
+
+    def body(carry):
+        i, data, approached, closed, result = carry
+        row = jnp.clip(i, 0, n_exec - 1)
+        in_exec = i < n_exec
+
+        def lerp(f):
+            a, b = waypoints[jnp.asarray(plan.start)[row]], waypoints[jnp.asarray(plan.end)[row]]
+            return jnp.where(in_exec, a + (b - a) * f, waypoints[3])
+
+        ctrl = jnp.where(in_exec & jnp.asarray(plan.closed)[row], 0.0, opened)
+        data = segment(scene, with_parking(scene, model, data), data, lerp(jnp.asarray(plan.f0)[row]),
+                       lerp(jnp.asarray(plan.f1)[row]),
+                       jnp.where(in_exec, quat, jnp.asarray(HOME_QUAT, jnp.float32)), ctrl)
+        now = snapshot(scene, data)
+        approached = where_tree(i == plan.approached, now, approached)
+        closed = where_tree(i == plan.closed_at, now, closed)
+        # After the hold: judge, take the lifted object out, send the hand home.
+        done = i == n_exec - 1
+        outcome, lifted = judge(scene, config, start, approached, closed, now, target)
+        rise = now.object_pos[target, 2] - start.object_pos[target, 2]
+        result = where_tree(done, Execution(outcome, lifted, rise, closed.opening), result)
+        gone = (jnp.arange(scene.num_objects) == lifted) & (lifted >= 0)
+        home = move_hand(scene, park(scene, data, gone), waypoints[3],
+                         jnp.asarray(HOME_QUAT, jnp.float32), opened=True)
+        data = where_tree(done, home, data)
+        return i + 1, data, approached, closed, result
+
+    first = jnp.where(executing, 0, n_exec).astype(jnp.int32)
+    last = n_exec + settle_segments.astype(jnp.int32)
+    carry = (first, data, start, start, no)
+    _, data, _, _, result = jax.lax.while_loop(lambda c: c[0] < last, body, carry)
+    return data, result
+
+
+def where_tree(flag: jax.Array, a, b):
+    """`a` where the scalar `flag` holds, else `b`, for two pytrees of one structure."""
+    return jax.tree.map(lambda x, y: jnp.where(flag, x, y), a, b)

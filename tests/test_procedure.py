@@ -1,4 +1,4 @@
-"""The procedure's steps in one world: target selection, centring, re-alignment geometry."""
+"""The procedure's steps in one world: target selection, centring, re-alignment, reason codes."""
 
 import jax
 import jax.numpy as jnp
@@ -8,8 +8,17 @@ from conftest import SIM_BATCH
 
 from graspjax.config import Config
 from graspjax.geometry import axis_angle, look_down
-from graspjax.perception import Alignment
-from graspjax.pipeline import centred_pose, select_target, view
+from graspjax.perception import Alignment, AlignReason, GraspReason
+from graspjax.procedure import (
+    ALIGN_BASE,
+    DETECT_BASE,
+    Reason,
+    _record,
+    centred_pose,
+    select_target,
+    view,
+)
+from graspjax.sim.world import Execution, GraspPose, Outcome
 
 CONFIG = Config()
 CAMERA = CONFIG.camera.camera()
@@ -24,9 +33,7 @@ def _world(sim, poses):
         pos[:, i] = (x, y, 0.001)
         quat[:, i] = (np.cos(yaw / 2), 0, 0, np.sin(yaw / 2))
         active[:, i] = True
-    data = sim.reset(sim.empty(SIM_BATCH), jnp.asarray(pos), jnp.asarray(quat),
-                     jnp.asarray(active))
-    data = sim.kinematics(sim.hold_still(data, 0.2))
+    data = sim.kinematics(sim.settle(sim.reset(pos, quat, active), 0.2))
     return jax.tree.map(lambda x: x[0], data)
 
 
@@ -34,27 +41,57 @@ def test_target_is_the_nearest_eligible_object(basic_sim):
     # cube (5 cm tall) at x = -6 cm, cylinder (7 cm) at x = +6 cm, block (3 cm) at y = 8 cm
     data = _world(basic_sim, {0: (-0.06, 0.0, 0.0), 4: (0.06, 0.0, 0.0), 5: (0.0, 0.08, 0.3)})
     select = jax.jit(lambda d, e: select_target(basic_sim.scene, d, e, CAMERA, CONFIG,
-                                                jax.random.key(0)))
+                                                jax.random.key(0))[:2])
     everything = jnp.array([True] * 6)
-    target = select(data, everything)
-    assert int(target.index) == 4  # the cylinder's top is nearest to the camera
-    np.testing.assert_allclose(np.asarray(target.point)[2], 0.07, atol=1e-3)
-    assert np.linalg.norm(np.asarray(target.point)[:2] - [0.06, 0.0]) < 0.026
+    index, point = select(data, everything)
+    assert int(index) == 4  # the cylinder's top is nearest to the camera
+    np.testing.assert_allclose(np.asarray(point)[2], 0.07, atol=1e-3)
+    assert np.linalg.norm(np.asarray(point)[:2] - [0.06, 0.0]) < 0.026
     no_cylinder = everything.at[4].set(False)
-    assert int(select(data, no_cylinder).index) == 0  # then the cube
-    assert int(select(data, jnp.zeros(6, bool)).index) == -1  # nothing eligible
+    assert int(select(data, no_cylinder)[0]) == 0  # then the cube
+    assert int(select(data, jnp.zeros(6, bool))[0]) == -1  # nothing eligible
 
 
 def test_centring_keeps_the_height_and_aims_at_the_target():
-    from graspjax.pipeline import Target
-
-    target = Target(index=jnp.int32(2), point=jnp.array([0.05, -0.03, 0.04]))
-    rotation, position = centred_pose(target, CONFIG)
+    point = jnp.array([0.05, -0.03, 0.04])
+    rotation, position = centred_pose(point, CONFIG)
     np.testing.assert_allclose(position, [0.05, -0.03, CONFIG.procedure.camera_height])
     axis = np.asarray(rotation[:, 2])
     # The optical axis passes through the target point.
-    along = np.asarray(target.point) - np.asarray(position)
+    along = np.asarray(point) - np.asarray(position)
     np.testing.assert_allclose(np.cross(axis, along), 0.0, atol=1e-7)
+
+
+NAN3 = jnp.full(3, jnp.nan)
+
+
+def _reason(*, executed=False, outcome=Outcome.NOT_EXECUTED, finite=True, target=2,
+            blocked=False, align=-1, detect=GraspReason.NO_ROOM):
+    pose = GraspPose(NAN3, NAN3, NAN3, jnp.array(executed))
+    done = Execution(jnp.int32(outcome), jnp.int32(-1), jnp.float32(0), jnp.float32(0))
+    record = _record(jnp.int32(target), pose, done, jnp.array(finite), jnp.array(blocked),
+                     jnp.int32(0), jnp.int32(detect), jnp.int32(align))
+    return Reason(int(record.reason))
+
+
+def test_one_reason_per_attempt_in_the_documented_precedence():
+    assert _reason(executed=True, outcome=Outcome.SLIPPED) == Reason.SLIPPED
+    assert _reason(executed=True, outcome=Outcome.SUCCESS, finite=False) == Reason.DIVERGED
+    assert _reason(executed=True, outcome=Outcome.DIVERGED) == Reason.DIVERGED
+    assert _reason(target=-1, blocked=True, align=AlignReason.NO_PLANE) == Reason.NO_TARGET
+    assert _reason(blocked=True, align=AlignReason.TOO_FEW_INLIERS) == Reason.ALIGN_TOO_FEW_INLIERS
+    assert _reason(blocked=True, align=AlignReason.FOUND) == Reason.VIEW_UNREACHABLE
+    assert _reason(detect=GraspReason.NO_WALL) == Reason.DETECT_NO_WALL
+    # Every code has its label, and the offsets mirror the perception enums.
+    assert Reason.DETECT_NO_ROOM.label == "detection: NO_ROOM"
+    assert Reason.ALIGN_NO_PLANE.label == "alignment: NO_PLANE"
+    assert Reason.VIEW_UNREACHABLE.label == "alignment: VIEW_UNREACHABLE"
+    for g in GraspReason:
+        if g != GraspReason.FOUND:
+            assert Reason[f"DETECT_{g.name}"] == DETECT_BASE + g
+    for a in AlignReason:
+        if a != AlignReason.FOUND:
+            assert Reason[f"ALIGN_{a.name}"] == ALIGN_BASE + a
 
 
 def test_realigned_view_looks_along_the_negative_normal(basic_sim):

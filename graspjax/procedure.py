@@ -1,0 +1,377 @@
+"""The paper's grasping procedure (Fig. 1) in ONE simulated world, top to bottom.
+
+A world plays one *round*: `start_round` places its layout, then `attempt`
+is called with k = -1 (the freshly placed layout settles: the drop) and
+k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
+
+1. Overview: the tool camera looks straight down from `camera_height` over
+   the workspace centre.
+2. Select: the nearest point (z_min) among the objects still to be
+   attempted picks the target. (Which objects are "still to be attempted" is
+   protocol bookkeeping and uses the simulator's object identities;
+   everything the method itself decides uses depth alone.)
+3. Centre: the camera moves parallel to the table until its optical axis
+   passes through that point, and looks again.
+4. Detect a grasp (double T-beam), with z_min taken on the target's pixels.
+5. Re-align when none is found: the camera turns to look along the negative
+   normal of the best neighbour plane, at the same distance from the plane's
+   inliers, and detects again; at most `max_reorientations` times (a
+   bounded loop with masks).
+6. Execute and judge (`world.play`): approach, close, lift, hold; the
+   lifted object leaves the scene, a failed one stays where it ends up, the
+   hand returns home and the scene settles for the next attempt.
+
+Every attempt ends with ONE reason code (`Reason`), computed here with this
+precedence: a diverged simulation; else the physical outcome of an executed
+grasp; else no visible target; else the alignment failure that ended the
+search (no plane, or its view unreachable); else the detection failure of
+the last view searched.
+
+Batch with `jax.vmap` at the edge (`runner.py`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from enum import IntEnum
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from graspjax.camera import Camera
+from graspjax.config import Config
+from graspjax.geometry import look_down, rotation_between
+from graspjax.perception import Alignment, AlignReason, Grasp, GraspReason, align_tool, detect_grasp
+from graspjax.sim import layout
+from graspjax.sim.objects import LETTER_INDEX
+from graspjax.sim.render import render_depth_and_piece
+from graspjax.sim.scene import Scene, mjx
+from graspjax.sim.world import Execution, GraspPose, Outcome, physics_model, play, reset, where_tree
+
+ALIGN_BASE = 10  # Reason of an alignment failure: ALIGN_BASE + AlignReason
+DETECT_BASE = 20  # Reason of a detection failure: DETECT_BASE + GraspReason
+
+
+class Reason(IntEnum):
+    """The one reason an attempt ended as it did (int32 in arrays; precedence: module docstring)."""
+
+    SUCCESS = Outcome.SUCCESS  # executed: the target was lifted and held
+    MISSED = Outcome.MISSED  # executed: the jaws closed on nothing
+    SLIPPED = Outcome.SLIPPED  # executed: the target was not lifted and held
+    COLLISION = Outcome.COLLISION  # executed: the approach was blocked
+    WRONG_OBJECT = Outcome.WRONG_OBJECT  # executed: another object was lifted
+    DIVERGED = Outcome.DIVERGED  # the simulation state became non-finite
+    NO_TARGET = 6  # no object still to be attempted is visible
+    VIEW_UNREACHABLE = 7  # the re-aligned view would sink below min_view_height or face down
+    ALIGN_NO_DEPTH = ALIGN_BASE + AlignReason.NO_DEPTH  # re-alignment: no valid depth
+    ALIGN_NO_PLANE = ALIGN_BASE + AlignReason.NO_PLANE  # re-alignment: every hypothesis degenerate
+    ALIGN_TOO_FEW_INLIERS = ALIGN_BASE + AlignReason.TOO_FEW_INLIERS  # re-alignment: weak plane
+    DETECT_NO_DEPTH = DETECT_BASE + GraspReason.NO_DEPTH  # detection failures, as GraspReason
+    DETECT_SURFACE_TOO_SMALL = DETECT_BASE + GraspReason.SURFACE_TOO_SMALL
+    DETECT_NO_EDGES = DETECT_BASE + GraspReason.NO_EDGES
+    DETECT_NO_ANTIPODAL = DETECT_BASE + GraspReason.NO_ANTIPODAL
+    DETECT_TOO_NARROW = DETECT_BASE + GraspReason.TOO_NARROW
+    DETECT_TOO_WIDE = DETECT_BASE + GraspReason.TOO_WIDE
+    DETECT_OUT_OF_VIEW = DETECT_BASE + GraspReason.OUT_OF_VIEW
+    DETECT_COLLISION = DETECT_BASE + GraspReason.COLLISION
+    DETECT_NO_ROOM = DETECT_BASE + GraspReason.NO_ROOM
+    DETECT_NO_WALL = DETECT_BASE + GraspReason.NO_WALL
+
+    @property
+    def label(self) -> str:
+        """How attempts.csv names it: the outcome, or 'detection: X' / 'alignment: X' / 'no target'."""
+        if self <= Reason.DIVERGED:
+            return self.name
+        if self == Reason.NO_TARGET:
+            return "no target"
+        if self.name.startswith("DETECT_"):
+            return "detection: " + self.name[len("DETECT_"):]
+        return "alignment: " + self.name.removeprefix("ALIGN_")
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldSpec:
+    """What a world plays, fixed for its round (one row of a batch)."""
+
+    seed: jax.Array  # () int32 seed of the grid point the world belongs to
+    setup: jax.Array  # () int32 paper setup 1, 2 or 3
+    trial: jax.Array  # () int32 trial (Setup 1) or round (Setups 2, 3)
+    order: jax.Array  # (A,) int32 scene objects in attempt order (Setup 1: the one object)
+    members: jax.Array  # (n,) bool objects in the layout
+    config: Config  # this world's traced configuration values
+
+
+@dataclasses.dataclass(frozen=True)
+class RoundState:
+    """A world between attempts."""
+
+    data: mjx.Data  # the physics state
+    attempted: jax.Array  # (n,) bool objects that had their attempt
+    removed: jax.Array  # (n,) bool objects lifted out of the scene
+    key: jax.Array  # the round's PRNG key (its layout key)
+
+
+@dataclasses.dataclass(frozen=True)
+class Record:
+    """One attempt of one world, fixed-shape (the runner turns it into one CSV row)."""
+
+    target: jax.Array  # () int32 scene object attempted, -1 if none was visible
+    reason: jax.Array  # () int32 Reason
+    outcome: jax.Array  # () int32 Outcome (NOT_EXECUTED without a grasp)
+    grasp_found: jax.Array  # () bool
+    reorientations: jax.Array  # () int32 re-alignments made
+    detect_reason: jax.Array  # () int32 GraspReason of the last view searched
+    align_reason: jax.Array  # () int32 AlignReason of the last re-alignment, -1 if none tried
+    lifted_object: jax.Array  # () int32 scene object lifted, -1 if none
+    rise: jax.Array  # () target rise after the hold (m; nan if not executed)
+    opening: jax.Array  # () half jaw opening after closing (m; nan if not executed)
+    tcp: jax.Array  # (3,) executed grasp: point between the finger tips (world, m; nan if none)
+    approach: jax.Array  # (3,) executed grasp: approach direction
+    closing: jax.Array  # (3,) executed grasp: closing axis
+
+
+@dataclasses.dataclass(frozen=True)
+class Views:
+    """Every image of one attempt, for debug pictures: the overview, then V = R + 1 views."""
+
+    depth: jax.Array  # (1 + V, H, W) metric depth
+    target_mask: jax.Array  # (1 + V, H, W) bool pixels of the target object
+    rotation: jax.Array  # (1 + V, 3, 3) camera-to-world rotation
+    position: jax.Array  # (1 + V, 3) camera centre
+    looked: jax.Array  # (1 + V,) bool the procedure took this image
+    grasp: Grasp  # detection of each view (leading axis V)
+    alignment: Alignment  # alignment of each view (leading axis V)
+
+
+@dataclasses.dataclass(frozen=True)
+class _View:
+    """What one camera pose yields."""
+
+    grasp: Grasp  # camera frame of this view
+    alignment: Alignment  # camera frame of this view
+    grasp_pose: GraspPose  # the grasp in the world frame (valid iff grasp.found)
+    next_rotation: jax.Array  # (3, 3) camera-to-world rotation of the re-aligned view
+    next_position: jax.Array  # (3,) camera centre of the re-aligned view
+    can_realign: jax.Array  # () bool: a plane was found and its view is reachable
+    depth: jax.Array  # (H, W) the image
+    target_mask: jax.Array  # (H, W) bool pixels of the target
+
+
+for _cls in (WorldSpec, RoundState, Record, Views, _View):
+    jax.tree_util.register_dataclass(
+        _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
+
+
+# ---------------------------------------------------------------------------
+# Layouts and settling
+
+
+def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
+    """Setup 1: key(seed, 1, object letter, trial); Setups 2, 3: key(seed, setup, round)."""
+    letter = jnp.asarray([LETTER_INDEX[c] for c in scene.letters], jnp.int32)[spec.order[0]]
+    single = layout.layout_key(spec.seed, 1, letter, spec.trial)
+    pile = layout.layout_key(spec.seed, spec.setup, spec.trial)
+    return jnp.where(spec.setup == 1, jax.random.key_data(single), jax.random.key_data(pile))
+
+
+def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec) -> RoundState:
+    """Place the round's layout (not yet settled): one object alone (Setup 1), a group
+    (Setup 2) or a dropped pile (Setup 3) of the members."""
+    config = spec.config
+    key = jax.random.wrap_key_data(_layout_key(scene, spec))
+    n = scene.num_objects
+    one = layout.single(key, spec.order[0], n, config.layout)
+    group = layout.grouped(key, scene.footprint_radius, config.layout)
+    pile = layout.dense(key, scene.object_points, config.layout)
+    pos, quat = jax.tree.map(lambda a, b, c: jnp.select([spec.setup == 1, spec.setup == 2], [a, b], c),
+                             one[:2], group[:2], pile[:2])
+    active = jnp.where(spec.setup == 1, one[2], spec.members)
+    data = reset(scene, data, pos, quat, active)
+    return RoundState(data=data, attempted=jnp.zeros(n, bool), removed=jnp.zeros(n, bool), key=key)
+
+
+def _settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array:
+    """Segments this world settles after call k: the drop (k = -1), else until the next attempt."""
+    s = config.sim
+    extra = jnp.select([spec.setup == 2, spec.setup == 3],
+                       [s.segments(s.group_settle_time), s.segments(s.pile_settle_time)], 0)
+    between = jnp.where(k + 1 < spec.order.shape[0], s.segments(s.settle_time), 0)
+    return jnp.where(k < 0, s.segments(s.settle_time) + extra, between).astype(jnp.int32)
+
+
+# ---------------------------------------------------------------------------
+# Perception in the world
+
+
+def _look(scene: Scene, data, rotation, position, camera: Camera, config: Config, key):
+    """Depth image (H, W) and object index per pixel (H, W) (-1: table or nothing)."""
+    depth, piece = render_depth_and_piece(scene.render, data.geom_xpos, data.geom_xmat, rotation,
+                                          position, camera, config.camera, key)
+    objects = jnp.asarray(scene.piece_object)
+    return depth, jnp.where(piece >= 0, objects[jnp.maximum(piece, 0)], -1)
+
+
+def overview_pose(config: Config):
+    """The start pose: straight down over the workspace centre."""
+    return look_down(jnp.array([0.0, 0.0, 1.0]) * config.procedure.camera_height)
+
+
+def select_target(scene: Scene, data, eligible: jax.Array, camera: Camera, config: Config, key):
+    """Steps 1-2 (state after kinematics): the overview image; the nearest pixel among
+    `eligible` (n,) objects picks the target. Returns its index () (-1 if none is visible), its
+    z_min point (3,) in the world, and the image (H, W) with its object index per pixel (H, W)."""
+    rotation, position = overview_pose(config)
+    depth, objects = _look(scene, data, rotation, position, camera, config, key)
+    allowed = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
+    flat = jnp.argmin(jnp.where(allowed, depth, jnp.inf).reshape(-1))
+    v, u = jnp.divmod(flat, camera.width)
+    point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth.reshape(-1)[flat])
+    seen = allowed.reshape(-1)[flat]
+    index = jnp.where(seen, objects.reshape(-1)[flat], -1).astype(jnp.int32)
+    return index, rotation @ point_cam + position, depth, objects
+
+
+def centred_pose(point: jax.Array, config: Config):
+    """Camera moved parallel to the table so its optical axis passes through `point` (3,)."""
+    return look_down(jnp.stack([point[0], point[1], jnp.asarray(config.procedure.camera_height,
+                                                                 point.dtype)]))
+
+
+def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Camera,
+         config: Config, key) -> _View:
+    """Look from a pose: detect a grasp and score re-alignment planes on the target."""
+    k_render, k_align = jax.random.split(key)
+    depth, obj = _look(scene, data, rotation, position, camera, config, k_render)
+    mask = obj == target
+    grasp = detect_grasp(depth, camera, config.detect, config.gripper, seed_mask=mask)
+    alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
+
+    approach = rotation[:, 2]
+    centre = rotation @ grasp.position + position
+    pose = GraspPose(tcp=centre + grasp.depth * approach, approach=approach,
+                     closing=rotation @ grasp.closing_axis, valid=grasp.found)
+
+    # Re-aligned view: optical axis along the negative plane normal, at the same distance
+    # from the inliers' centroid, turned from the current view by the smallest rotation.
+    normal = rotation @ alignment.normal
+    point = rotation @ alignment.point + position
+    next_rotation = rotation_between(approach, -normal) @ rotation
+    next_position = point + jnp.linalg.norm(alignment.point) * normal
+    reachable = (next_position[2] >= config.procedure.min_view_height) & (normal[2] > 0)
+    return _View(grasp=grasp, alignment=alignment, grasp_pose=pose,
+                 next_rotation=jnp.where(alignment.found, next_rotation, rotation),
+                 next_position=jnp.where(alignment.found, next_position, position),
+                 can_realign=alignment.found & reachable, depth=depth, target_mask=mask)
+
+
+def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool):
+    """Steps 1-5 on a settled state (after kinematics): target, grasp pose, the search's record
+    fields and, if `keep_views`, every image."""
+    camera = config.camera.camera()
+    k_overview, k_views = jax.random.split(key)
+    target, point, depth, objects = select_target(scene, data, eligible, camera, config, k_overview)
+    centre_rot, centre_pos = centred_pose(point, config)
+    budget = config.procedure.max_reorientations
+
+    def look(carry, r):
+        rot, pos, found, blocked, pose, turns, detect_reason, align_reason = carry
+        v = view(scene, data, rot, pos, target, camera, config, jax.random.fold_in(k_views, r))
+        searching = ~found & ~blocked
+        fresh = searching & v.grasp.found & (target >= 0)
+        pose = where_tree(fresh, v.grasp_pose, pose)
+        detect_reason = jnp.where(searching, v.grasp.reason, detect_reason)
+        found = found | fresh
+        may_turn = ~found & ~blocked & (r < budget)  # the last view never re-aligns
+        move = may_turn & v.can_realign
+        align_reason = jnp.where(may_turn, v.alignment.reason, align_reason)
+        blocked = blocked | (may_turn & ~v.can_realign)
+        rot = jnp.where(move, v.next_rotation, rot)
+        pos = jnp.where(move, v.next_position, pos)
+        carry = (rot, pos, found, blocked, pose, turns + move.astype(jnp.int32), detect_reason,
+                 align_reason)
+        return carry, (v, searching) if keep_views else None
+
+    nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    no_pose = GraspPose(nan3, nan3, nan3, jnp.array(False))
+    carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
+             jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1))
+    carry, per_view = jax.lax.scan(look, carry, jnp.arange(budget + 1))
+    _, _, found, blocked, pose, turns, detect_reason, align_reason = carry
+    pose = dataclasses.replace(pose, valid=found & (target >= 0))
+    views = None
+    if keep_views:
+        v, searched = per_view
+        rotation, position = overview_pose(config)
+        views = Views(depth=jnp.concatenate([depth[None], v.depth]),
+                      target_mask=jnp.concatenate([(objects == target)[None], v.target_mask]),
+                      rotation=jnp.concatenate([rotation[None], _view_rotations(v, centre_rot)]),
+                      position=jnp.concatenate([position[None], _view_positions(v, centre_pos)]),
+                      looked=jnp.concatenate([jnp.array([True]), searched]),
+                      grasp=v.grasp, alignment=v.alignment)
+    return target, pose, (blocked, turns, detect_reason, align_reason), views
+
+
+def _view_rotations(v: _View, first: jax.Array) -> jax.Array:
+    """Camera rotation of each view (V, 3, 3): the centred one, then each re-aligned one."""
+    return jnp.concatenate([first[None], v.next_rotation[:-1]])
+
+
+def _view_positions(v: _View, first: jax.Array) -> jax.Array:
+    return jnp.concatenate([first[None], v.next_position[:-1]])
+
+
+def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
+            keep_views: bool = False) -> tuple[RoundState, Record, Views | None]:
+    """Call k of this world's round: k = -1 settles the freshly placed layout; k >= 0 is the
+    k-th grasp attempt (steps 1-6). `k` is () int32, the same for every world of a batch."""
+    config = spec.config
+    model = physics_model(scene, config)
+    n = scene.num_objects
+    eligible = spec.members & ~state.attempted & ~state.removed
+    finite = jnp.all(jnp.isfinite(state.data.qpos))
+    key = jax.random.fold_in(state.key, 1000 + k)
+
+    def search(_):
+        kin = mjx.kinematics(model, state.data)
+        return _search(scene, kin, eligible, key, config, keep_views)
+
+    def idle(_):
+        return jax.tree.map(jnp.zeros_like, jax.eval_shape(search, None))
+
+    target, pose, (blocked, turns, detect_reason, align_reason), views = jax.lax.cond(
+        k >= 0, search, idle, None)
+    target = jnp.where(k >= 0, target, -1)
+    pose = dataclasses.replace(pose, valid=pose.valid & finite & (k >= 0))
+    data, done = play(scene, model, state.data, pose, jnp.maximum(target, 0),
+                      _settle_segments(spec, k, config), k >= 0, config)
+
+    attempted = state.attempted | ((jnp.arange(n) == target) & (target >= 0))
+    removed = state.removed | ((jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0))
+    state = RoundState(data=data, attempted=attempted, removed=removed, key=state.key)
+    return state, _record(target, pose, done, finite, blocked, turns, detect_reason,
+                          align_reason), views
+
+
+def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, detect_reason,
+            align_reason) -> Record:
+    """The attempt's record, with its one reason (precedence: module docstring)."""
+    stopped_by_alignment = blocked & (align_reason >= 0) & (align_reason != AlignReason.FOUND)
+    reason = jnp.select(
+        [~finite | (done.outcome == Outcome.DIVERGED), pose.valid, target < 0, stopped_by_alignment,
+         blocked],
+        [Reason.DIVERGED, done.outcome, Reason.NO_TARGET, ALIGN_BASE + align_reason,
+         Reason.VIEW_UNREACHABLE],
+        DETECT_BASE + detect_reason).astype(jnp.int32)
+    nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    return Record(
+        target=target.astype(jnp.int32), reason=reason, outcome=done.outcome,
+        grasp_found=pose.valid, reorientations=turns, detect_reason=detect_reason,
+        align_reason=align_reason, lifted_object=done.lifted_object, rise=done.rise,
+        opening=done.opening, tcp=jnp.where(pose.valid, pose.tcp, nan3),
+        approach=jnp.where(pose.valid, pose.approach, nan3),
+        closing=jnp.where(pose.valid, pose.closing, nan3))
+
+
+REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
+                          for r in range(max(Reason) + 1)], dtype=object)

@@ -1,0 +1,351 @@
+"""The batch driver: many worlds of `procedure.attempt`, compiled once, run chunk by chunk.
+
+Jobs, worlds, groups, chunks:
+
+- A `Job` is the paper's unit: objects, setups, trials. With every grid
+  point of a sweep (a `Config` and its seed) it yields *worlds*: in Setup 1
+  one world per (object, trial), holding that object alone, with one
+  attempt; in Setups 2 and 3 one world per round, holding all the job's
+  objects, with one attempt per object.
+- Worlds that can share one compiled program form a *group*: the same scene
+  (objects, and whether objects touch each other), the same number of
+  attempts per round and the same static configuration. Traced
+  configuration values (thresholds, frictions, ...) differ freely between
+  the worlds of a group, so a sweep over them compiles once.
+- A group runs in *chunks* of at most `batch` worlds, padded to one static
+  size and split over every local device. A chunk is the unit of progress:
+  `run` yields its attempt rows as soon as it finishes.
+
+Jitted work, orchestration and I/O are apart: a chunk is `start_round`,
+then `attempt` for k = -1 (the drop settles), 0, 1, ... (one compiled call
+each, all on the device), then one transfer of its records to the host,
+where they become rows. Nothing a world does depends on the other worlds of
+its chunk: same seed, same batch size, same device kind give the same rows.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import functools
+import time
+from collections.abc import Callable, Iterator
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pandas as pd
+
+from graspjax.config import Config, stack_configs
+from graspjax.perception import AlignReason, GraspReason
+from graspjax.procedure import REASON_LABELS, Record, Views, WorldSpec, attempt, start_round
+from graspjax.sim.objects import parse_letters
+from graspjax.sim.scene import Scene, mjx, scene_for
+from graspjax.sim.world import Outcome
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """Setups x trials in one scene; each world attempts `objects` once (Setup 1: one each)."""
+
+    objects: tuple[str, ...]  # attempted objects (Setups 2, 3: the round's order of preference)
+    setups: tuple[int, ...]  # each setup gets `trials` trials (Setup 1) or rounds
+    trials: int
+
+    def __post_init__(self):
+        parse_letters("".join(self.objects))
+        if not self.setups or any(s not in (1, 2, 3) for s in self.setups):
+            raise ValueError(f"setups must be 1, 2 or 3, got {self.setups}")
+        if self.trials < 1:
+            raise ValueError(f"trials must be >= 1, got {self.trials}")
+
+    @property
+    def letters(self) -> tuple[str, ...]:
+        """Objects of the scene model, in a-l order."""
+        return tuple(sorted(self.objects))
+
+    @property
+    def attempts(self) -> int:
+        """Attempt rows a job yields per grid point."""
+        return sum(self.trials * len(self.objects) for _ in self.setups)
+
+
+def table_job(table: int, trials: int) -> Job:
+    """The paper's presets: Table 1 = a-f in Setups 1-3, Table 2 = g-l in Setup 1."""
+    if table == 1:
+        return Job(tuple("abcdef"), (1, 2, 3), trials)
+    if table == 2:
+        return Job(tuple("ghijkl"), (1,), trials)
+    raise ValueError(f"table must be 1 or 2, got {table}")
+
+
+@dataclasses.dataclass(frozen=True)
+class World:
+    """One world of a run, host side: which round of which grid point it plays."""
+
+    point: int  # grid point index (0 for a plain run)
+    seed: int  # the grid point's seed
+    setup: int
+    trial: int  # trial (Setup 1) or round (Setups 2, 3)
+    objects: tuple[str, ...]  # attempt order (Setup 1: the one object)
+
+
+@dataclasses.dataclass(frozen=True)
+class Group:
+    """Worlds that share one compiled program."""
+
+    letters: tuple[str, ...]  # objects of the scene
+    collide: bool  # objects touch each other (Setups 2, 3)
+    attempts: int  # attempts per round
+    config: Config  # static configuration (traced values: per world, from its point)
+    worlds: tuple[World, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class Chunk:
+    """The unit of progress: up to `batch` worlds of one group."""
+
+    index: int  # position in the run (stable for a given command and batch size)
+    group: int
+    worlds: tuple[World, ...]
+
+
+def plan(jobs: list[Job], points: list[Config], seed: int) -> list[Group]:
+    """Every world of a run, grouped by compiled program; grid point i has seed `seed + i`."""
+    groups: dict = {}
+    for i, config in enumerate(points):
+        for job in jobs:
+            for setup in job.setups:
+                if setup == 1:
+                    worlds = [World(i, seed + i, 1, t, (c,)) for c in job.objects
+                              for t in range(job.trials)]
+                else:
+                    worlds = [World(i, seed + i, setup, t, job.objects) for t in range(job.trials)]
+                key = (job.letters, setup > 1, len(worlds[0].objects), jax.tree.structure(config))
+                groups.setdefault(key, (config, []))[1].extend(worlds)
+    return [Group(letters, collide, attempts, config, tuple(worlds))
+            for (letters, collide, attempts, _), (config, worlds) in groups.items()]
+
+
+def chunks(groups: list[Group], batch: int) -> list[Chunk]:
+    """Each group's worlds cut into equal chunks of at most `batch`, numbered through the run."""
+    out = []
+    for g, group in enumerate(groups):
+        size = padded_size(len(group.worlds), batch)
+        for start in range(0, len(group.worlds), size):
+            out.append(Chunk(len(out), g, group.worlds[start:start + size]))
+    return out
+
+
+def default_batch() -> int:
+    """Worlds per chunk: device-sized (GPU: thousands; CPU: a few dozen)."""
+    return 4096 * jax.local_device_count() if jax.default_backend() == "gpu" else 32
+
+
+def padded_size(worlds: int, batch: int) -> int:
+    """The static batch of a group: its worlds in as few equal chunks of at most `batch` as
+    possible (6,000 worlds at batch 4,096: two of 3,000), rounded up to the device count."""
+    devices = jax.local_device_count()
+    chunks_needed = -(-worlds // batch)
+    size = -(-worlds // chunks_needed)
+    return -(-size // devices) * devices
+
+
+class Program:
+    """The compiled `start_round` and `attempt` of one group, sharded over every local device."""
+
+    def __init__(self, group: Group, batch: int, keep_views: bool):
+        self.group, self.batch = group, batch
+        self.scene: Scene = scene_for(group.letters, group.config, group.collide)
+        scene = self.scene
+        template = mjx.make_data(scene.mj_model)
+        mesh = jax.sharding.Mesh(np.array(jax.local_devices()), ("worlds",))
+        self.sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("worlds"))
+        shard = functools.partial(jax.shard_map, mesh=mesh, out_specs=jax.sharding.PartitionSpec("worlds"),
+                                  check_vma=False)
+        worlds, whole = jax.sharding.PartitionSpec("worlds"), jax.sharding.PartitionSpec()
+        self.replicated = jax.sharding.NamedSharding(mesh, whole)
+        # Explicit output shardings: even zero-size fields stay split by world, so the state
+        # returned by one call is exactly what the next compiled call expects.
+        self._start_fn = jax.jit(shard(jax.vmap(lambda spec: start_round(scene, template, spec)),
+                                       in_specs=(worlds,)), out_shardings=self.sharding)
+        one = functools.partial(attempt, scene, keep_views=keep_views)
+        self._attempt_fn = jax.jit(shard(jax.vmap(one, in_axes=(0, 0, None)),
+                                         in_specs=(worlds, worlds, whole)),
+                                   out_shardings=self.sharding, donate_argnums=0)
+        self._start, self._attempt = self._start_fn, self._attempt_fn
+        self.compile_s, self.compiled = 0.0, False
+
+    def spec(self, worlds: tuple[World, ...], points: list[Config]) -> WorldSpec:
+        """The device batch of these worlds (grid point i: `points[i]`), padded with copies of
+        the first."""
+        scene, n = self.scene, self.scene.num_objects
+        padded = list(worlds) + [worlds[0]] * (self.batch - len(worlds))
+        order = np.array([[scene.letters.index(c) for c in w.objects] for w in padded], np.int32)
+        members = np.zeros((self.batch, n), bool)
+        np.put_along_axis(members, order, True, axis=1)
+        config = stack_configs([points[w.point] for w in padded])
+        spec = WorldSpec(seed=np.array([w.seed for w in padded], np.int32),
+                         setup=np.array([w.setup for w in padded], np.int32),
+                         trial=np.array([w.trial for w in padded], np.int32),
+                         order=order, members=members, config=config)
+        return jax.device_put(spec, self.sharding)
+
+    def _k(self, k: int) -> jax.Array:
+        return jax.device_put(jnp.int32(k), self.replicated)
+
+    def compile(self) -> None:
+        """Compile both functions ahead of time (thread-safe: groups compile in parallel)."""
+        if self.compiled:
+            return
+        start = time.perf_counter()
+        spec = self.spec(self.group.worlds[:1], [self.group.config])
+        self._start = self._start_fn.lower(spec).compile()
+        state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=self.sharding),
+                             jax.eval_shape(self._start_fn, spec))
+        k = jax.ShapeDtypeStruct((), jnp.int32, sharding=self.replicated)
+        self._attempt = self._attempt_fn.lower(state, spec, k).compile()
+        self.compile_s = time.perf_counter() - start
+        self.compiled = True
+
+    def play(self, worlds: tuple[World, ...], points: list[Config],
+             progress: Callable[[int], None]) -> tuple[list[Record], list[Views] | None]:
+        """One round in every world: the drop, then each attempt; records (and views) on the host."""
+        spec = self.spec(worlds, points)
+        state = self._start(spec)
+        state, _, _ = self._attempt(state, spec, self._k(-1))
+        records, views = [], []
+        for k in range(self.group.attempts):
+            state, record, view = self._attempt(state, spec, self._k(k))
+            jax.block_until_ready(record.reason)
+            records.append(record)
+            views.append(view)
+            progress(len(worlds))
+        records = jax.device_get(records)
+        return records, views if views[0] is not None else None
+
+
+_PROGRAMS: dict = {}
+
+
+def program(group: Group, batch: int, keep_views: bool) -> Program:
+    """The shared program of a group at a batch size (compiled once per process)."""
+    size = padded_size(len(group.worlds), batch)
+    key = (group.letters, group.collide, group.attempts, jax.tree.structure(group.config), size,
+           keep_views, tuple(jax.local_devices()))
+    if key not in _PROGRAMS:
+        _PROGRAMS[key] = Program(group, size, keep_views)
+    return _PROGRAMS[key]
+
+
+def compile_programs(groups: list[Group], batch: int, keep_views: bool,
+                     log: Callable[[str], None] = lambda m: None) -> list[Program]:
+    """One program per group, compiled in parallel threads (XLA compiles release the GIL)."""
+    programs = [program(g, batch, keep_views) for g in groups]
+    todo = list({id(p): p for p in programs if not p.compiled}.values())
+    if todo:
+        log(f"compiling {len(todo)} program(s) ...")
+        start = time.perf_counter()
+        with concurrent.futures.ThreadPoolExecutor(max_workers=len(todo)) as pool:
+            list(pool.map(Program.compile, todo))
+        log(f"compiled in {time.perf_counter() - start:.1f} s")
+    return programs
+
+
+# ---------------------------------------------------------------------------
+# Records to rows
+
+
+def rows(program: Program, worlds: tuple[World, ...], records: list[Record]) -> pd.DataFrame:
+    """One row per attempt (and per object of a round that never got one), in world order."""
+    scene, n_real = program.scene, len(worlds)
+    letters = np.array(scene.letters + ("",))  # index -1 -> ""
+    frames = []
+    for k, record in enumerate(records):
+        r = jax.tree.map(lambda x: np.asarray(x)[:n_real], record)
+        keep = np.flatnonzero(r.target >= 0)
+        if not len(keep):
+            continue
+        reason = r.reason[keep]
+        frame = _world_columns(worlds, keep, letters[r.target[keep]])
+        frame["attempt"] = k
+        frame["success"] = (reason == Outcome.SUCCESS).astype(int)
+        frame["outcome"] = [Outcome(o).name for o in r.outcome[keep]]
+        frame["reason"] = REASON_LABELS[reason]
+        frame["reason_code"] = reason
+        frame["reorientations"] = r.reorientations[keep]
+        frame["grasp_found"] = r.grasp_found[keep].astype(int)
+        frame["detect_reason"] = [GraspReason(c).name for c in r.detect_reason[keep]]
+        frame["align_reason"] = [AlignReason(c).name if c >= 0 else "" for c in r.align_reason[keep]]
+        frame["lifted_object"] = letters[r.lifted_object[keep]]
+        frame["rise_m"] = r.rise[keep]
+        frame["jaw_opening_m"] = 2 * r.opening[keep]
+        for name in ("tcp", "approach", "closing"):
+            values = getattr(r, name)[keep]
+            for i, axis in enumerate("xyz"):
+                frame[f"grasp_{name}_{axis}"] = values[:, i]
+        frames.append(frame)
+    frames.append(_unattempted(program, worlds, records))
+    return pd.concat([f for f in frames if len(f)], ignore_index=True)
+
+
+def _world_columns(worlds, index, objects) -> pd.DataFrame:
+    return pd.DataFrame({
+        "point": [worlds[w].point for w in index], "setup": [worlds[w].setup for w in index],
+        "object": objects, "trial": [worlds[w].trial for w in index],
+        "round": [worlds[w].trial for w in index], "seed": [worlds[w].seed for w in index],
+        "objects": ["".join(worlds[w].objects) for w in index]})
+
+
+def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFrame:
+    """Objects of a Setup 2/3 round that never got their attempt: removed with another, or unseen."""
+    scene = program.scene
+    n_real = len(worlds)
+    target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
+    lifted = np.stack([np.asarray(r.lifted_object)[:n_real] for r in records], 1)
+    out = []
+    for w, world in enumerate(worlds):
+        for c in world.objects:
+            i = scene.letters.index(c)
+            if i in target[w]:
+                continue
+            why = "removed with another object" if i in lifted[w] else "not visible"
+            out.append({"point": world.point, "setup": world.setup, "object": c,
+                        "trial": world.trial, "round": world.trial, "seed": world.seed,
+                        "objects": "".join(world.objects), "attempt": -1, "success": 0,
+                        "outcome": Outcome.NOT_EXECUTED.name, "reason": f"not attempted: {why}",
+                        "reason_code": -1, "reorientations": 0, "grasp_found": 0})
+    return pd.DataFrame(out)
+
+
+def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
+        keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
+        log: Callable[[str], None] = lambda m: None
+        ) -> Iterator[tuple[Chunk, pd.DataFrame, dict, list[Views] | None]]:
+    """Run every chunk not in `done`; yield each as it finishes: (chunk, rows, timings, views)."""
+    plan_ = chunks(groups, batch)
+    todo = [c for c in plan_ if c.index not in done]
+    needed = sorted({c.group for c in todo})
+    programs = dict(zip(needed, compile_programs([groups[g] for g in needed], batch, keep_views,
+                                                 log), strict=True))
+    compile_s = {g: p.compile_s for g, p in programs.items()}
+    for chunk in todo:
+        prog = programs[chunk.group]
+        start = time.perf_counter()
+        records, views = prog.play(chunk.worlds, points, progress)
+        frame = rows(prog, chunk.worlds, records)
+        frame.insert(0, "chunk", chunk.index)
+        timings = {"chunk": chunk.index, "group": chunk.group, "scene": "".join(prog.scene.letters),
+                   "worlds": len(chunk.worlds), "batch": prog.batch,
+                   "attempts": int((frame["attempt"] >= 0).sum()),
+                   "compile_s": round(compile_s.pop(chunk.group, 0.0), 3),  # with a group's first
+                   "wall_s": round(time.perf_counter() - start, 3)}
+        yield chunk, frame, timings, _selected(views, chunk)
+
+
+def _selected(views, chunk):
+    """Views of the chunk's real worlds, as numpy (None when not kept)."""
+    if views is None:
+        return None
+    n = len(chunk.worlds)
+    return [jax.tree.map(lambda x: np.asarray(x)[:n], v) for v in views]

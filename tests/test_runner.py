@@ -1,0 +1,226 @@
+"""Runs end to end through the CLI: files, reproducibility, resume, parts, devices, views."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pandas as pd
+import pytest
+
+from graspjax.cli import main
+
+# Objects a and c alone (Setup 1), 3 trials each: 6 worlds, in chunks of 3 (c needs a re-alignment).
+TINY = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--seed", "3", "--quiet",
+        "--batch", "3", "--set", "align.window_px=12"]
+VOLATILE = ["run_id", "chunk"]  # what may differ between two runs of the same worlds
+
+
+def _cli(*args, env=None):
+    """The installed CLI in a subprocess (its own JAX process, same compilation cache)."""
+    return subprocess.Popen([sys.executable, "-m", "graspjax.cli", *args],
+                            env={**os.environ, **(env or {})}, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "not" / "yet" / "there"  # --out creates its parents
+    assert main(["run", *TINY, "--out", str(out)]) == 0
+    return out
+
+
+def test_run_writes_every_file_with_the_right_columns(tiny_run):
+    for name in ("attempts.csv", "attempts.parquet", "timings.csv", "config.json", "summary.csv",
+                 "table1.md", "table1.tex", "success_by_object.png", "outcomes.png"):
+        assert (tiny_run / name).is_file(), name
+    assert not (tiny_run / "parts").exists()  # assembled and removed
+    frame = pd.read_csv(tiny_run / "attempts.csv")
+    for column in ("setup", "object", "trial", "round", "seed", "success", "reason", "reason_code",
+                   "reorientations", "lifted_object", "grasp_tcp_x", "grasp_closing_z",
+                   "cfg.align.window_px", "chunk", "point"):
+        assert column in frame.columns, column
+    assert len(frame) == 6 and set(frame["success"]) <= {0, 1}
+    assert sorted(zip(frame["object"], frame["trial"], strict=True)) == [
+        (c, t) for c in "ac" for t in range(3)]
+    assert (frame["cfg.align.window_px"] == 12).all()
+    assert sorted(frame["chunk"].unique()) == [0, 1]
+    parquet = pd.read_parquet(tiny_run / "attempts.parquet").replace("", float("nan"))
+    pd.testing.assert_frame_equal(parquet, frame, check_dtype=False)
+    meta = json.loads((tiny_run / "config.json").read_text())
+    assert meta["seed"] == 3 and meta["overrides"] == {"align.window_px": 12}
+    assert meta["config"]["align.window_px"] == 12 and meta["versions"]["jax"]
+    assert meta["batch"] == 3 and meta["deterministic"] is True and meta["finished"]
+    assert meta["devices"] and meta["devices"][0].startswith("cpu")
+    summary = pd.read_csv(tiny_run / "summary.csv")
+    row = summary[summary.object == "a"].iloc[0]
+    assert (row.setup, row.n, row.paper_pct) == (1, 3, 90)
+    assert row.ci_low <= row.rate <= row.ci_high
+
+
+def test_same_seed_same_attempts(tiny_run, tmp_path):
+    again = tmp_path / "again"
+    assert main(["run", *TINY, "--out", str(again)]) == 0
+    assert (again / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+
+
+def test_a_folder_holding_a_run_needs_resume_or_overwrite(tiny_run, tmp_path, capsys):
+    copy = tmp_path / "copy"
+    assert main(["run", *TINY, "--out", str(copy)]) == 0
+    assert main(["run", *TINY, "--out", str(copy)]) == 2
+    assert "already holds a run" in capsys.readouterr().err
+    # --resume of a finished run runs nothing and rebuilds the same results.
+    assert main(["run", *TINY, "--out", str(copy), "--resume"]) == 0
+    assert (copy / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+    # Another command cannot resume this folder.
+    assert main(["run", *TINY[:-1], "align.window_px=13", "--out", str(copy), "--resume"]) == 2
+    assert "holds another run" in capsys.readouterr().err
+    assert main(["run", *TINY, "--out", str(copy), "--overwrite"]) == 0
+
+
+def test_a_killed_run_resumes_with_nothing_lost_or_doubled(tiny_run, tmp_path):
+    out = tmp_path / "killed"
+    proc = _cli("run", *TINY, "--out", str(out))
+    first = out / "parts" / "attempts-00000.parquet"
+    deadline = time.time() + 600
+    while not first.exists() and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = sorted(p.name for p in (out / "parts").glob("attempts-*.parquet"))
+    assert done == ["attempts-00000.parquet"], "the run was not killed after its first chunk"
+    assert not (out / "attempts.parquet").exists()
+    partial = pd.read_csv(out / "attempts.csv")
+    assert len(partial) == 3  # the first chunk's rows were on disk at once
+    assert main(["run", *TINY, "--out", str(out), "--resume"]) == 0
+    assert (out / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+
+
+def test_parts_of_a_run_assemble_the_same_results(tiny_run, tmp_path, capsys):
+    out = tmp_path / "shared"
+    assert main(["run", *TINY, "--out", str(out), "--part", "1/2"]) == 0
+    assert "part 1/2 done; 1 of 2 chunks" in capsys.readouterr().out
+    assert not (out / "attempts.parquet").exists()
+    assert main(["run", *TINY, "--out", str(out), "--part", "0/2"]) == 0
+    assert (out / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+
+
+def test_worlds_are_sharded_over_every_device(tiny_run, tmp_path):
+    """Two CPU devices, 3 worlds each, give the rows of one device running chunks of 3."""
+    out = tmp_path / "two"
+    proc = _cli("run", *TINY[:-4], "--batch", "6", *TINY[-2:], "--out", str(out),
+                env={"XLA_FLAGS": "--xla_force_host_platform_device_count=2",
+                     "JAX_PLATFORMS": "cpu"})
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err[-2000:]
+    meta = json.loads((out / "config.json").read_text())
+    assert len(meta["devices"]) == 2 and meta["batch"] == 6
+    ours = pd.read_csv(out / "attempts.csv").drop(columns=VOLATILE)
+    reference = pd.read_csv(tiny_run / "attempts.csv").drop(columns=VOLATILE)
+    pd.testing.assert_frame_equal(ours, reference)
+
+
+def test_sweep_points_share_one_program_and_have_their_own_seed(tiny_run, tmp_path):
+    out = tmp_path / "sweep"
+    args = [a for a in TINY if a not in ("--set", "align.window_px=12")]
+    assert main(["sweep", *args, "--grid", "align.distance_threshold=0.2,0.3",
+                 "--out", str(out)]) == 0
+    frame = pd.read_csv(out / "attempts.csv")
+    assert sorted(frame["cfg.align.distance_threshold"].unique()) == [0.2, 0.3]
+    assert frame.groupby("point")["seed"].first().tolist() == [3, 4]
+    assert len(frame) == 12
+    timings = pd.read_csv(out / "timings.csv")
+    assert timings["group"].nunique() == 1  # a traced value: one compiled program for both
+    assert len(pd.read_csv(out / "sweep_summary.csv")) == 2
+    assert (out / "sweep_align.distance_threshold.png").is_file()
+
+
+@pytest.fixture(scope="module")
+def rounds_runs(tmp_path_factory):
+    """Setup 2 alone, and Setups 2 and 3 together, in one chunk of 4 worlds each."""
+    folder = tmp_path_factory.mktemp("rounds")
+    common = ["--quiet", "--batch", "4", "--seed", "5", "--save-views", "failed",
+              "--max-views", "2"]
+    assert main(["run", "--setup", "2", "--trials", "4", *common, "--out",
+                 str(folder / "two")]) == 0
+    assert main(["run", "--setup", "2,3", "--trials", "2", *common, "--out",
+                 str(folder / "both")]) == 0
+    return folder / "two", folder / "both"
+
+
+def test_a_world_does_not_depend_on_its_chunk(rounds_runs):
+    alone, mixed = (pd.read_csv(d / "attempts.csv").drop(columns=[*VOLATILE, "point"])
+                    for d in rounds_runs)
+    setup2 = mixed[mixed.setup == 2].reset_index(drop=True)
+    pd.testing.assert_frame_equal(alone[alone["round"] < 2].reset_index(drop=True), setup2)
+
+
+def test_rounds_attempt_every_object_once(rounds_runs):
+    """Setups 2 and 3: each object gets one row per round; a lifted object leaves the scene."""
+    frame = pd.read_csv(rounds_runs[1] / "attempts.csv", keep_default_na=False)
+    assert len(frame) == 2 * 2 * 6
+    for _, part in frame.groupby(["setup", "round"]):
+        assert sorted(part["object"]) == list("abcdef")
+        tried = part[part["attempt"] >= 0]
+        assert sorted(tried["attempt"]) == list(range(len(tried)))
+        lifted = [c for c in part["lifted_object"] if c]
+        assert len(lifted) == len(set(lifted))  # nothing is lifted twice
+    table = (rounds_runs[1] / "table1.md").read_text()
+    assert "Setup 2, ours" in table and "Setup 3, paper" in table
+
+
+def test_failed_attempts_keep_their_views_and_report_draws_them(rounds_runs, capsys):
+    folder = rounds_runs[1]
+    frame = pd.read_csv(folder / "attempts.csv")
+    saved = sorted((folder / "views").glob("*.npz"))
+    failed = frame[(frame.attempt >= 0) & (frame.success == 0)]
+    assert len(saved) == min(2, len(failed)) and len(failed) > 0
+    assert main(["report", str(folder), "--debug", "1"]) == 0
+    assert "debug/" in capsys.readouterr().out
+    drawn = list((folder / "debug").glob("*.png"))
+    assert [p.stem for p in drawn] == [saved[0].stem]
+    assert drawn[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "--setup", "1", "--objects", "a,z", "--trials", "1"], "unknown object 'z'"),
+    (["run", "--setup", "1", "--set", "align.windw_px=3"], "did you mean align.window_px"),
+    (["run", "--setup", "1", "--set", "align.distance_threshold=-1"], "distance_threshold"),
+    (["run", "--setup", "1", "--set", "align.window_px=40"], "window_px must be in [1, 32]"),
+    (["run", "--setup", "4"], "--setup must be among"),
+    (["run", "--setup", "1", "--trials", "0"], "--trials must be >= 1"),
+    (["run", "--table", "1", "--setup", "1"], "either --table"),
+    (["run", "--table", "3"], "--table must be among"),
+    (["run", "--setup", "1", "--part", "2/2"], "0 <= I < N"),
+    (["run", "--setup", "1", "--part", "x"], "--part takes I/N"),
+    (["run", "--setup", "1", "--resume", "--overwrite"], "not both"),
+    (["sweep", "--setup", "1", "--grid", "align.window_px=5,x"], "must be int"),
+    (["sweep", "--setup", "1"], "needs at least one --grid"),
+])
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, message):
+    out = tmp_path / "out"
+    assert main([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_unwritable_output_directory(tmp_path, capsys):
+    plain_file = tmp_path / "file.txt"
+    plain_file.write_text("x")
+    assert main(["run", "--setup", "1", "--out", str(plain_file / "out")]) == 2
+    assert "is not a directory" in capsys.readouterr().err
+    assert main(["run", "--setup", "1", "--out", str(plain_file)]) == 2
+    assert "not a directory" in capsys.readouterr().err
+    proc = "/proc/graspjax-results"  # refuses new files, even for root
+    assert main(["run", "--setup", "1", "--out", proc]) == 2
+    assert "not writable" in capsys.readouterr().err
+
+
+def test_report_errors(tmp_path, capsys):
+    assert main(["report", str(tmp_path / "missing")]) == 2
+    assert main(["report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "no such directory" in err and "no attempts.csv" in err
