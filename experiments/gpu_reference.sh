@@ -1,14 +1,13 @@
 #!/usr/bin/env bash
-# The GPU reference results, in a few long calls on the GPU machine (see ../shared/gpu/README.md:
+# The GPU reference measurements, in a few long calls on the GPU machine (see ../shared/gpu/README.md:
 # MuJoCo goes along as wheels; the package runs from the source tree on PYTHONPATH).
-#   experiments/gpu_reference.sh bench     # perception, physics and end-to-end benchmarks
-#   experiments/gpu_reference.sh tables    # Tables 1 and 2 at 1,000 trials per cell
-#   experiments/gpu_reference.sh studies1  # window and threshold studies (100 trials per point)
-#   experiments/gpu_reference.sh studies2  # re-orientation budget and resolution studies
-#   experiments/gpu_reference.sh wall      # the wall-check ablation (300 trials per point)
-# Every step writes into $OUT (a log per step; run folders and records packed into tarballs, since
-# the machine returns at most 8 files) and prints a short summary last. The steps of one call
-# share the persistent compilation cache.
+#   experiments/gpu_reference.sh runner      # runner before/after (OLD=a tree holding the old package),
+#                                            #   deterministic vs --fast, Tables 1+2 at 1,000 trials with
+#                                            #   cold compiles
+#   experiments/gpu_reference.sh repro       # the same command twice (bit-identical?), another --batch
+#   experiments/gpu_reference.sh multigpu    # one GPU against all GPUs of the host, same job
+# Every step writes into $OUT (a log per step; run folders packed into tarballs, since the machine
+# returns at most 8 files) and prints a short summary last.
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 gj() { python3 -m graspjax.cli "$@"; }
@@ -18,36 +17,50 @@ step() {  # step NAME COMMAND...: run, log to $out/NAME.log, show the tail and t
   echo "== $name: $*"
   "$@" > "$out/$name.log" 2>&1
   local rc=$?
-  tail -n 12 "$out/$name.log"
+  tail -n 6 "$out/$name.log"
   echo "== $name: exit $rc after $((SECONDS - start)) s"
 }
-pack() {  # pack FOLDER: one tarball per run folder (the machine returns at most 8 files)
-  tar -C "$(dirname "$1")" -czf "$out/$(basename "$1").tar.gz" "$(basename "$1")" && rm -rf "$1"
+pack() {  # pack FOLDER...: one tarball for the folders (the machine returns at most 8 files)
+  local name=$1
+  shift
+  tar -C "$out" -czf "$out/$name.tar.gz" "$@" && (cd "$out" && rm -rf "$@")
 }
 case "${1:-}" in
-  bench)
-    step perception gj bench perception --batch 4096 --repeats 10 --out "$out/perception_gpu_4096.json"
-    step physics_abcdef_3 gj bench physics --objects abcdef --setup 3 --batch 8192 \
-      --out "$out/physics_gpu_abcdef_setup3_8192.json"
-    step physics_abcdef_1 gj bench physics --objects abcdef --setup 1 --batch 4096 \
-      --out "$out/physics_gpu_abcdef_setup1_4096.json"
-    step pipeline_1 gj bench pipeline --objects abcdef --setup 1 --trials 1000 \
-      --out "$out/pipeline_gpu_abcdef_setup1.json"
-    step pipeline_3 gj bench pipeline --objects abcdef --setup 3 --trials 1000 \
-      --out "$out/pipeline_gpu_abcdef_setup3.json"
-    grep -h -E "images/s|world-steps/s|attempts/s|time shares" "$out"/*.log
-    mkdir -p "$out/bench_gpu" && mv "$out"/*.json "$out"/*.log "$out/bench_gpu/" && pack "$out/bench_gpu" ;;
-  tables)
-    step tables gj run --table 1,2 --trials 1000 --seed 0 --quiet --out "$out/paper_gpu_1000"
-    cat "$out/paper_gpu_1000/timings.csv"
-    pack "$out/paper_gpu_1000" ;;
-  studies1)
-    step window env TRIALS=100 OUT="$out" experiments/study_window.sh && pack "$out/window"
-    step threshold env TRIALS=100 OUT="$out" experiments/study_threshold.sh && pack "$out/threshold" ;;
-  studies2)
-    step reorientations env TRIALS=100 OUT="$out" experiments/study_reorientations.sh && pack "$out/reorientations"
-    step resolution env TRIALS=100 OUT="$out" experiments/study_resolution.sh && pack "$out/resolution" ;;
-  wall)
-    step wall env TRIALS=300 OUT="$out" experiments/study_wall.sh && pack "$out/wall" ;;
-  *) echo "usage: $0 bench|tables|studies1|studies2|wall" >&2; exit 2 ;;
+  runner)
+    if [ -n "${OLD:-}" ]; then
+      step before env PYTHONPATH="$OLD:$PYTHONPATH" python3 -m graspjax.cli bench pipeline \
+        --objects abcdef --setup 1 --trials 1000
+    fi
+    step after gj bench pipeline --objects abcdef --setup 1 --trials 1000 --out "$out/after.json"
+    step after_fast gj bench pipeline --objects abcdef --setup 1 --trials 1000 --fast \
+      --out "$out/after_fast.json"
+    step tables env GRASPJAX_CACHE=0 python3 -m graspjax.cli run --table 1,2 --trials 1000 \
+      --seed 0 --quiet --out "$out/tables"
+    cat "$out/tables/timings.csv"
+    pack runner_tables tables
+    grep -h -E "attempts/s|compile" "$out"/before.log "$out"/after.log "$out"/after_fast.log ;;
+  repro)
+    step twice_a gj run --table 1 --trials 1000 --seed 1 --quiet --out "$out/twice_a"
+    step twice_b gj run --table 1 --trials 1000 --seed 1 --quiet --out "$out/twice_b"
+    step batch_1000 gj run --table 1 --trials 1000 --seed 1 --batch 1000 --quiet \
+      --out "$out/batch_1000"
+    if cmp -s "$out/twice_a/attempts.csv" "$out/twice_b/attempts.csv"; then
+      echo "same command twice: attempts.csv identical"
+    else
+      echo "same command twice: attempts.csv DIFFERS"
+    fi
+    python3 - "$out" <<'EOF'
+import sys, pandas as pd
+for name in ("twice_a", "batch_1000"):
+    f = pd.read_csv(f"{sys.argv[1]}/{name}/summary.csv")
+    print(name, f.groupby("setup")[["successes", "n"]].sum().to_dict("index"))
+EOF
+    pack repro twice_a batch_1000 && rm -rf "$out/twice_b" ;;
+  multigpu)
+    step one_gpu env CUDA_VISIBLE_DEVICES=0 python3 -m graspjax.cli bench pipeline \
+      --objects abcdef --setup 3 --trials 8192 --out "$out/one_gpu.json"
+    step all_gpus gj bench pipeline --objects abcdef --setup 3 --trials 8192 \
+      --out "$out/all_gpus.json"
+    grep -h -E "device|attempts/s" "$out"/one_gpu.log "$out"/all_gpus.log ;;
+  *) echo "usage: $0 runner|repro|multigpu" >&2; exit 2 ;;
 esac

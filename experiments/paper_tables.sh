@@ -9,4 +9,4 @@ case "${1:-cpu}" in
   gpu) trials=1000; out=${OUT:-results}/paper_gpu_1000 ;;
   *) echo "usage: $0 cpu|gpu" >&2; exit 2 ;;
 esac
-python3 -m graspjax.cli run --table 1,2 --trials "$trials" --seed 0 --quiet --out "$out"
+python3 -m graspjax.cli run --table 1,2 --trials "$trials" --seed 0 --quiet --overwrite --out "$out"
