@@ -1,0 +1,127 @@
+"""From a full-resolution real depth image to the working view, for one image.
+
+Everything outside the workspace (an ROI or mask) and outside the depth
+range `[min_depth, max_depth]` becomes invalid before anything else looks
+at the image; the image is reduced by block median to the working
+resolution (as the paper downsamples its Kinect); holes up to
+`fill_gap_px` working pixels wide inside a surface are bridged, so that a
+dropout line does not cut a face in two or notch its contour.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+
+from graspjax.camera import Camera
+from graspjax.config import SceneConfig
+from graspjax.perception.cluster import valid_mask
+
+
+def block_factor(width: int, config: SceneConfig) -> int:
+    """The static block factor to the working resolution for images `width` pixels wide:
+    `downsample` if set, else the whole factor nearest to `width / working_width`."""
+    return config.downsample or max(1, round(width / config.working_width))
+
+
+@functools.cache
+def _sorting_network(n: int) -> tuple[tuple[int, int], ...]:
+    """Compare-exchange pairs of Batcher's odd-even merge sort for `n` (a power of two) values."""
+    pairs, p = [], 1
+    while p < n:
+        k = p
+        while k >= 1:
+            for j in range(k % p, n - k, 2 * k):
+                for i in range(min(k, n - j - k)):
+                    if (i + j) // (2 * p) == (i + j + k) // (2 * p):
+                        pairs.append((i + j, i + j + k))
+            k //= 2
+        p *= 2
+    return tuple(pairs)
+
+
+def block_median(depth: jax.Array, factor: int) -> jax.Array:
+    """Median of the valid pixels in each `factor x factor` block `(H // f, W // f)`, 0 if none.
+
+    depth: metric depth (H, W), 0 or nan = invalid; cropped to a multiple of
+    `factor`. An even count averages the two middle values (as `numpy.nanmedian`).
+    The blocks are sorted by a sorting network: elementwise min/max over
+    whole images, far faster than a sort per block on a CPU.
+    """
+    if factor == 1:
+        return jnp.where(valid_mask(depth), depth, 0.0)
+    h, w = depth.shape[0] // factor, depth.shape[1] // factor
+    blocks = depth[: h * factor, : w * factor].reshape(h, factor, w, factor)
+    values = [blocks[:, i, :, j] for i in range(factor) for j in range(factor)]
+    count = sum(valid_mask(v).astype(jnp.int32) for v in values)
+    size = 1 << (len(values) - 1).bit_length()
+    values = [jnp.where(valid_mask(v), v, jnp.inf) for v in values]  # invalid sort last
+    values += [jnp.full((h, w), jnp.inf, depth.dtype)] * (size - len(values))
+    for a, b in _sorting_network(size):
+        values[a], values[b] = jnp.minimum(values[a], values[b]), jnp.maximum(values[a], values[b])
+    ordered = jnp.stack(values)
+    low = jnp.take_along_axis(ordered, (jnp.maximum(count - 1, 0) // 2)[None], 0)[0]
+    high = jnp.take_along_axis(ordered, (count // 2)[None], 0)[0]
+    return jnp.where(count > 0, 0.5 * (low + high), 0.0)
+
+
+def block_any(mask: jax.Array, factor: int) -> jax.Array:
+    """Blocks `(H // f, W // f)` holding at least one True pixel of `mask` (H, W) bool."""
+    h, w = mask.shape[0] // factor, mask.shape[1] // factor
+    return jnp.any(mask[: h * factor, : w * factor].reshape(h, factor, w, factor), axis=(1, 3))
+
+
+def _nearest_valid(depth: jax.Array, valid: jax.Array, du: int, dv: int, gap: int):
+    """Depth `(H, W)` of the nearest valid pixel within `gap` steps of (du, dv), and whether found."""
+    height, width = depth.shape
+    value, found = jnp.zeros_like(depth), jnp.zeros_like(valid)
+    padded_z, padded_ok = jnp.pad(depth, gap), jnp.pad(valid, gap)
+    for step in range(gap, 0, -1):  # nearest last, so it wins
+        v0, u0 = gap + step * dv, gap + step * du
+        z = padded_z[v0: v0 + height, u0: u0 + width]
+        ok = padded_ok[v0: v0 + height, u0: u0 + width]
+        value, found = jnp.where(ok, z, value), found | ok
+    return value, found
+
+
+def fill_holes(depth: jax.Array, workspace: jax.Array, gap: int, tolerance: float) -> jax.Array:
+    """Bridge holes inside surfaces: depth `(H, W)` with invalid workspace pixels filled.
+
+    An invalid pixel in `workspace` (H, W) bool is filled with the mean of the
+    nearest valid pixels on both sides, left-right (else up-down), when both
+    lie within `gap` pixels and within `tolerance` metres of each other: a
+    hole up to `gap` pixels wide along a row or a column is filled. A hole
+    between an object and the table (a depth step) stays a hole.
+    """
+    valid = valid_mask(depth)
+    clean = jnp.where(valid, depth, 0.0)
+    if gap == 0:
+        return clean
+    filled = clean
+    for (du, dv) in ((0, 1), (1, 0)):  # up-down first, so left-right wins where both agree
+        a, has_a = _nearest_valid(clean, valid, du, dv, gap)
+        b, has_b = _nearest_valid(clean, valid, -du, -dv, gap)
+        bridge = ~valid & workspace & has_a & has_b & (jnp.abs(a - b) <= tolerance)
+        filled = jnp.where(bridge, 0.5 * (a + b), filled)
+    return filled
+
+
+def working_view(depth: jax.Array, workspace: jax.Array, camera: Camera, config: SceneConfig,
+                 tolerance: float) -> tuple[jax.Array, Camera]:
+    """The working depth `(H // f, W // f)` and its camera, from a full-resolution image.
+
+    depth: metric depth (H, W) float32, 0 or nan = invalid; workspace: (H, W)
+    bool, True where the search may look; camera: intrinsics of the full
+    image. `tolerance`: the depth band of a surface (m), for hole filling.
+    """
+    height, width = depth.shape
+    factor = block_factor(width, config)
+    inside = workspace & valid_mask(depth) & (depth >= config.min_depth) & (depth <= config.max_depth)
+    work = block_median(jnp.where(inside, depth, 0.0), factor)
+    work = fill_holes(work, block_any(workspace, factor), config.fill_gap_px, tolerance)
+    h, w = work.shape
+    # Cropping to whole blocks keeps the optics; each working pixel spans `factor` pixels.
+    cropped = Camera(w * factor, h * factor, camera.fx, camera.fy, camera.cx, camera.cy)
+    return work, cropped.scaled(w, h)
