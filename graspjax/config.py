@@ -381,7 +381,7 @@ class SceneConfig:
     fill_gap_px: int = 2  # bridge holes up to this many working pixels wide inside a surface (0: off)
     support: bool = True  # find the support plane (False: the paper's rule, target = nearest point)
     plane_hypotheses: int = 128  # random triangles of valid pixels scored as the support plane
-    plane_score_pixels: int = 4800  # hypotheses are scored on a regular grid of about this many pixels
+    plane_pixels: int = 4800  # the support plane is found on a regular grid of about this many pixels
     plane_threshold: float = 0.005  # max distance of a support-plane inlier from the plane (m)
     plane_refits: int = 2  # least-squares refits of the best plane to its inliers
     max_plane_tilt_deg: float = 45.0  # the support plane faces the camera within this angle
@@ -401,7 +401,7 @@ class SceneConfig:
                  "SceneConfig needs 0 <= min_depth < max_depth")
         _in_range(self, "fill_gap_px", 0, 16)
         _in_range(self, "plane_hypotheses", 1, 4096)
-        _in_range(self, "plane_score_pixels", 100, 1_000_000)
+        _in_range(self, "plane_pixels", 100, 1_000_000)
         _in_range(self, "plane_refits", 0, 10)
         _in_range(self, "max_plane_tilt_deg", 1.0, 89.0)
         _in_range(self, "min_plane_fraction", 0.0, 1.0)

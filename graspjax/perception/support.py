@@ -8,14 +8,14 @@ and the view can be turned to face it (`perception/virtual.py`).
 
 RANSAC: `plane_hypotheses` triangles of valid pixels drawn at random (one
 fixed key, so the same image always gives the same plane), each oriented
-toward the camera and scored, over a regular grid of about
-`plane_score_pixels` valid pixels, as its inliers (closer than
-`plane_threshold`) minus the pixels *behind* it (farther from the
-camera by more than the threshold). Objects stand on their support, so
-nothing lies behind it, while the top face of a large object has the whole
-table behind it. Hypotheses tilted more than `max_plane_tilt_deg` from the
-optical axis (walls) are not candidates. The best plane is refit by least
-squares to its inliers (among all pixels) `plane_refits` times.
+toward the camera and scored as its inliers (closer than `plane_threshold`)
+minus the pixels *behind* it (farther from the camera by more than the
+threshold). Objects stand on their support, so nothing lies behind it,
+while the top face of a large object has the whole table behind it.
+Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis
+(walls) are not candidates. The best plane is refit by least squares to its
+inliers `plane_refits` times. Everything works on a regular grid of about
+`plane_pixels` pixels of the image (every n-th row and column).
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ class SupportPlane:
     normal: jax.Array  # (3,) unit normal in the camera frame, pointing toward the camera
     distance: jax.Array  # () distance from the camera centre to the plane (m)
     tilt: jax.Array  # () angle between the normal and the optical axis (rad)
-    inliers: jax.Array  # () int32 valid pixels within `plane_threshold` of the best plane (found or not)
-    fraction: jax.Array  # () inliers / valid pixels
+    inliers: jax.Array  # () int32 grid pixels within `plane_threshold` of the best plane (found or not)
+    fraction: jax.Array  # () inliers / valid grid pixels
 
 
 jax.tree_util.register_dataclass(
@@ -76,10 +76,9 @@ def support_plane(depth: jax.Array, camera: Camera, config: SceneConfig = SceneC
     """
     valid = valid_mask(depth)
     grid = camera.unproject(camera.pixel_grid(), jnp.where(valid, depth, 0.0))  # (H, W, 3)
-    points, ok = grid.reshape(-1, 3), valid.reshape(-1)
+    stride = max(1, math.ceil(math.sqrt(valid.size / config.plane_pixels)))
+    points, ok = grid[::stride, ::stride].reshape(-1, 3), valid[::stride, ::stride].reshape(-1)
     n_valid = jnp.sum(ok)
-    stride = max(1, math.ceil(math.sqrt(ok.size / config.plane_score_pixels)))
-    scored, scored_ok = grid[::stride, ::stride].reshape(-1, 3), valid[::stride, ::stride].reshape(-1)
 
     # Three valid pixels per hypothesis: invert the running count of valid pixels.
     k = config.plane_hypotheses
@@ -94,20 +93,19 @@ def support_plane(depth: jax.Array, camera: Camera, config: SceneConfig = SceneC
     cos_max = jnp.cos(jnp.deg2rad(config.max_plane_tilt_deg))
     usable = (area > 1e-6) & (-normals[:, 2] >= cos_max) & (n_valid >= 3)
 
-    # Scores: inliers minus pixels behind the plane over a regular grid of valid pixels (K, N'),
-    # as a sum of products so that the (K, N') distances fuse into the reduction.
-    signed = (normals[:, None, 0] * scored[None, :, 0] + normals[:, None, 1] * scored[None, :, 1]
-              + normals[:, None, 2] * scored[None, :, 2] + distances[:, None])
+    # Scores: inliers minus pixels behind the plane (K, N).
+    signed = normals @ points.T + distances[:, None]
     thr = config.plane_threshold
-    score = (jnp.sum(scored_ok & (jnp.abs(signed) < thr), -1)
-             - jnp.sum(scored_ok & (signed < -thr), -1))
+    votes = (jnp.abs(signed) < thr).astype(jnp.int32) - (signed < -thr).astype(jnp.int32)
+    score = jnp.sum(jnp.where(ok, votes, 0), -1)
     best = jnp.argmax(jnp.where(usable, score, jnp.iinfo(jnp.int32).min))
     normal, distance = normals[best], distances[best]
     for _ in range(config.plane_refits):
         inlier = ok & (jnp.abs(plane_height(points, normal, distance)) < thr)
         normal, distance = _least_squares(points, inlier.astype(jnp.float32))
     any_usable = jnp.any(usable)
-    inliers = jnp.where(any_usable, jnp.sum(ok & (jnp.abs(plane_height(points, normal, distance)) < thr)), 0)
+    inliers = jnp.sum(ok & (jnp.abs(plane_height(points, normal, distance)) < thr))
+    inliers = jnp.where(any_usable, inliers, 0)
     fraction = inliers / jnp.maximum(n_valid, 1)
 
     reason = jnp.select(
