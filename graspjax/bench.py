@@ -17,7 +17,7 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import Config, SceneConfig
 from graspjax.perception import align_tool, detect_grasp
-from graspjax.perception.workspace import block_factor
+from graspjax.perception.workspace import block_factors
 
 
 def device_info() -> dict:
@@ -130,7 +130,8 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     depth = jnp.asarray(scenes[np.arange(batch) % unique])
     cameras = stack_cameras([camera] * batch)
     results = {"batch": batch, "width": width, "height": height, "unique_scenes": unique,
-               "repeats": repeats, "working_width": width // block_factor(width, scene),
+               "repeats": repeats, "detect_width": width // block_factors(width, scene)[0],
+               "support_width": width // block_factors(width, scene)[1],
                **device_info()}
 
     progress(f"compiling the batch of {batch} ...")
@@ -164,7 +165,8 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
 def format_detect(r: dict) -> str:
     """A short summary of a `detect_benchmark` record."""
     return (f"device: {r['device']} ({r['platform']}), jax {r['jax']}\n"
-            f"real-looking images {r['width']}x{r['height']} (working width {r['working_width']}), "
+            f"real-looking images {r['width']}x{r['height']} (detection width {r['detect_width']}, "
+            f"support width {r['support_width']}), "
             f"{r['unique_scenes']} distinct scenes ({100 * r['grasp_found_fraction']:.0f}% with a "
             f"grasp)\n"
             f"single image: {r['single_latency_ms']:.1f} ms median, "

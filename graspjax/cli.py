@@ -373,7 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--mask", metavar="FILE", help="PNG or .npy of the image's size, nonzero = workspace")
     g.add_argument("--range", metavar="MIN,MAX", help="depth range in metres (default 0,10)")
     p.add_argument("--downsample", type=int,
-                   help="block factor to the working resolution (default: nearest to width / 320)")
+                   help="block factor of the detection resolution (default: nearest to width / 640)")
     p.add_argument("--out", help="results table: FILE.csv, or a directory for results.csv and "
                                  "results.json")
     p.add_argument("--json", help="write the record (a list for several images) to this JSON file")

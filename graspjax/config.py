@@ -366,7 +366,7 @@ class Config:
 
 @_static
 class SceneConfig:
-    """Real depth images (`graspjax detect`): working view, robust target, support plane.
+    """Real depth images (`graspjax detect`): working views, support plane, robust targets.
 
     Not part of `Config`: a simulated camera looks straight down at a clean
     table. `graspjax detect` addresses these fields as `--set scene.NAME=VALUE`.
@@ -374,11 +374,13 @@ class SceneConfig:
     detector's `surface_tolerance`.
     """
 
-    working_width: int = 320  # block-median downsampling by the whole factor nearest to width / this
-    downsample: int = 0  # block factor to the working resolution (0: from working_width)
+    detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
+    downsample: int = 0  # block factor of the detection resolution (0: from detect_width)
+    working_width: int = 160  # support plane and targets: block median to about this width
+    crop_px: int = 192  # side of the square detection window around each target (detection pixels)
     min_depth: float = 0.0  # nearer pixels are invalid (m); `--range MIN,MAX`
     max_depth: float = 10.0  # farther pixels are invalid (m); also catches a wrong depth scale
-    fill_gap_px: int = 2  # bridge holes up to this many working pixels wide inside a surface (0: off)
+    fill_gap_px: int = 2  # bridge holes up to this many detection pixels wide inside a surface (0: off)
     support: bool = True  # find the support plane (False: the paper's rule, target = nearest point)
     plane_hypotheses: int = 128  # random triangles of valid pixels scored as the support plane
     plane_pixels: int = 4800  # the support plane is found on a regular grid of about this many pixels
@@ -395,8 +397,10 @@ class SceneConfig:
     seed: int = 0  # PRNG seed of the plane hypotheses (the same draws for every image)
 
     def __post_init__(self):
-        _in_range(self, "working_width", 16, 1280)
+        _in_range(self, "detect_width", 16, 4096)
+        _in_range(self, "working_width", 16, 4096)
         _in_range(self, "downsample", 0, 64)
+        _in_range(self, "crop_px", 32, 1024)
         _require(0 <= self.min_depth < self.max_depth,
                  "SceneConfig needs 0 <= min_depth < max_depth")
         _in_range(self, "fill_gap_px", 0, 16)

@@ -28,7 +28,7 @@ from graspjax.io import InputError, check_matrix, load_intrinsics, load_mask, re
 from graspjax.perception import AlignReason, GraspReason
 from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.perception.scene import detect_scene, scene_views
-from graspjax.perception.workspace import block_factor
+from graspjax.perception.workspace import block_factors
 
 #: `detect_scene` over a batch: depth (B, H, W), workspace (H, W), a `Camera` whose fx, fy, cx,
 #: cy are (B,) arrays (`stack_cameras`), `Config`, `SceneConfig`. One compile per batch size,
@@ -204,9 +204,9 @@ def prepare(images: Sequence[str], *, depth_scale: float = 0.001, intrinsics: di
     paths = tuple(Path(p) for p in images)
     first, first_k = read_depth(paths[0], depth_scale)
     height, width = first.shape
-    factor = block_factor(width, scene)
-    if min(width, height) // factor < 8:
-        raise InputError(f"downsampling {width}x{height} by {factor} leaves less than 8x8 pixels")
+    fine, coarse = block_factors(width, scene)
+    if min(width, height) // coarse < 8:
+        raise InputError(f"downsampling {width}x{height} by {coarse} leaves less than 8x8 pixels")
     source = intrinsics_from(**(intrinsics or {}), size=(width, height))
     workspace = np.ones((height, width), bool)
     box = parse_roi(roi, width, height) if roi is not None else None
@@ -254,14 +254,16 @@ def record(path: Path, r, camera: Camera, inputs: Inputs, load_s: float, compute
     target_ok = int(r.target_reason) == TargetReason.FOUND
     reason = (GraspReason(int(g.reason)).name if target_ok
               else TargetReason(int(r.target_reason)).name)
-    factor = block_factor(inputs.width, inputs.scene)
+    fine, coarse = block_factors(inputs.width, inputs.scene)
     return {
         "image": str(path),
         "found": bool(r.found),
         "reason": reason,
         "size": [inputs.width, inputs.height],
-        "working_resolution": [inputs.width // factor, inputs.height // factor],
-        "downsample": factor,
+        "working_resolution": [inputs.width // fine, inputs.height // fine],
+        "downsample": fine,
+        "support_resolution": [inputs.width // coarse, inputs.height // coarse],
+        "window": inputs.scene.crop_px,
         "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
                    "source": inputs.intrinsics.source},
         "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
@@ -273,7 +275,7 @@ def record(path: Path, r, camera: Camera, inputs: Inputs, load_s: float, compute
                           "inlier_fraction": s.fraction},
         "view": "virtual" if bool(r.virtual) else "camera",
         "view_rotation": r.rotation,
-        "view_camera": {"fx": r.view.fx, "fy": r.view.fy, "cx": r.view.cx, "cy": r.view.cy},
+        "window_camera": {"fx": r.view.fx, "fy": r.view.fy, "cx": r.view.cx, "cy": r.view.cy},
         "target": {"reason": TargetReason(int(r.target_reason)).name,
                    "attempts": int(r.attempts),
                    "attempt_reasons": [_name(x, GraspReason) for x in r.attempt_reasons if x >= 0],

@@ -5,8 +5,8 @@ surface cluster with its straight edges, every antipodal T-beam placement
 and the chosen grasp; the alignment triangles with the winning plane's
 inliers. `scene_figure`: a real image through `detect_scene`: the image
 with its workspace, support plane and the grasp drawn back; the height
-above the support in the detection view; then the same two detection and
-alignment panels in that (possibly virtual) view.
+above the support in the (possibly virtual) view the target is chosen in;
+then the same two detection and alignment panels in the target's window.
 """
 
 from __future__ import annotations
@@ -222,20 +222,19 @@ def scene_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, views
     if result.target_reason == TargetReason.FOUND:
         ax.plot(*result.target, "c+", ms=14, mew=2)
 
-    # (c, d) Detection and alignment on the reported target, zoomed on it.
-    seed = np.zeros(views.depth.shape, bool)
+    # (c, d) Detection and alignment in the reported target's window.
+    seed = np.zeros(views.window.shape, bool)
     if result.target_reason == TargetReason.FOUND:
-        seed[result.target[1], result.target[0]] = True
-    _, cluster, z_s, contour = jax.jit(surface_contour)(views.depth, config.detect, seed)
-    inliers = np.asarray(jax.jit(plane_inliers)(views.depth, views.camera, result.alignment,
-                                                config.align))
+        seed[result.grasp.nearest[1], result.grasp.nearest[0]] = True
+    _, cluster, z_s, contour = jax.jit(surface_contour)(views.window, config.detect, seed)
+    inliers = np.asarray(jax.jit(plane_inliers)(views.window, views.window_camera,
+                                                result.alignment, config.align))
     cluster, z_s = np.asarray(cluster), float(z_s)
     for ax in axes[2:]:
-        _frame(ax, views.camera)
-    _zoom(axes[2:], views.camera, cluster | inliers, z_s, config)
-    _draw_detection(axes[2], views.depth, views.camera, result.grasp, cluster, contour, z_s,
-                    config)
-    axes[2].set_title(f"{view_name}, target {int(result.attempts)} of {scene.max_targets}\n"
-                      f"{axes[2].get_title()}", fontsize=9)
-    _draw_alignment(axes[3], views.depth, result.alignment, inliers)
+        _frame(ax, views.window_camera)
+    _draw_detection(axes[2], views.window, views.window_camera, result.grasp, cluster, contour,
+                    z_s, config)
+    axes[2].set_title(f"{view_name} window, target {int(result.attempts)} of "
+                      f"{scene.max_targets}\n{axes[2].get_title()}", fontsize=9)
+    _draw_alignment(axes[3], views.window, result.alignment, inliers)
     return _png(fig, title)

@@ -58,7 +58,8 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     assert abs(grasp["width"] - 0.05) < 0.005
     # The box top centre (0.01, 0.02, 0.05) in the world is (0.01, -0.02, 0.55) in the camera.
     np.testing.assert_allclose(grasp["position"], [0.01, -0.02, 0.55], atol=0.005)
-    assert printed["working_resolution"] == [320, 240] and printed["downsample"] == 2
+    assert printed["working_resolution"] == [640, 480] and printed["downsample"] == 1
+    assert printed["support_resolution"] == [160, 120] and printed["window"] == 192
     # Straight down at the table: no virtual view is needed.
     assert printed["view"] == "camera" and printed["support_plane"]["tilt_deg"] < 0.1
     np.testing.assert_allclose(printed["support_plane"]["normal"], [0, 0, -1], atol=1e-3)
@@ -74,7 +75,7 @@ def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
     assert main(args) == 0
     printed = json.loads(capsys.readouterr().out)
     assert not printed["found"] and printed["reason"] == "TOO_WIDE"  # 5 cm does not fit 4 cm
-    assert printed["camera"]["fx"] == pytest.approx(cam.fx)
+    assert printed["camera"]["fx"] == pytest.approx(cam.fx) and printed["downsample"] == 2
 
 
 def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):

@@ -18,7 +18,7 @@ from graspjax.perception import GraspReason
 from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.realdepth import detect_images, stack_cameras
 
-PIXEL = 0.73 / 262.5  # a working pixel (half resolution) on the table, metres
+PIXEL = 0.73 / 525.0  # a detection pixel (full resolution) on the table, metres
 
 
 def detect(scenes):

@@ -13,8 +13,9 @@ minus the pixels *behind* it (farther from the camera by more than the
 threshold). Objects stand on their support, so nothing lies behind it,
 while the top face of a large object has the whole table behind it.
 Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis
-(walls) are not candidates. The best plane is refit by least squares to its
-inliers `plane_refits` times. Everything works on a regular grid of about
+(walls) are not candidates. The best plane is refit by least squares to the
+pixels within half the threshold of it, `plane_refits` times (the half keeps
+out the feet of walls and objects, which pull on a plane). Everything works on a regular grid of about
 `plane_pixels` pixels of the image (every n-th row and column).
 """
 
@@ -100,8 +101,8 @@ def support_plane(depth: jax.Array, camera: Camera, config: SceneConfig = SceneC
     score = jnp.sum(jnp.where(ok, votes, 0), -1)
     best = jnp.argmax(jnp.where(usable, score, jnp.iinfo(jnp.int32).min))
     normal, distance = normals[best], distances[best]
-    for _ in range(config.plane_refits):
-        inlier = ok & (jnp.abs(plane_height(points, normal, distance)) < thr)
+    for _ in range(config.plane_refits):  # within half the threshold: the points nearest the plane
+        inlier = ok & (jnp.abs(plane_height(points, normal, distance)) < thr / 2)
         normal, distance = _least_squares(points, inlier.astype(jnp.float32))
     any_usable = jnp.any(usable)
     inliers = jnp.sum(ok & (jnp.abs(plane_height(points, normal, distance)) < thr))

@@ -1,11 +1,12 @@
-"""From a full-resolution real depth image to the working view, for one image.
+"""From a full-resolution real depth image to the working views, for one image.
 
 Everything outside the workspace (an ROI or mask) and outside the depth
 range `[min_depth, max_depth]` becomes invalid before anything else looks
-at the image; holes up to `fill_gap_px` working pixels wide inside a
+at the image; holes up to `fill_gap_px` detection pixels wide inside a
 surface are bridged, so that a dropout line does not cut a face in two or
-notch its contour; the image is reduced by block median to the working
-resolution (as the paper downsamples its Kinect).
+notch its contour; the image is reduced by block median (as the paper
+downsamples its Kinect) twice: to the detection resolution, and to a
+coarser one for the support plane and the choice of targets.
 """
 
 from __future__ import annotations
@@ -20,10 +21,15 @@ from graspjax.config import SceneConfig
 from graspjax.perception.cluster import valid_mask
 
 
-def block_factor(width: int, config: SceneConfig) -> int:
-    """The static block factor to the working resolution for images `width` pixels wide:
-    `downsample` if set, else the whole factor nearest to `width / working_width`."""
-    return config.downsample or max(1, round(width / config.working_width))
+def block_factors(width: int, config: SceneConfig) -> tuple[int, int]:
+    """Static block factors (detection, support) for images `width` pixels wide.
+
+    Detection: `downsample` if set, else the whole factor nearest to
+    `width / detect_width`; support plane and targets: the whole factor
+    nearest to `width / working_width`, never finer than the detection's.
+    """
+    fine = config.downsample or max(1, round(width / config.detect_width))
+    return fine, max(fine, round(width / config.working_width))
 
 
 @functools.cache
@@ -105,23 +111,27 @@ def fill_holes(depth: jax.Array, workspace: jax.Array, gap: int, tolerance: floa
     return filled
 
 
-def working_view(depth: jax.Array, workspace: jax.Array, camera: Camera, config: SceneConfig,
-                 tolerance: float) -> tuple[jax.Array, Camera]:
-    """The working depth `(H // f, W // f)` and its camera, from a full-resolution image.
-
-    depth: metric depth (H, W) float32, 0 or nan = invalid; workspace: (H, W)
-    bool, True where the search may look; camera: intrinsics of the full
-    image. `tolerance`: the depth band of a surface (m), for hole filling.
-    """
-    height, width = depth.shape
-    factor = block_factor(width, config)
-    inside = workspace & valid_mask(depth) & (depth >= config.min_depth) & (depth <= config.max_depth)
-    # Bridging at full resolution first is the same as in working pixels (a working pixel is
-    # valid when any of its block is) and far cheaper for the compiler than after the median.
-    filled = fill_holes(jnp.where(inside, depth, 0.0), workspace, config.fill_gap_px * factor,
-                        tolerance)
-    work = block_median(filled, factor)
-    h, w = work.shape
-    # Cropping to whole blocks keeps the optics; each working pixel spans `factor` pixels.
+def _blocks(image: jax.Array, camera: Camera, factor: int) -> tuple[jax.Array, Camera]:
+    """Block median `(H // f, W // f)` and its camera; each block spans `factor` pixels."""
+    small = block_median(image, factor)
+    h, w = small.shape
     cropped = Camera(w * factor, h * factor, camera.fx, camera.fy, camera.cx, camera.cy)
-    return work, cropped.scaled(w, h)
+    return small, cropped.scaled(w, h)  # cropping to whole blocks keeps the optics
+
+
+def working_views(depth: jax.Array, workspace: jax.Array, camera: Camera, config: SceneConfig,
+                  tolerance: float) -> tuple[jax.Array, Camera, jax.Array, Camera]:
+    """The detection depth and camera, then the coarser support depth and camera.
+
+    depth: metric depth (H, W) float32 at full resolution, 0 or nan = invalid;
+    workspace: (H, W) bool, True where the search may look; camera:
+    intrinsics of the full image. `tolerance`: the depth band of a surface
+    (m), for hole filling. Factors from `block_factors`.
+    """
+    fine, coarse = block_factors(depth.shape[1], config)
+    inside = workspace & valid_mask(depth) & (depth >= config.min_depth) & (depth <= config.max_depth)
+    # Bridging at full resolution first is the same as in detection pixels (a block is valid
+    # when any of its pixels is) and far cheaper for the compiler than after the median.
+    filled = fill_holes(jnp.where(inside, depth, 0.0), workspace, config.fill_gap_px * fine,
+                        tolerance)
+    return (*_blocks(filled, camera, fine), *_blocks(filled, camera, coarse))
