@@ -376,7 +376,7 @@ class SceneConfig:
 
     detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
     downsample: int = 0  # block factor of the detection resolution (0: from detect_width)
-    working_width: int = 160  # support plane and targets: block median to about this width
+    working_width: int = 160  # support plane and targets: block median to about this width (paper)
     crop_px: int = 192  # side of the square detection window around each target (detection pixels)
     min_depth: float = 0.0  # nearer pixels are invalid (m); `--range MIN,MAX`
     max_depth: float = 10.0  # farther pixels are invalid (m); also catches a wrong depth scale
@@ -385,13 +385,13 @@ class SceneConfig:
     plane_hypotheses: int = 128  # random triangles of valid pixels scored as the support plane
     plane_pixels: int = 4800  # the support plane is found on a regular grid of about this many pixels
     plane_threshold: float = 0.005  # max distance of a support-plane inlier from the plane (m)
-    plane_refits: int = 2  # least-squares refits of the best plane to its inliers
+    plane_refits: int = 2  # least-squares refits of the best plane to pixels within half the threshold
     max_plane_tilt_deg: float = 45.0  # the support plane faces the camera within this angle
     min_plane_fraction: float = 0.1  # the support plane holds at least this share of valid pixels
     min_height: float = 0.01  # a target stands at least this far above the support plane (m)
     max_tilt_deg: float = 3.0  # a support plane tilted more than this is seen in a virtual view
     max_targets: int = 3  # surfaces tried in order of height until one holds a grasp (paper: 1)
-    target_window_px: int = 5  # side of the square window of the speck test (working pixels, odd)
+    target_window_px: int = 5  # side of the square window of the speck test (support pixels, odd)
     min_target_pixels: int = 9  # a target pixel needs this many pixels at its depth in the window
     max_target_slope_deg: float = 45.0  # a target's surface faces the view within this angle
     seed: int = 0  # PRNG seed of the plane hypotheses (the same draws for every image)
