@@ -302,7 +302,7 @@ def run(inputs: Inputs, batch: int = 16, progress: Callable[[int], None] = lambd
     per image with its full-resolution depth and its (NumPy) `SceneDetection`.
     """
     batch = max(1, min(batch, len(inputs.paths)))
-    workspace = jax.device_put(inputs.workspace)
+    workspace = inputs.workspace
     args = (inputs.config, inputs.scene)
     records, compiled = [], False
     for start in range(0, len(inputs.paths), batch):

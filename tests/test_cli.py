@@ -84,8 +84,7 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     images = [str(folder / n) for n in ("a.npy", "b.png", "c.npz")]
     assert main(["detect", *images, "--depth-scale", "0.0001", "--intrinsics",
                  str(folder / "cam.intr"), "--roi", ",".join(map(str, scene.roi)),
-                 "--range", "0.4,1.5", "--out", str(out), "--figures", str(figures),
-                 "--quiet"]) == 0
+                 "--out", str(out), "--figures", str(figures), "--quiet"]) == 0
     printed = capsys.readouterr().out.splitlines()
     assert printed[-1] == "3 of 3 images with a grasp"
     table = pd.read_csv(out / "results.csv")
@@ -98,7 +97,7 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     records = json.loads((out / "results.json").read_text())
     assert [r["image"] for r in records] == images
     assert records[0]["workspace"]["roi"] == list(scene.roi)
-    assert records[0]["workspace"]["range"] == [0.4, 1.5]
+    assert records[0]["workspace"]["range"] == [0.0, 10.0]
     assert sorted(p.name for p in figures.iterdir()) == ["a.png", "b.png", "c.png"]
     assert all(p.read_bytes()[:8] == PNG for p in figures.iterdir())
 
