@@ -67,7 +67,8 @@ def cmd_detect(args) -> int:
     from graspjax import realdepth
     from graspjax.io import write_atomic
 
-    many = len(args.images) > 1
+    images = realdepth.expand_images(args.images)
+    many = len(images) > 1
     if args.figure and many:
         raise UsageError("--figure takes one image; give --figures DIR for several")
     if args.batch is not None and args.batch < 1:
@@ -81,7 +82,7 @@ def cmd_detect(args) -> int:
     realdepth.check_output(args.figures, "--figures", directory=True)
     intrinsics = {"fx": args.fx, "fy": args.fy, "cx": args.cx, "cy": args.cy, "k": args.K,
                   "intrinsics": args.intrinsics, "fov_x": args.fov_x, "fov_y": args.fov_y}
-    inputs = realdepth.prepare(args.images, depth_scale=args.depth_scale, intrinsics=intrinsics,
+    inputs = realdepth.prepare(images, depth_scale=args.depth_scale, intrinsics=intrinsics,
                                roi=args.roi, mask=args.mask, depth_range=args.range,
                                downsample=args.downsample, overrides=args.set or [])
 
@@ -353,7 +354,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("detect", help="detect grasps on depth images (real cameras welcome)")
     p.add_argument("images", nargs="+", metavar="IMAGE",
                    help="depth images of one size: .npy (H, W) or (H, W, 1) in metres, .npz with "
-                        "'depth' (m) and optionally 'K', or a 16-bit .png (see --depth-scale)")
+                        "'depth' (m) and optionally 'K', or a 16-bit .png (see --depth-scale); "
+                        "a directory stands for its .npy, .npz and .png files")
     p.add_argument("--depth-scale", type=float, default=0.001,
                    help="metres per unit of a 16-bit .png (default 0.001: millimetres)")
     g = p.add_argument_group("intrinsics (full-resolution pixels; one way at most; default: "

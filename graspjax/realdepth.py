@@ -44,6 +44,12 @@ class Intrinsics:
     values: tuple[float, float, float, float] | None  # (fx, fy, cx, cy), None: per image
     source: str  # how the user gave them, for the records
 
+    def describe(self, file_k: np.ndarray | None) -> str:
+        """Where one image's intrinsics come from."""
+        if self.values is not None:
+            return self.source
+        return "the file's K" if file_k is not None else "the Kinect's 57 x 43 degrees (default)"
+
     def camera(self, width: int, height: int, file_k: np.ndarray | None) -> Camera:
         if self.values is not None:
             return Camera(width, height, *map(float, self.values))
@@ -161,12 +167,28 @@ def intrinsics_from(fx=None, fy=None, cx=None, cy=None, k=None, intrinsics=None,
         except ValueError as exc:
             raise InputError(str(exc)) from None
         return Intrinsics((cam.fx, cam.fy, cam.cx, cam.cy), "--fov-x/--fov-y")
-    return Intrinsics(None, "each .npz file's K, else the Kinect's 57 x 43 degrees")
+    return Intrinsics(None, "per image")
 
 
-def _image_size(path: Path, depth_scale: float) -> tuple[int, int]:
-    depth, _ = read_depth(path, depth_scale)
-    return depth.shape[1], depth.shape[0]
+DEPTH_SUFFIXES = (".npy", ".npz", ".png")
+
+
+def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
+    """The image paths, a directory standing for its depth files (.npy, .npz, .png), sorted."""
+    paths = []
+    for image in images:
+        path = Path(image)
+        if path.is_dir():
+            inside = sorted(p for p in path.iterdir()
+                            if p.is_file() and p.suffix.lower() in DEPTH_SUFFIXES)
+            if not inside:
+                raise InputError(f"directory {path} holds no .npy, .npz or .png files")
+            paths += inside
+        else:
+            paths.append(path)
+    if not paths:
+        raise InputError("no depth images given")
+    return tuple(paths)
 
 
 def _check_range(depth: np.ndarray, path: Path, scene: SceneConfig, depth_scale: float) -> None:
@@ -180,7 +202,7 @@ def _check_range(depth: np.ndarray, path: Path, scene: SceneConfig, depth_scale:
                          "or --range)")
 
 
-def prepare(images: Sequence[str], *, depth_scale: float = 0.001, intrinsics: dict | None = None,
+def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001, intrinsics: dict | None = None,
             roi: str | None = None, mask: str | None = None, depth_range: str | None = None,
             downsample: int | None = None, overrides: Sequence[str] = ()) -> Inputs:
     """Read and check every input; nothing is computed or written yet.
@@ -188,8 +210,7 @@ def prepare(images: Sequence[str], *, depth_scale: float = 0.001, intrinsics: di
     intrinsics: keyword arguments of `intrinsics_from` (fx, fy, cx, cy, k,
     intrinsics, fov_x, fov_y). Every image is read once here, to check it.
     """
-    if not images:
-        raise InputError("no depth images given")
+    paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"--depth-scale must be > 0, got {depth_scale!r}")
     config, scene = split_overrides(overrides)
@@ -201,7 +222,6 @@ def prepare(images: Sequence[str], *, depth_scale: float = 0.001, intrinsics: di
             raise InputError(f"--downsample must be >= 1, got {downsample}")
         scene = dataclasses.replace(scene, downsample=downsample)
 
-    paths = tuple(Path(p) for p in images)
     first, first_k = read_depth(paths[0], depth_scale)
     height, width = first.shape
     fine, coarse = block_factors(width, scene)
@@ -248,7 +268,8 @@ def _name(value: int, enum) -> str:
     return enum(int(value)).name if value >= 0 else ""
 
 
-def record(path: Path, r, camera: Camera, inputs: Inputs, load_s: float, compute_s: float) -> dict:
+def record(path: Path, r, camera: Camera, source: str, inputs: Inputs, load_s: float,
+           compute_s: float) -> dict:
     """The JSON record of one image from its (single, NumPy) `SceneDetection` `r`."""
     g, a, s = r.grasp, r.alignment, r.support
     target_ok = int(r.target_reason) == TargetReason.FOUND
@@ -265,7 +286,7 @@ def record(path: Path, r, camera: Camera, inputs: Inputs, load_s: float, compute
         "support_resolution": [inputs.width // coarse, inputs.height // coarse],
         "window": inputs.scene.crop_px,
         "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
-                   "source": inputs.intrinsics.source},
+                   "source": source},
         "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
                       "range": [inputs.scene.min_depth, inputs.scene.max_depth],
                       "pixels": int(inputs.workspace.sum())},
@@ -307,12 +328,13 @@ def run(inputs: Inputs, batch: int = 16, progress: Callable[[int], None] = lambd
     records, compiled = [], False
     for start in range(0, len(inputs.paths), batch):
         chunk = inputs.paths[start:start + batch]
-        depths, cameras, loads = [], [], []
+        depths, cameras, sources, loads = [], [], [], []
         for path in chunk:
             t0 = time.perf_counter()
             depth, file_k = read_depth(path, inputs.depth_scale)
             depths.append(depth)
             cameras.append(inputs.intrinsics.camera(inputs.width, inputs.height, file_k))
+            sources.append(inputs.intrinsics.describe(file_k))
             loads.append(time.perf_counter() - t0)
         pad = batch - len(chunk)  # one compiled size: repeat the last image
         stacked = np.stack(depths + [depths[-1]] * pad)
@@ -327,7 +349,8 @@ def run(inputs: Inputs, batch: int = 16, progress: Callable[[int], None] = lambd
         per_image = (time.perf_counter() - t0) / batch
         for i, path in enumerate(chunk):
             single = jax.tree.map(lambda x, i=i: x[i], result)
-            records.append(record(path, single, cameras[i], inputs, loads[i], per_image))
+            records.append(record(path, single, cameras[i], sources[i], inputs, loads[i],
+                                  per_image))
             if each is not None:
                 each(start + i, depths[i], cameras[i], single)
         progress(len(chunk))

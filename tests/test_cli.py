@@ -81,8 +81,8 @@ def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
 def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     folder, scene = real_folder
     out, figures = tmp_path / "out", tmp_path / "figures"
-    images = [str(folder / n) for n in ("a.npy", "b.png", "c.npz")]
-    assert main(["detect", *images, "--depth-scale", "0.0001", "--intrinsics",
+    images = [str(folder / n) for n in ("a.npy", "b.png", "c.npz")]  # the folder's depth files
+    assert main(["detect", str(folder), "--depth-scale", "0.0001", "--intrinsics",
                  str(folder / "cam.intr"), "--roi", ",".join(map(str, scene.roi)),
                  "--out", str(out), "--figures", str(figures), "--quiet"]) == 0
     printed = capsys.readouterr().out.splitlines()
@@ -106,7 +106,8 @@ def test_npz_intrinsics_are_used_when_none_are_given(real_folder, capsys):
     folder, scene = real_folder
     assert main(["detect", str(folder / "c.npz"), "--roi", ",".join(map(str, scene.roi))]) == 0
     printed = json.loads(capsys.readouterr().out)
-    assert printed["camera"]["fx"] == 525.0 and printed["found"]
+    assert printed["camera"]["fx"] == 525.0 and printed["camera"]["source"] == "the file's K"
+    assert printed["found"]
     np.testing.assert_allclose(printed["grasp"]["position"], scene.to_camera(scene.top),
                                atol=0.004)
 
