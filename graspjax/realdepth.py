@@ -1,11 +1,12 @@
 """`graspjax detect`: the perception kernels on real depth images from disk.
 
 `prepare` reads and checks everything a user can get wrong (image formats
-and sizes, intrinsics, workspace, depth range, output paths) before any
-work is done; `run` pushes the images through `detect_scene`, batched with
-`jax.vmap` in chunks of one compiled size, and returns one record per
-image; `write_outputs` writes the CSV / JSON files atomically. User mistakes
-raise `InputError` (or the CLI's `UsageError`) with a one-line message.
+and sizes, intrinsics, workspace, depth range; `check_output` the output
+paths) before any work is done; `run` pushes the images through
+`detect_scene`, batched with `jax.vmap` in chunks of one compiled size, and
+returns one JSON record per image; `csv_bytes` makes the results table, and
+`figure` the debug figure of one image. The CLI (`graspjax detect`) writes
+them atomically. User mistakes raise `InputError` with a one-line message.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class Intrinsics:
         return "the file's K" if file_k is not None else "the Kinect's 57 x 43 degrees (default)"
 
     def camera(self, width: int, height: int, file_k: np.ndarray | None) -> Camera:
+        """Full-resolution intrinsics of one `width` x `height` image with its own `file_k`."""
         if self.values is not None:
             return Camera(width, height, *map(float, self.values))
         if file_k is not None:
@@ -264,10 +266,6 @@ def stack_cameras(cameras: Sequence[Camera]) -> Camera:
                                          for f in ("fx", "fy", "cx", "cy")))
 
 
-def _name(value: int, enum) -> str:
-    return enum(int(value)).name if value >= 0 else ""
-
-
 def record(path: Path, r, camera: Camera, source: str, inputs: Inputs, load_s: float,
            compute_s: float) -> dict:
     """The JSON record of one image from its (single, NumPy) `SceneDetection` `r`."""
@@ -299,7 +297,7 @@ def record(path: Path, r, camera: Camera, source: str, inputs: Inputs, load_s: f
         "window_camera": {"fx": r.view.fx, "fy": r.view.fy, "cx": r.view.cx, "cy": r.view.cy},
         "target": {"reason": TargetReason(int(r.target_reason)).name,
                    "attempts": int(r.attempts),
-                   "attempt_reasons": [_name(x, GraspReason) for x in r.attempt_reasons if x >= 0],
+                   "attempt_reasons": [GraspReason(int(x)).name for x in r.attempt_reasons if x >= 0],
                    "pixel": r.target_pixel, "point": r.target_point, "height": r.target_height},
         "grasp": {"found": bool(r.found), "reason": GraspReason(int(g.reason)).name,
                   "position": r.position, "closing_axis": r.closing_axis,

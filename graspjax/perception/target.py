@@ -5,7 +5,7 @@ point is often an outlier pixel or a speck of a few, and on a tilted table
 it is the table's near edge. Here a pixel may be the target only if
 
 - it stands at least `min_height` above the support plane (when one was
-  found), and
+  found);
 - at least `min_target_pixels` valid pixels of its `target_window_px`
   square window (itself included) lie within the surface tolerance of its
   depth: a speck smaller than that never qualifies; and
