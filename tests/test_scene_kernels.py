@@ -8,7 +8,7 @@ import pytest
 from real_scenes import tilted_pose
 
 from graspjax import Camera
-from graspjax.config import SceneConfig
+from graspjax.config import ConfigError, SceneConfig
 from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.perception.support import plane_height, support_plane
 from graspjax.perception.target import (
@@ -206,3 +206,16 @@ def test_the_papers_nearest_point_on_a_tilted_table_is_its_near_edge(support):
     top = WORK.project(jnp.asarray(rotation.T @ (np.array([0.02, 0.15, 0.04]) - eye)))
     assert np.linalg.norm(np.asarray(highest) - np.asarray(top)) < 14  # on the 4 x 7 cm top
     assert float(height[highest[1], highest[0]]) == pytest.approx(0.04, abs=1e-3)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(target_window_px=4), "target_window_px must be odd"),
+    (dict(min_target_pixels=30), "min_target_pixels must be <= target_window_px"),
+    (dict(min_depth=2.0, max_depth=1.0), "min_depth < max_depth"),
+    (dict(crop_px=8), "SceneConfig.crop_px"),
+    (dict(max_targets=0), "SceneConfig.max_targets"),
+])
+def test_scene_config_refuses_bad_values(kwargs, match):
+    with pytest.raises(ConfigError, match=match) as info:
+        SceneConfig(**kwargs)
+    assert "\n" not in str(info.value)
