@@ -49,110 +49,94 @@ def _check_writable(path: str | None) -> None:
         raise InputError(f"cannot write {path}: directory {parent} is not writable")
 
 
-def _camera_from_args(args, width: int, height: int):
-    from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
-
-    explicit = [args.fx, args.fy, args.cx, args.cy]
-    if any(v is not None for v in explicit):
-        if args.fov_x is not None or args.fov_y is not None:
-            raise UsageError("give either --fov-x/--fov-y or --fx/--fy/--cx/--cy, not both")
-        if args.fx is None:
-            raise UsageError("--fy, --cx and --cy need --fx")
-        if args.fx <= 0 or (args.fy is not None and args.fy <= 0):
-            raise UsageError("focal lengths must be > 0")
-        return Camera(width, height, float(args.fx), float(args.fy or args.fx),
-                      (width - 1) / 2 if args.cx is None else float(args.cx),
-                      (height - 1) / 2 if args.cy is None else float(args.cy))
-    fov_x = KINECT_FOV_X_DEG if args.fov_x is None else args.fov_x
-    fov_y = args.fov_y if args.fov_y is not None else (
-        KINECT_FOV_Y_DEG if args.fov_x is None else None)
-    try:
-        return Camera.from_fov(width, height, fov_x, fov_y)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-
-
-def _grasp_record(grasp) -> dict:
-    from graspjax.perception import GraspReason
-
-    return {
-        "found": bool(grasp.found),
-        "reason": GraspReason(int(grasp.reason)).name,
-        "position": grasp.position,
-        "closing_axis": grasp.closing_axis,
-        "approach": grasp.approach,
-        "width": grasp.width,
-        "depth": grasp.depth,
-        "surface_depth": grasp.surface_depth,
-        "pixel": grasp.pixel,
-        "nearest_pixel": grasp.nearest,
-        "surface_pixels": grasp.surface_pixels,
-        "valid_candidates": int(grasp.candidates.valid.sum()),
-    }
-
-
-def _alignment_record(alignment) -> dict:
-    from graspjax.perception import AlignReason
-
-    return {
-        "found": bool(alignment.found),
-        "reason": AlignReason(int(alignment.reason)).name,
-        "normal": alignment.normal,
-        "point": alignment.point,
-        "inliers": alignment.inliers,
-        "best": alignment.best,
-        "counts": alignment.counts,
-    }
+def _detect_line(rec: dict) -> str:
+    """One line of the table `graspjax detect` prints for several images."""
+    text = f"{rec['image']}: {rec['reason']}"
+    if rec["found"]:
+        x, y, z = rec["grasp"]["position"]
+        text += (f", width {100 * rec['grasp']['width']:.1f} cm at ({x:+.3f}, {y:+.3f}, {z:.3f}) m"
+                 f", pixel ({rec['grasp']['pixel'][0]:.0f}, {rec['grasp']['pixel'][1]:.0f})")
+    support = rec["support_plane"]
+    if support["found"]:
+        text += f"; {rec['view']} view, support tilt {support['tilt_deg']:.1f} deg"
+    return text
 
 
 def cmd_detect(args) -> int:
-    """Run grasp detection and alignment on one depth image from disk."""
-    _check_writable(args.json)
-    _check_writable(args.figure)
-    from graspjax.config import Config, override
-    from graspjax.io import downsample, load_depth
-
-    config = override(Config(), args.set or [])
-    depth = load_depth(args.depth)
-    full_h, full_w = depth.shape
-    camera = _camera_from_args(args, full_w, full_h)
-    factor = args.downsample if args.downsample is not None else max(1, full_w // 160)
-    if factor < 1 or factor > min(full_w, full_h) // 8:
-        raise UsageError(f"--downsample {factor} leaves less than 8x8 pixels")
-    depth = downsample(depth, factor)
-    if factor > 1:
-        camera = camera.scaled(depth.shape[1], depth.shape[0])
-    if not (depth > 0).any():
-        raise InputError(f"{args.depth}: no valid depth pixels after downsampling")
-
-    import jax
-
-    from graspjax.perception import align_tool, detect_grasp
-
-    grasp = jax.jit(detect_grasp)(depth, camera, config.detect, config.gripper)
-    alignment = jax.jit(align_tool)(depth, camera, config.align)
-    record = _jsonable({
-        "image": str(args.depth),
-        "working_resolution": [camera.width, camera.height],
-        "downsample": factor,
-        "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy},
-        "grasp": _grasp_record(grasp),
-        "alignment": _alignment_record(alignment),
-    })
-    text = json.dumps(record, indent=2)
-    figure = None
-    if args.figure:
-        from graspjax.viz import debug_figure
-
-        figure = debug_figure(depth, camera, grasp, alignment, config, title=str(args.depth))
+    """Detect grasps on depth images from disk: one JSON record each, or a table of many."""
+    from graspjax import realdepth
     from graspjax.io import write_atomic
 
+    images = realdepth.expand_images(args.images)
+    many = len(images) > 1
+    if args.figure and many:
+        raise UsageError("--figure takes one image; give --figures DIR for several")
+    if args.batch is not None and args.batch < 1:
+        raise UsageError(f"--batch must be >= 1, got {args.batch}")
+    out_csv = args.out if args.out and args.out.lower().endswith(".csv") else None
+    out_dir = args.out if args.out and out_csv is None else None
+    _check_writable(args.json)
+    _check_writable(args.figure)
+    realdepth.check_output(out_csv, "--out")
+    realdepth.check_output(out_dir, "--out", directory=True)
+    realdepth.check_output(args.figures, "--figures", directory=True)
+    intrinsics = {"fx": args.fx, "fy": args.fy, "cx": args.cx, "cy": args.cy, "k": args.K,
+                  "intrinsics": args.intrinsics, "fov_x": args.fov_x, "fov_y": args.fov_y}
+    inputs = realdepth.prepare(images, depth_scale=args.depth_scale, intrinsics=intrinsics,
+                               roi=args.roi, mask=args.mask, depth_range=args.range,
+                               downsample=args.downsample, overrides=args.set or [])
+
+    names = realdepth.figure_names(inputs.paths)
+    figures: dict[int, bytes] = {}
+    if args.figures:
+        Path(args.figures).mkdir(exist_ok=True)
+
+    def each(i, depth, camera, result):
+        png = realdepth.figure(inputs, depth, camera, result, title=str(inputs.paths[i]))
+        if args.figures:
+            write_atomic(Path(args.figures) / names[i], png)
+        else:
+            figures[i] = png
+
+    from tqdm import tqdm
+
+    with tqdm(total=len(inputs.paths), unit="image", disable=args.quiet or not many,
+              dynamic_ncols=True, file=sys.stderr) as bar:
+        log = (lambda m: None) if args.quiet else (lambda m: bar.write(m, file=sys.stderr))
+        records = realdepth.run(inputs, args.batch or 16, bar.update, log,
+                                each if (args.figure or args.figures) else None)
+    records = _jsonable(records)
     if args.json:
-        write_atomic(args.json, (text + "\n").encode())
-    if figure is not None:
-        write_atomic(args.figure, figure)
-    print(text)
+        write_atomic(args.json, (json.dumps(records if many else records[0], indent=2) + "\n").encode())
+    if args.figure:
+        write_atomic(args.figure, figures[0])
+    if out_csv:
+        write_atomic(out_csv, realdepth.csv_bytes(records))
+    if out_dir:
+        Path(out_dir).mkdir(exist_ok=True)
+        write_atomic(Path(out_dir) / "results.csv", realdepth.csv_bytes(records))
+        write_atomic(Path(out_dir) / "results.json", (json.dumps(records, indent=2) + "\n").encode())
+    if many:
+        for rec in records:
+            print(_detect_line(rec))
+        print(f"{sum(r['found'] for r in records)} of {len(records)} images with a grasp")
+    else:
+        print(json.dumps(records[0], indent=2))
     return 0
+
+
+def _bench_detect(args, progress):
+    """`graspjax bench detect`: the real-image pipeline, single-image latency and images/s."""
+    import jax
+
+    from graspjax.bench import detect_benchmark, format_detect
+    from graspjax.realdepth import split_overrides
+
+    config, scene = split_overrides(args.set or [])
+    batch = args.batch or (1024 if jax.default_backend() == "gpu" else 32)
+    result = detect_benchmark(batch=batch, width=args.width or 640, height=args.height or 480,
+                              repeats=args.repeats, config=config, scene=scene, progress=progress)
+    return result, format_detect(result)
 
 
 def cmd_bench(args) -> int:
@@ -162,11 +146,14 @@ def cmd_bench(args) -> int:
 
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
-    config = override(Config(), args.set or [])
     progress = lambda m: print(m, file=sys.stderr)  # noqa: E731
-    if args.what == "perception":
-        result = perception_benchmark(batch=args.batch or 4096, width=args.width, height=args.height,
-                                      repeats=args.repeats, config=config, progress=progress)
+    config = None if args.what == "detect" else override(Config(), args.set or [])
+    if args.what == "detect":
+        result, text = _bench_detect(args, progress)
+    elif args.what == "perception":
+        result = perception_benchmark(batch=args.batch or 4096, width=args.width or 160,
+                                      height=args.height or 120, repeats=args.repeats,
+                                      config=config, progress=progress)
         text = format_perception(result)
     elif args.what == "pipeline":
         from graspjax.bench import format_pipeline, pipeline_benchmark
@@ -414,20 +401,41 @@ def build_parser() -> argparse.ArgumentParser:
                     "end-tool alignment (JAX / MuJoCo MJX).")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("detect", help="detect a grasp and an alignment plane on a depth image")
-    p.add_argument("depth", help="depth image: .npy in metres or 16-bit .png in millimetres")
-    p.add_argument("--fov-x", type=float, help="horizontal field of view in degrees (default 57)")
-    p.add_argument("--fov-y", type=float, help="vertical field of view in degrees (default 43)")
-    p.add_argument("--fx", type=float, help="focal length in pixels (full resolution)")
-    p.add_argument("--fy", type=float, help="focal length in pixels (default: --fx)")
-    p.add_argument("--cx", type=float, help="principal point column (default: image centre)")
-    p.add_argument("--cy", type=float, help="principal point row (default: image centre)")
+    p = sub.add_parser("detect", help="detect grasps on depth images (real cameras welcome)")
+    p.add_argument("images", nargs="+", metavar="IMAGE",
+                   help="depth images of one size: .npy (H, W) or (H, W, 1) in metres, .npz with "
+                        "'depth' (m) and optionally 'K', or a 16-bit .png (see --depth-scale); "
+                        "a directory stands for its .npy, .npz and .png files")
+    p.add_argument("--depth-scale", type=float, default=0.001,
+                   help="metres per unit of a 16-bit .png (default 0.001: millimetres)")
+    g = p.add_argument_group("intrinsics (full-resolution pixels; one way at most; default: "
+                             "each .npz's K, else the Kinect's 57 x 43 degrees)")
+    g.add_argument("--intrinsics", metavar="FILE",
+                   help="JSON with fx, fy, cx, cy (or K), a gqcnn .intr, or a 3x3 .npy/.txt")
+    g.add_argument("--K", metavar="FX,0,CX,0,FY,CY,0,0,1", help="the 3x3 matrix, row by row")
+    g.add_argument("--fx", type=float, help="focal length in pixels")
+    g.add_argument("--fy", type=float, help="focal length in pixels (default: --fx)")
+    g.add_argument("--cx", type=float, help="principal point column (default: image centre)")
+    g.add_argument("--cy", type=float, help="principal point row (default: image centre)")
+    g.add_argument("--fov-x", type=float, help="horizontal field of view in degrees")
+    g.add_argument("--fov-y", type=float, help="vertical field of view in degrees")
+    g = p.add_argument_group("workspace (everything outside is invalid for every step)")
+    g.add_argument("--roi", metavar="X0,Y0,X1,Y1",
+                   help="columns X0 <= u < X1 and rows Y0 <= v < Y1, full-resolution pixels")
+    g.add_argument("--mask", metavar="FILE", help="PNG or .npy of the image's size, nonzero = workspace")
+    g.add_argument("--range", metavar="MIN,MAX", help="depth range in metres (default 0,10)")
     p.add_argument("--downsample", type=int,
-                   help="block factor to the working resolution (default: width // 160)")
-    p.add_argument("--json", help="also write the result to this JSON file")
-    p.add_argument("--figure", help="write the debug figure to this PNG file")
+                   help="block factor of the detection resolution (default: nearest to width / 640)")
+    p.add_argument("--out", help="results table: FILE.csv, or a directory for results.csv and "
+                                 "results.json")
+    p.add_argument("--json", help="write the record (a list for several images) to this JSON file")
+    p.add_argument("--figure", help="write the debug figure of the one image to this PNG file")
+    p.add_argument("--figures", metavar="DIR", help="write one debug figure per image into DIR")
+    p.add_argument("--batch", type=int, help="images per compiled call (default 16)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a configuration value, e.g. align.window_px=10")
+                   help="override a configuration value, e.g. align.window_px=10 or "
+                        "scene.max_targets=1")
     p.set_defaults(func=cmd_detect)
 
     p = sub.add_parser("run", help="grasp attempts in simulation: attempts, tables, figures")
@@ -447,16 +455,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("bench", help="benchmarks (print numbers; compile time apart)")
-    p.add_argument("what", choices=["perception", "physics", "pipeline"], help="what to measure")
+    p.add_argument("what", choices=["perception", "detect", "physics", "pipeline"],
+                   help="what to measure (detect: graspjax detect on real-looking images)")
     p.add_argument("--objects", default="abcdef", help="physics, pipeline: objects of the scene")
     p.add_argument("--setup", default="3", help="physics: setup 1, 2 or 3; pipeline: e.g. 1,2,3")
     p.add_argument("--seconds", type=float, default=1.0, help="physics: simulated time timed")
     p.add_argument("--trials", type=int, default=100, help="pipeline: trials (or rounds)")
     p.add_argument("--batch", type=int,
-                   help="perception: images per call (default 4096); physics: worlds (default 4096 "
+                   help="perception: images per call (default 4096); detect: images per call "
+                        "(default 1024 on a GPU, 32 on the CPU); physics: worlds (default 4096 "
                         "on a GPU, 16 on the CPU); pipeline: worlds per batch (default: device-sized)")
-    p.add_argument("--width", type=int, default=160)
-    p.add_argument("--height", type=int, default=120)
+    p.add_argument("--width", type=int, help="image width (perception 160, detect 640)")
+    p.add_argument("--height", type=int, help="image height (perception 120, detect 480)")
     p.add_argument("--repeats", type=int, default=10, help="timed calls (median is reported)")
     p.add_argument("--out", help="write the full record to this JSON file")
     p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")

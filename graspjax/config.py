@@ -410,3 +410,60 @@ class Config:
     def __post_init__(self):
         _require(self.detect.grasp_depth <= self.gripper.finger_length,
                  "detect.grasp_depth must be <= gripper.finger_length")
+
+
+@_config
+class SceneConfig:
+    """Real depth images (`graspjax detect`): working views, support plane, robust targets.
+
+    Not part of `Config`: a simulated camera looks straight down at a clean
+    table. `graspjax detect` addresses these fields as `--set scene.NAME=VALUE`.
+    The depth band of the hole filling and of the speck test is the
+    detector's `surface_tolerance`.
+    """
+
+    detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
+    downsample: int = 0  # block factor of the detection resolution (0: from detect_width)
+    working_width: int = 160  # support plane and targets: block median to about this width (paper)
+    crop_px: int = 192  # side of the square detection window around each target (detection pixels)
+    min_depth: float = 0.0  # nearer pixels are invalid (m); `--range MIN,MAX`
+    max_depth: float = 10.0  # farther pixels are invalid (m); also catches a wrong depth scale
+    fill_gap_px: int = 2  # bridge holes up to this many detection pixels wide inside a surface (0: off)
+    support: bool = True  # find the support plane (False: the paper's rule, target = nearest point)
+    plane_hypotheses: int = 128  # random triangles of valid pixels scored as the support plane
+    plane_pixels: int = 4800  # the support plane is found on a regular grid of about this many pixels
+    plane_threshold: float = 0.005  # max distance of a support-plane inlier from the plane (m)
+    plane_refits: int = 2  # least-squares refits of the best plane to pixels within half the threshold
+    max_plane_tilt_deg: float = 45.0  # the support plane faces the camera within this angle
+    min_plane_fraction: float = 0.1  # the support plane holds at least this share of valid pixels
+    min_height: float = 0.01  # a target stands at least this far above the support plane (m)
+    max_tilt_deg: float = 3.0  # a support plane tilted more than this is seen in a virtual view
+    max_targets: int = 3  # surfaces tried in order of height until one holds a grasp (paper: 1)
+    target_window_px: int = 5  # side of the square window of the speck test (support pixels, odd)
+    min_target_pixels: int = 9  # a target pixel needs this many pixels at its depth in the window
+    max_target_slope_deg: float = 45.0  # a target's surface faces the view within this angle
+    seed: int = 0  # PRNG seed of the plane hypotheses (the same draws for every image)
+
+    def __post_init__(self):
+        _in_range(self, "detect_width", 16, 4096)
+        _in_range(self, "working_width", 16, 4096)
+        _in_range(self, "downsample", 0, 64)
+        _in_range(self, "crop_px", 32, 1024)
+        _require(0 <= self.min_depth < self.max_depth,
+                 "SceneConfig needs 0 <= min_depth < max_depth")
+        _in_range(self, "fill_gap_px", 0, 16)
+        _in_range(self, "plane_hypotheses", 1, 4096)
+        _in_range(self, "plane_pixels", 100, 1_000_000)
+        _in_range(self, "plane_refits", 0, 10)
+        _in_range(self, "max_plane_tilt_deg", 1.0, 89.0)
+        _in_range(self, "min_plane_fraction", 0.0, 1.0)
+        _in_range(self, "max_tilt_deg", 0.0, 89.0)
+        _in_range(self, "max_target_slope_deg", 1.0, 90.0)
+        _in_range(self, "max_targets", 1, 32)
+        _positive(self, "plane_threshold", "min_target_pixels")
+        _require(self.min_height >= 0, f"SceneConfig.min_height must be >= 0, got {self.min_height!r}")
+        _require(self.target_window_px % 2 == 1 and 1 <= self.target_window_px <= 15,
+                 f"SceneConfig.target_window_px must be odd, 1 to 15, got {self.target_window_px!r}")
+        _require(self.min_target_pixels <= self.target_window_px ** 2,
+                 "SceneConfig.min_target_pixels must be <= target_window_px ** 2")
+        _require(self.seed >= 0, f"SceneConfig.seed must be >= 0, got {self.seed!r}")

@@ -1,10 +1,18 @@
-"""Reading depth images from disk: `.npy` in metres or 16-bit `.png` in millimetres."""
+"""Reading depth images, intrinsics and workspace masks from disk.
+
+Depth: `.npy` (H, W) or (H, W, 1) in metres; a 16-bit `.png` in units of
+`depth_scale` metres (default millimetres); `.npz` holding `depth` (metres)
+and optionally `K` (3x3), the Contact-GraspNet convention. Intrinsics: a JSON
+file with fx, fy, cx, cy (or a 3x3 `K`), a gqcnn `.intr` (JSON with _fx,
+_fy, _cx, _cy, _width, _height), or a 3x3 matrix in `.npy`/`.txt`. Every
+problem raises `InputError` with a one-line message.
+"""
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,26 +22,62 @@ class InputError(Exception):
     """A user-supplied file or value is unusable (the message is one line)."""
 
 
-def load_depth(path: str | os.PathLike) -> np.ndarray:
-    """Metric depth `(H, W)` float32 from `.npy` (metres) or 16-bit `.png` (millimetres).
+def _first_line(exc: Exception) -> str:
+    return (str(exc).splitlines() or [type(exc).__name__])[0]
 
-    0 and nan mark invalid pixels. Raises `InputError` for anything else.
-    """
-    path = Path(path)
+
+def _existing_file(path: Path, what: str) -> None:
     if not path.exists():
         raise InputError(f"no such file: {path}")
     if path.is_dir():
-        raise InputError(f"{path} is a directory, not a depth image")
+        raise InputError(f"{path} is a directory, not {what}")
+
+
+def _colour_check(data: np.ndarray, path: Path) -> None:
+    """Refuse an 8-bit image with 3 or 4 channels: a colour picture given as depth."""
+    if data.ndim == 3 and data.shape[-1] in (3, 4):
+        raise InputError(f"{path} is a colour image ({data.shape[1]}x{data.shape[0]}, "
+                         f"{data.shape[-1]} channels, {data.dtype}), not a depth image")
+
+
+def _metric_array(data: np.ndarray, path: Path) -> np.ndarray:
+    _colour_check(data, path)
+    if not np.issubdtype(data.dtype, np.floating):
+        raise InputError(f"{path}: expected float depth in metres, got dtype {data.dtype} "
+                         "(store integer depth as a 16-bit .png with --depth-scale)")
+    return data.astype(np.float32)
+
+
+def read_depth(path: str | os.PathLike, depth_scale: float = 0.001
+               ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Metric depth `(H, W)` float32 and the file's own intrinsics `K` (3, 3) or None.
+
+    `.npy` (H, W) or (H, W, 1) in metres; 16-bit `.png` times `depth_scale`
+    (metres per unit); `.npz` with `depth` in metres and optionally `K`.
+    0 and nan mark invalid pixels. Raises `InputError` for anything else.
+    """
+    path = Path(path)
+    _existing_file(path, "a depth image")
     suffix = path.suffix.lower()
+    matrix = None
     if suffix == ".npy":
         try:
             data = np.load(path, allow_pickle=False)
         except Exception as exc:  # corrupt or not an .npy file at all
-            raise InputError(f"cannot read {path} as .npy: {exc}".splitlines()[0]) from None
-        if not np.issubdtype(data.dtype, np.floating):
-            raise InputError(f"{path}: expected float depth in metres, got dtype {data.dtype} "
-                             "(store millimetres as a 16-bit .png)")
-        depth = data.astype(np.float32)
+            raise InputError(f"cannot read {path} as .npy: {_first_line(exc)}") from None
+        depth = _metric_array(data, path)
+    elif suffix == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as archive:
+                arrays = {k: archive[k] for k in archive.files if k in ("depth", "K")}
+                names = archive.files
+        except Exception as exc:
+            raise InputError(f"cannot read {path} as .npz: {_first_line(exc)}") from None
+        if "depth" not in arrays:
+            raise InputError(f"{path} holds no 'depth' array (it has: {', '.join(names) or 'none'})")
+        depth = _metric_array(arrays["depth"], path)
+        if "K" in arrays:
+            matrix = check_matrix(arrays["K"], f"{path}: K")
     elif suffix == ".png":
         from PIL import Image
 
@@ -42,15 +86,109 @@ def load_depth(path: str | os.PathLike) -> np.ndarray:
                 mode = image.mode
                 data = np.asarray(image)
         except Exception as exc:
-            raise InputError(f"cannot read {path} as .png: {exc}".splitlines()[0]) from None
+            raise InputError(f"cannot read {path} as .png: {_first_line(exc)}") from None
+        _colour_check(data, path)
         if mode not in ("I;16", "I;16B", "I;16L", "I") or data.ndim != 2:
-            raise InputError(f"{path}: expected a single-channel 16-bit PNG in millimetres, "
-                             f"got mode {mode}")
-        depth = data.astype(np.float32) / 1000.0
+            raise InputError(f"{path}: expected a single-channel 16-bit PNG of depth, got mode "
+                             f"{mode} ({data.dtype})")
+        depth = data.astype(np.float32) * np.float32(depth_scale)
     else:
         raise InputError(f"unknown depth format {suffix or '(none)'!r} for {path} "
-                         "(expected .npy in metres or 16-bit .png in millimetres)")
-    return check_depth(depth, str(path))
+                         "(expected .npy or .npz in metres, or a 16-bit .png)")
+    return check_depth(depth, str(path)), matrix
+
+
+def check_matrix(matrix, name: str = "K") -> np.ndarray:
+    """A pinhole intrinsics matrix (3, 3): positive focal lengths, no skew, last row (0, 0, 1)."""
+    try:
+        k = np.asarray(matrix, np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: not a numeric 3x3 matrix") from None
+    if k.shape != (3, 3) or not np.isfinite(k).all():
+        raise InputError(f"{name}: expected a finite 3x3 matrix, got shape {k.shape}")
+    if k[0, 0] <= 0 or k[1, 1] <= 0:
+        raise InputError(f"{name}: focal lengths must be > 0, got {k[0, 0]:g} and {k[1, 1]:g}")
+    if abs(k[0, 1]) > 1e-6 * k[0, 0] or k[1, 0] != 0 or not np.allclose(k[2], [0, 0, 1]):
+        raise InputError(f"{name}: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew)")
+    return k
+
+
+def load_intrinsics(path: str | os.PathLike) -> dict:
+    """Intrinsics `{fx, fy, cx, cy}` (plus `width`, `height` when the file gives them).
+
+    JSON (`.json`, gqcnn `.intr`) with fx, fy, cx, cy, or with a leading
+    underscore (_fx, ...), or a 3x3 `K`; or a 3x3 matrix in `.npy` / `.txt`.
+    """
+    path = Path(path)
+    _existing_file(path, "an intrinsics file")
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".npy", ".txt"):
+            data = np.load(path, allow_pickle=False) if suffix == ".npy" else np.loadtxt(path)
+            k = check_matrix(data, str(path))
+            return {"fx": k[0, 0], "fy": k[1, 1], "cx": k[0, 2], "cy": k[1, 2]}
+        data = json.loads(path.read_text())
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(f"cannot read intrinsics from {path}: {_first_line(exc)}") from None
+    if not isinstance(data, dict):
+        raise InputError(f"cannot read intrinsics from {path}: expected a JSON object")
+    data = {key.lstrip("_"): value for key, value in data.items()}
+    if "fx" not in data and isinstance(data.get("K"), list):
+        k = check_matrix(data["K"], f"{path}: K")
+        data.update(fx=k[0, 0], fy=k[1, 1], cx=k[0, 2], cy=k[1, 2])
+    missing = [key for key in ("fx", "fy", "cx", "cy") if key not in data]
+    if missing:
+        raise InputError(f"cannot read intrinsics from {path}: missing {', '.join(missing)}")
+    out = {}
+    for key in ("fx", "fy", "cx", "cy", "width", "height"):
+        if key in data:
+            try:
+                out[key] = float(data[key])
+            except (TypeError, ValueError):
+                raise InputError(f"{path}: {key} must be a number, got {data[key]!r}") from None
+    if out["fx"] <= 0 or out["fy"] <= 0:
+        raise InputError(f"{path}: focal lengths must be > 0")
+    if data.get("skew", 0) not in (0, 0.0):
+        raise InputError(f"{path}: skew {data['skew']!r} is not supported (expected 0)")
+    return out
+
+
+def load_mask(path: str | os.PathLike, shape: tuple[int, int]) -> np.ndarray:
+    """Workspace mask `(H, W)` bool from a PNG (any mode) or `.npy`: nonzero = workspace.
+
+    shape: the depth images' (H, W); a mask of another size is refused.
+    """
+    path = Path(path)
+    _existing_file(path, "a mask")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npy":
+            data = np.load(path, allow_pickle=False)
+        elif suffix == ".png":
+            from PIL import Image
+
+            with Image.open(path) as image:
+                data = np.asarray(image)
+        else:
+            raise InputError(f"unknown mask format {suffix or '(none)'!r} for {path} "
+                             "(expected .png or .npy)")
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(f"cannot read mask {path}: {_first_line(exc)}") from None
+    if data.ndim == 3:
+        data = np.any(data != 0, axis=-1)
+    if data.ndim != 2:
+        raise InputError(f"mask {path}: expected a 2-D image, got shape {data.shape}")
+    if data.shape != tuple(shape):
+        raise InputError(f"mask {path} is {data.shape[1]}x{data.shape[0]}, the depth images are "
+                         f"{shape[1]}x{shape[0]}")
+    mask = np.asarray(data != 0)
+    if not mask.any():
+        raise InputError(f"mask {path} is empty (no nonzero pixel)")
+    return mask
 
 
 def check_depth(depth: np.ndarray, name: str = "depth") -> np.ndarray:
@@ -67,23 +205,6 @@ def check_depth(depth: np.ndarray, name: str = "depth") -> np.ndarray:
     if not (finite > 0).any():
         raise InputError(f"{name}: no valid depth pixels (all are 0, nan or inf)")
     return depth.astype(np.float32)
-
-
-def downsample(depth: np.ndarray, factor: int) -> np.ndarray:
-    """Block median of the valid pixels in `factor x factor` blocks (0 where none is valid).
-
-    The image is cropped to a multiple of `factor`; use `Camera.scaled` for the
-    matching intrinsics.
-    """
-    if factor == 1:
-        return depth
-    h, w = (depth.shape[0] // factor) * factor, (depth.shape[1] // factor) * factor
-    blocks = depth[:h, :w].reshape(h // factor, factor, w // factor, factor).swapaxes(1, 2)
-    blocks = np.where(np.isfinite(blocks) & (blocks > 0), blocks, np.nan)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-invalid blocks are expected
-        out = np.nanmedian(blocks.reshape(h // factor, w // factor, -1), axis=-1)
-    return np.nan_to_num(out, nan=0.0).astype(np.float32)
 
 
 def _umask() -> int:

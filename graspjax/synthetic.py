@@ -115,12 +115,8 @@ def render_depth(camera: Camera, rotation: np.ndarray, position, solids, ground:
     return np.where(np.isfinite(depth), depth, 0.0).astype(np.float32)
 
 
-def random_scene(rng: np.random.Generator, camera: Camera, height: float = 0.5) -> np.ndarray:
-    """Top-down depth image of 1-4 random boxes and prisms on a table, some tilted.
-
-    A perception workload with the variety of the experiments (single objects,
-    neighbours, clutter); used by the benchmark and examples, never by tests.
-    """
+def _random_solids(rng: np.random.Generator) -> list[Solid]:
+    """1-4 random boxes and prisms around the world origin, some tilted."""
     solids = []
     for _ in range(rng.integers(1, 5)):
         # footprint radius U(1.5, 4.5) cm, height U(2, 8) cm, centre U(-8, 8) cm, yaw U(-pi, pi)
@@ -134,5 +130,37 @@ def random_scene(rng: np.random.Generator, camera: Camera, height: float = 0.5) 
             tilt = rot_z(rng.uniform(-np.pi, np.pi)) @ rot_x(rng.uniform(0, np.pi / 6))
             solid = solid.moved(np.eye(3), -np.asarray(centre)).moved(tilt, centre)
         solids.append(solid)
+    return solids
+
+
+def random_scene(rng: np.random.Generator, camera: Camera, height: float = 0.5) -> np.ndarray:
+    """Top-down depth image of 1-4 random boxes and prisms on a table, some tilted.
+
+    A perception workload with the variety of the experiments (single objects,
+    neighbours, clutter); used by the benchmark and examples, never by tests.
+    """
     rotation, eye = top_down_pose(height)
-    return render_depth(camera, rotation, eye, solids)
+    return render_depth(camera, rotation, eye, _random_solids(rng))
+
+
+def random_real_scene(rng: np.random.Generator, camera: Camera, height: float = 0.7) -> np.ndarray:
+    """A real-looking depth image: `random_scene`'s objects seen from a tilted camera.
+
+    The camera looks at the objects from `height` with its axis U(0, 20)
+    degrees off vertical, toward a random side; a 3 x 3 x 8 cm "finger" hangs
+    into the bottom of the view 0.3 m away (outside a workspace that leaves
+    out the bottom 15% of the rows); 3% of the pixels drop out and 20 single
+    pixels are outliers at 0.3-0.5 m. The benchmark workload of `graspjax
+    detect`, never used by tests.
+    """
+    tilt = rng.uniform(0.0, np.deg2rad(20.0))
+    down, _ = top_down_pose(0.0)
+    rotation = rot_z(rng.uniform(-np.pi, np.pi)) @ down @ rot_x(tilt)
+    eye = np.array([0.0, 0.0, 0.0]) - rotation[:, 2] * height / np.cos(tilt)
+    finger = eye + rotation @ np.array([0.0, 0.5 * camera.height / camera.fy * 0.3, 0.3])
+    solids = [*_random_solids(rng), box((0.03, 0.03, 0.08), finger - [0.0, 0.0, 0.04])]
+    depth = render_depth(camera, rotation, eye, solids)
+    depth[rng.random(depth.shape) < 0.03] = 0.0
+    rows, cols = rng.integers(0, depth.shape[0], 20), rng.integers(0, depth.shape[1], 20)
+    depth[rows, cols] = rng.uniform(0.3, 0.5, 20)
+    return depth

@@ -1,10 +1,15 @@
-"""Debug figures like the paper's Figs. 2-5 and 8.
+"""Per-image debug figures, like the paper's Figs. 2-5 and 8.
 
-Each view gets three panels: the depth image with z_min; the surface cluster
-with its straight edges, every antipodal T-beam placement and the chosen
-grasp; the alignment triangles with the winning plane's inliers.
-`debug_figure` draws one image; `attempt_figure` a simulated attempt's
-overview and every view it took (`graspjax report DIR --debug N`).
+`debug_figure`: three panels for one view: the depth image with z_min; the
+surface cluster with its straight edges, every antipodal T-beam placement
+and the chosen grasp; the alignment triangles with the winning plane's
+inliers. `attempt_figure`: a simulated attempt (`graspjax report DIR
+--debug N`): its overview with the target, then those three panels for
+every view it took. `scene_figure`: a real image through `detect_scene`:
+the image with its workspace, support plane and the grasp drawn back; the
+height above the support in the (possibly virtual) view the target is
+chosen in; then the same two detection and alignment panels in the
+target's window.
 """
 
 from __future__ import annotations
@@ -18,112 +23,64 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Polygon
 
 from graspjax.camera import Camera
-from graspjax.config import Config
+from graspjax.config import Config, SceneConfig
 from graspjax.perception import Alignment, Grasp, GraspReason, plane_inliers
 from graspjax.perception.grasp import surface_contour
+from graspjax.perception.reasons import SupportReason, TargetReason
+
+
+def _finger_offsets(axis, config: Config) -> np.ndarray:
+    """Metric outlines `(2, 4, 2)` of both opened fingers around a T-beam centre, closing `axis` (2,)."""
+    g = config.gripper
+    along = np.array([-axis[1], axis[0]])
+    inner, outer, half = g.opening / 2, g.opening / 2 + g.finger_thickness, g.finger_width / 2
+    return np.array([[side * a * axis + b * along for a, b in
+                      ((inner, -half), (outer, -half), (outer, half), (inner, half))]
+                     for side in (1.0, -1.0)])
 
 
 def _finger_outlines(center_px, axis, camera: Camera, z: float, config: Config):
     """Pixel outlines `(2, 4, 2)` of both opened fingers of a T-beam at `center_px`."""
-    g = config.gripper
-    along = np.array([-axis[1], axis[0]])
-    inner, outer, half = g.opening / 2, g.opening / 2 + g.finger_thickness, g.finger_width / 2
     px = np.array([camera.fx / z, camera.fy / z], float)
-    shapes = []
-    for side in (1.0, -1.0):
-        corners = [side * a * axis + b * along for a, b in
-                   ((inner, -half), (outer, -half), (outer, half), (inner, half))]
-        shapes.append(center_px + np.array(corners) * px)
-    return np.array(shapes)
+    return center_px + _finger_offsets(axis, config) * px
 
 
-def debug_figure(depth: np.ndarray, camera: Camera, grasp: Grasp, alignment: Alignment,
-                 config: Config = Config(), title: str = "") -> bytes:
-    """PNG bytes of the three-panel debug figure for one image."""
+def _frame(ax, camera: Camera) -> None:
+    ax.set_xlim(-0.5, camera.width - 0.5)
+    ax.set_ylim(camera.height - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def _shown(depth) -> np.ndarray:
     depth = np.asarray(depth, np.float32)
-    seed, cluster, z_s, contour = jax.jit(surface_contour)(depth, config.detect)
-    fig = Figure(figsize=(15, 4.6), dpi=110)
-    FigureCanvasAgg(fig)
-    draw_view(fig, fig.subplots(1, 3), depth, camera, grasp, alignment, np.asarray(seed),
-              np.asarray(cluster), float(z_s), contour, config)
-    return _png(fig, title)
+    return np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
 
 
-def attempt_figure(saved, config: Config = Config()) -> bytes:
-    """PNG bytes of one simulated attempt (`views.SavedAttempt`): the overview with the
-    target, then one row of three panels per view the procedure took."""
-    from graspjax.camera import Camera
-
-    height, width = saved.depth.shape[1:]
-    camera = Camera(width, height, *map(float, saved.camera))
-    rows = [v for v in range(len(saved.looked) - 1) if saved.looked[v + 1]]
-    fig = Figure(figsize=(15, 4.6 * (len(rows) + 1)), dpi=90)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(len(rows) + 1, 3, squeeze=False)
-    shown = np.where(saved.depth[0] > 0, saved.depth[0], np.nan)
-    image = axes[0, 0].imshow(shown, cmap="viridis", interpolation="nearest")
-    fig.colorbar(image, ax=axes[0, 0], fraction=0.035, label="depth (m)")
-    outline = np.zeros((*shown.shape, 4))
-    outline[saved.target_mask[0]] = (1.0, 0.2, 0.2, 0.5)
-    axes[0, 0].imshow(outline, interpolation="nearest")
-    axes[0, 0].set_title("overview: the target (red) holds z_min")
-    for ax in axes[0, 1:]:
-        ax.axis("off")
-    for r, v in enumerate(rows, start=1):
-        grasp, alignment, contour = saved.view(v)
-        draw_view(fig, axes[r], saved.depth[v + 1], camera, grasp, alignment, saved.seed[v],
-                  saved.cluster[v], float(saved.surface_depth[v]), contour, config,
-                  label="centred view" if v == 0 else f"re-aligned view {v}")
-    return _png(fig, saved.label)
-
-
-def _png(fig, title: str) -> bytes:
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    return buffer.getvalue()
-
-
-def draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignment, seed,
-              cluster, z_s: float, contour, config: Config, label: str = "depth") -> None:
-    """Three panels of one view: depth and z_min; the surface with its edges and T-beams; the
-    alignment triangles and the winning plane's inliers."""
-    inliers = np.asarray(jax.jit(plane_inliers)(depth, camera, alignment, config.align))
-    shown = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
+def _zoom(axes, camera: Camera, region: np.ndarray, z_s: float, config: Config) -> None:
+    """Zoom `axes` on `region` (H, W) bool plus the reach of the opened gripper."""
+    rows, cols = np.nonzero(region)
+    if not len(rows):
+        return
+    reach = (config.gripper.opening / 2 + config.gripper.finger_thickness) / z_s
+    mu, mv = reach * camera.fx + 4, reach * camera.fy + 4
     for ax in axes:
-        ax.set_xlim(-0.5, camera.width - 0.5)
-        ax.set_ylim(camera.height - 0.5, -0.5)
-        ax.set_aspect("equal")
-        ax.set_xticks([])
-        ax.set_yticks([])
+        ax.set_xlim(max(cols.min() - mu, -0.5), min(cols.max() + mu, camera.width - 0.5))
+        ax.set_ylim(min(rows.max() + mv, camera.height - 0.5), max(rows.min() - mv, -0.5))
 
-    im = axes[0].imshow(shown, cmap="viridis", interpolation="nearest")
-    fig.colorbar(im, ax=axes[0], fraction=0.035, label="depth (m)")
-    axes[0].plot(*np.asarray(seed), "r+", ms=12, mew=2, label="z_min")
-    axes[0].legend(loc="lower right", fontsize=8)
-    axes[0].set_title(f"{label} and nearest point z_min")
 
-    # Zoom panels 2 and 3 on the target: its cluster (and inliers) plus the opened gripper.
-    rows, cols = np.nonzero(cluster | inliers)
-    if len(rows):
-        reach = (config.gripper.opening / 2 + config.gripper.finger_thickness) / z_s
-        mu, mv = reach * camera.fx + 4, reach * camera.fy + 4
-        for ax in axes[1:]:
-            ax.set_xlim(max(cols.min() - mu, -0.5), min(cols.max() + mu, camera.width - 0.5))
-            ax.set_ylim(min(rows.max() + mv, camera.height - 0.5), max(rows.min() - mv, -0.5))
-
-    # Surface cluster, contour, edges and T-beams.
-    ax = axes[1]
-    ax.imshow(np.where(cluster, 0.75, np.where(np.isnan(shown), 0.0, 0.25)), cmap="gray",
+def _draw_detection(ax, depth, camera: Camera, grasp: Grasp, cluster, contour, z_s: float,
+                    config: Config) -> None:
+    """Surface cluster, contour, straight edges, T-beams and the chosen grasp."""
+    ax.imshow(np.where(cluster, 0.75, np.where(np.isnan(_shown(depth)), 0.0, 0.25)), cmap="gray",
               vmin=0, vmax=1, interpolation="nearest")
     pts = np.asarray(contour.points)[: int(contour.length)]
     if len(pts):
         ax.plot(pts[:, 0], pts[:, 1], ".", color="0.5", ms=2)
     edges = jax.tree.map(np.asarray, grasp.edges)
-    scale = np.array([camera.fx, camera.fy]) / z_s
-    centre_px = edges.center * scale + [camera.cx, camera.cy]
+    scale = np.array([camera.fx, camera.fy], float) / z_s
+    centre_px = edges.center * scale + [float(camera.cx), float(camera.cy)]
     for i in np.flatnonzero(edges.valid):
         half = edges.direction[i] * edges.length[i] / 2 * scale
         ends = np.array([centre_px[i] - half, centre_px[i] + half])
@@ -145,9 +102,10 @@ def draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignme
               else f"no grasp: {GraspReason(int(grasp.reason)).name}")
     ax.set_title(f"surface, edges, T-beams ({status})")
 
-    # Alignment.
-    ax = axes[2]
-    ax.imshow(shown, cmap="gray", interpolation="nearest")
+
+def _draw_alignment(ax, depth, alignment: Alignment, inliers: np.ndarray) -> None:
+    """Alignment triangles around the anchor and the winning plane's inliers."""
+    ax.imshow(_shown(depth), cmap="gray", interpolation="nearest")
     overlay = np.zeros((*inliers.shape, 4))
     overlay[inliers] = (1.0, 0.2, 0.2, 0.7)
     ax.imshow(overlay, interpolation="nearest")
@@ -164,3 +122,152 @@ def draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignme
                      f"normal ({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f})")
     else:
         ax.set_title(f"alignment: none ({int(counts.max(initial=0))} inliers at best)")
+
+
+def _png(fig, title: str) -> bytes:
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    return buffer.getvalue()
+
+
+def _draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignment, seed,
+               cluster, z_s: float, contour, config: Config, label: str = "depth") -> None:
+    """Three panels of one view: depth and z_min; detection; alignment."""
+    inliers = np.asarray(jax.jit(plane_inliers)(depth, camera, alignment, config.align))
+    for ax in axes:
+        _frame(ax, camera)
+    im = axes[0].imshow(_shown(depth), cmap="viridis", interpolation="nearest")
+    fig.colorbar(im, ax=axes[0], fraction=0.035, label="depth (m)")
+    axes[0].plot(*np.asarray(seed), "r+", ms=12, mew=2, label="z_min")
+    axes[0].legend(loc="lower right", fontsize=8)
+    axes[0].set_title(f"{label} and nearest point z_min")
+    _zoom(axes[1:], camera, cluster | inliers, z_s, config)
+    _draw_detection(axes[1], depth, camera, grasp, cluster, contour, z_s, config)
+    _draw_alignment(axes[2], depth, alignment, inliers)
+
+
+def debug_figure(depth: np.ndarray, camera: Camera, grasp: Grasp, alignment: Alignment,
+                 config: Config = Config(), title: str = "") -> bytes:
+    """PNG bytes of the three-panel debug figure for one image."""
+    depth = np.asarray(depth, np.float32)
+    seed, cluster, z_s, contour = jax.jit(surface_contour)(depth, config.detect)
+    fig = Figure(figsize=(15, 4.6), dpi=110)
+    FigureCanvasAgg(fig)
+    _draw_view(fig, fig.subplots(1, 3), depth, camera, grasp, alignment, seed,
+               np.asarray(cluster), float(z_s), contour, config)
+    return _png(fig, title)
+
+
+def attempt_figure(saved, config: Config = Config()) -> bytes:
+    """PNG bytes of one simulated attempt (`views.SavedAttempt`): the overview with the
+    target, then one row of three panels per view the procedure took."""
+    height, width = saved.depth.shape[1:]
+    camera = Camera(width, height, *map(float, saved.camera))
+    rows = [v for v in range(len(saved.looked) - 1) if saved.looked[v + 1]]
+    fig = Figure(figsize=(15, 4.6 * (len(rows) + 1)), dpi=90)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(rows) + 1, 3, squeeze=False)
+    _frame(axes[0, 0], camera)
+    image = axes[0, 0].imshow(_shown(saved.depth[0]), cmap="viridis", interpolation="nearest")
+    fig.colorbar(image, ax=axes[0, 0], fraction=0.035, label="depth (m)")
+    outline = np.zeros((height, width, 4))
+    outline[saved.target_mask[0]] = (1.0, 0.2, 0.2, 0.5)
+    axes[0, 0].imshow(outline, interpolation="nearest")
+    axes[0, 0].set_title("overview: the target (red) holds z_min")
+    for ax in axes[0, 1:]:
+        ax.axis("off")
+    for r, v in enumerate(rows, start=1):
+        grasp, alignment, contour = saved.view(v)
+        _draw_view(fig, axes[r], saved.depth[v + 1], camera, grasp, alignment, saved.seed[v],
+                   saved.cluster[v], float(saved.surface_depth[v]), contour, config,
+                   label="centred view" if v == 0 else f"re-aligned view {v}")
+    return _png(fig, saved.label)
+
+
+def scene_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, views, result,
+                 config: Config = Config(), scene: SceneConfig = SceneConfig(),
+                 title: str = "") -> bytes:
+    """PNG bytes of the four-panel figure of one real image through `detect_scene`.
+
+    depth: metric depth (H, W) at full resolution; workspace: (H, W) bool;
+    camera: its intrinsics; views: `SceneViews` and result: `SceneDetection`
+    of this image (single, not batched).
+    """
+    depth = np.asarray(depth, np.float32)
+    workspace = np.asarray(workspace, bool)
+    views, result = jax.tree.map(np.asarray, views), jax.tree.map(np.asarray, result)
+    support = result.support
+    fig = Figure(figsize=(13, 10), dpi=100)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 2).ravel()
+
+    # (a) The input image: workspace, support-plane inliers, target, grasp drawn back.
+    ax = axes[0]
+    _frame(ax, camera)
+    shown = _shown(depth)
+    inside = shown[workspace & np.isfinite(shown)]
+    lo, hi = (np.percentile(inside, [1, 99]) if inside.size else (None, None))
+    im = ax.imshow(shown, cmap="viridis", vmin=lo, vmax=hi, interpolation="nearest")
+    fig.colorbar(im, ax=ax, fraction=0.035, label="depth (m)")
+    overlay = np.zeros((*depth.shape, 4))
+    overlay[~workspace] = (0.0, 0.0, 0.0, 0.6)
+    if bool(support.found):
+        points = np.asarray(camera.unproject(camera.pixel_grid(), np.nan_to_num(depth)))
+        height = points @ support.normal + support.distance
+        on_plane = workspace & np.isfinite(shown) & (np.abs(height) < scene.plane_threshold)
+        overlay[on_plane] = (1.0, 1.0, 1.0, 0.35)
+    ax.imshow(overlay, interpolation="nearest")
+    if result.target_reason == TargetReason.FOUND:
+        ax.plot(*result.target_pixel, "r+", ms=14, mew=2, label="target")
+    if bool(result.found):
+        g = result.grasp
+        for offsets in _finger_offsets(g.closing_axis[:2], config):
+            corners = np.concatenate([g.position[:2] + offsets,
+                                      np.full((4, 1), g.position[2])], -1)
+            ax.add_patch(Polygon(np.asarray(camera.project(corners @ result.rotation.T)),
+                                 closed=True, fill=True, fc="tab:red", ec="white", alpha=0.8))
+        ax.plot(*result.pixel, "wx", ms=10, mew=2)
+    reason = (GraspReason(int(result.grasp.reason)).name
+              if result.target_reason == TargetReason.FOUND
+              else TargetReason(int(result.target_reason)).name)
+    ax.set_title(f"camera view: workspace, support inliers, grasp ({reason})")
+
+    # (b) Height above the support plane in the detection view.
+    ax = axes[1]
+    _frame(ax, views.camera)
+    view_name = "virtual view facing the support" if bool(result.virtual) else "camera view"
+    if bool(support.found):
+        im = ax.imshow(np.where(views.depth > 0, views.height, np.nan), cmap="magma",
+                       vmin=0.0, interpolation="nearest")
+        fig.colorbar(im, ax=ax, fraction=0.035, label="height above support (m)")
+        n = support.normal
+        ax.set_title(f"{view_name}\nsupport tilt {np.rad2deg(support.tilt):.1f} deg, normal "
+                     f"({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f}), {support.distance:.3f} m, "
+                     f"{100 * support.fraction:.0f}% inliers", fontsize=9)
+    else:
+        im = ax.imshow(_shown(views.depth), cmap="viridis", interpolation="nearest")
+        fig.colorbar(im, ax=ax, fraction=0.035, label="depth (m)")
+        ax.set_title(f"{view_name}: no support plane "
+                     f"({SupportReason(int(support.reason)).name})", fontsize=9)
+    if result.target_reason == TargetReason.FOUND:
+        ax.plot(*result.target, "c+", ms=14, mew=2)
+
+    # (c, d) Detection and alignment in the reported target's window.
+    seed = np.zeros(views.window.shape, bool)
+    if result.target_reason == TargetReason.FOUND:
+        seed[result.grasp.nearest[1], result.grasp.nearest[0]] = True
+    _, cluster, z_s, contour = jax.jit(surface_contour)(views.window, config.detect, seed)
+    inliers = np.asarray(jax.jit(plane_inliers)(views.window, views.window_camera,
+                                                result.alignment, config.align))
+    cluster, z_s = np.asarray(cluster), float(z_s)
+    for ax in axes[2:]:
+        _frame(ax, views.window_camera)
+    _draw_detection(axes[2], views.window, views.window_camera, result.grasp, cluster, contour,
+                    z_s, config)
+    axes[2].set_title(f"{view_name} window, target {int(result.attempts)} of "
+                      f"{scene.max_targets}\n{axes[2].get_title()}", fontsize=9)
+    _draw_alignment(axes[3], views.window, result.alignment, inliers)
+    return _png(fig, title)

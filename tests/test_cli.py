@@ -1,16 +1,20 @@
-"""`graspjax detect` end to end, and its one-line errors."""
+"""`graspjax detect` end to end: one image, a folder of real-looking images, one-line errors."""
 
 import json
 import subprocess
 import sys
 
 import numpy as np
+import pandas as pd
 import pytest
 from PIL import Image
+from real_scenes import table_scene, with_holes_and_specks
 
 from graspjax import Camera
 from graspjax.cli import main
 from graspjax.synthetic import box, render_depth, top_down_pose
+
+PNG = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
@@ -25,6 +29,23 @@ def kinect_scene(tmp_path_factory):
     return folder
 
 
+@pytest.fixture(scope="module")
+def real_folder(tmp_path_factory):
+    """The tilted-table scene three ways: .npy (H, W, 1), 16-bit .png in 0.1 mm, .npz with K;
+    the intrinsics as a gqcnn .intr file."""
+    folder = tmp_path_factory.mktemp("real")
+    scene = table_scene()
+    noisy = with_holes_and_specks(scene)
+    np.save(folder / "a.npy", noisy.depth[..., None])
+    Image.fromarray(np.nan_to_num(scene.depth * 1e4).round().astype(np.uint16)).save(folder / "b.png")
+    c = scene.camera
+    k = np.array([[c.fx, 0, c.cx], [0, c.fy, c.cy], [0, 0, 1]])
+    np.savez(folder / "c.npz", depth=scene.depth, K=k)
+    (folder / "cam.intr").write_text(json.dumps({"_fx": c.fx, "_fy": c.fy, "_cx": c.cx,
+                                                 "_cy": c.cy, "_width": 640, "_height": 480}))
+    return folder, scene
+
+
 @pytest.mark.parametrize("name", ["scene.npy", "scene.png"])
 def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     out_json, out_png = tmp_path / "r.json", tmp_path / "r.png"
@@ -33,14 +54,18 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     printed = json.loads(capsys.readouterr().out)
     assert printed == json.loads(out_json.read_text())
     grasp = printed["grasp"]
-    assert grasp["found"] and grasp["reason"] == "FOUND"
+    assert printed["found"] and grasp["found"] and printed["reason"] == "FOUND"
     assert abs(grasp["width"] - 0.05) < 0.005
     # The box top centre (0.01, 0.02, 0.05) in the world is (0.01, -0.02, 0.55) in the camera.
     np.testing.assert_allclose(grasp["position"], [0.01, -0.02, 0.55], atol=0.005)
-    assert printed["working_resolution"] == [160, 120] and printed["downsample"] == 4
+    assert printed["working_resolution"] == [640, 480] and printed["downsample"] == 1
+    assert printed["support_resolution"] == [160, 120] and printed["window"] == 192
+    # Straight down at the table: no virtual view is needed.
+    assert printed["view"] == "camera" and printed["support_plane"]["tilt_deg"] < 0.1
+    np.testing.assert_allclose(printed["support_plane"]["normal"], [0, 0, -1], atol=1e-3)
     assert printed["alignment"]["found"]
     np.testing.assert_allclose(printed["alignment"]["normal"], [0, 0, -1], atol=1e-3)
-    assert out_png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out_png.read_bytes()[:8] == PNG
 
 
 def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
@@ -48,18 +73,85 @@ def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
     args = ["detect", str(kinect_scene / "scene.npy"), "--fx", str(cam.fx), "--fy", str(cam.fy),
             "--downsample", "2", "--set", "gripper.opening=0.04"]
     assert main(args) == 0
-    grasp = json.loads(capsys.readouterr().out)["grasp"]
-    assert not grasp["found"] and grasp["reason"] == "TOO_WIDE"  # 5 cm does not fit 4 cm
+    printed = json.loads(capsys.readouterr().out)
+    assert not printed["found"] and printed["reason"] == "TOO_WIDE"  # 5 cm does not fit 4 cm
+    assert printed["camera"]["fx"] == pytest.approx(cam.fx) and printed["downsample"] == 2
+
+
+def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
+    folder, scene = real_folder
+    out, figures = tmp_path / "out", tmp_path / "figures"
+    images = [str(folder / n) for n in ("a.npy", "b.png", "c.npz")]  # the folder's depth files
+    assert main(["detect", str(folder), "--depth-scale", "0.0001", "--intrinsics",
+                 str(folder / "cam.intr"), "--roi", ",".join(map(str, scene.roi)),
+                 "--out", str(out), "--figures", str(figures), "--quiet"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[-1] == "3 of 3 images with a grasp"
+    table = pd.read_csv(out / "results.csv")
+    assert list(table["image"]) == images and table["found"].all()
+    assert (table["view"] == "virtual").all() and (table["reason"] == "FOUND").all()
+    top = scene.to_camera(scene.top)
+    np.testing.assert_allclose(table[["x", "y", "z"]].to_numpy(), np.tile(top, (3, 1)), atol=0.004)
+    np.testing.assert_allclose(table["support_tilt_deg"], 13.0, atol=0.1)
+    assert (table["compute_ms"] > 0).all() and table["width"].between(0.035, 0.045).all()
+    records = json.loads((out / "results.json").read_text())
+    assert [r["image"] for r in records] == images
+    assert records[0]["workspace"]["roi"] == list(scene.roi)
+    assert records[0]["workspace"]["range"] == [0.0, 10.0]
+    assert sorted(p.name for p in figures.iterdir()) == ["a.png", "b.png", "c.png"]
+    assert all(p.read_bytes()[:8] == PNG for p in figures.iterdir())
+
+
+def test_npz_intrinsics_are_used_when_none_are_given(real_folder, capsys):
+    folder, scene = real_folder
+    assert main(["detect", str(folder / "c.npz"), "--roi", ",".join(map(str, scene.roi))]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["camera"]["fx"] == 525.0 and printed["camera"]["source"] == "the file's K"
+    assert printed["found"]
+    np.testing.assert_allclose(printed["grasp"]["position"], scene.to_camera(scene.top),
+                               atol=0.004)
+
+
+def _bad_inputs(folder, tmp_path):
+    """(arguments, expected message) of user mistakes, with the files they need."""
+    Image.fromarray(np.zeros((480, 640, 3), np.uint8)).save(tmp_path / "photo.png")
+    Image.fromarray(np.ones((400, 640), np.uint8)).save(tmp_path / "mask.png")
+    (tmp_path / "bad.intr").write_text("{not json")
+    np.save(tmp_path / "small.npy", np.ones((100, 100), np.float32))
+    a, b, intr = str(folder / "a.npy"), str(folder / "b.png"), str(folder / "cam.intr")
+    return [
+        ([str(tmp_path / "photo.png")], "is a colour image (640x480, 3 channels, uint8)"),
+        ([a, "--mask", str(tmp_path / "mask.png")], "is 640x400, the depth images are 640x480"),
+        ([a, "--intrinsics", str(tmp_path / "bad.intr")], "cannot read intrinsics from"),
+        ([a, "--roi", "60,20,700,350"], "lies outside the 640x480 image"),
+        ([b, "--depth-scale", "1"], "every pixel lies outside the depth range 0-10 m"),
+        ([a, "--range", "0.1,0.2"], "every pixel lies outside the depth range 0.1-0.2 m"),
+        ([a, "--intrinsics", intr, "--fx", "500"], "not --fx/--fy/--cx/--cy and --intrinsics"),
+        ([a, str(tmp_path / "small.npy")], "all images must have one size"),
+        ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),
+        ([a, b, "--figure", str(tmp_path / "f.png")], "--figure takes one image"),
+        ([a, "--set", "scene.min_heigth=0.02"], "did you mean scene.min_height"),
+        (["missing.npy"], "no such file"),
+    ]
+
+
+def test_user_mistakes_get_one_line_exit_2_and_nothing_written(real_folder, tmp_path, capsys):
+    folder, _ = real_folder
+    for args, message in _bad_inputs(folder, tmp_path):
+        out = tmp_path / "out"
+        assert main(["detect", *args, "--out", str(out), "--json", str(tmp_path / "r.json")]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1 and "Traceback" not in err, (args, err)
+        assert not out.exists() and not (tmp_path / "r.json").exists()
 
 
 @pytest.mark.parametrize("args, message", [
-    (["missing.npy"], "no such file"),
     (["{scene}", "--set", "align.windw_px=3"], "did you mean align.window_px"),
     (["{scene}", "--set", "align.window_px=0"], "window_px"),
-    (["{scene}", "--fov-x", "60", "--fx", "100"], "not both"),
+    (["{scene}", "--fov-x", "60", "--fx", "100"], "not --fx/--fy/--cx/--cy and --fov-x/--fov-y"),
     (["{scene}", "--json", "/nonexistent-dir/x.json"], "does not exist"),
 ])
-def test_bad_input_gets_one_line_and_exit_2(kinect_scene, tmp_path, capsys, args, message):
+def test_bad_arguments_get_one_line_and_exit_2(kinect_scene, tmp_path, capsys, args, message):
     args = [a.replace("{scene}", str(kinect_scene / "scene.npy")) for a in args]
     assert main(["detect", *args, "--figure", str(tmp_path / "f.png")]) == 2
     err = capsys.readouterr().err

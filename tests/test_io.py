@@ -1,17 +1,46 @@
+import json
+
 import numpy as np
 import pytest
 from PIL import Image
 
-from graspjax.io import InputError, check_depth, downsample, load_depth, write_atomic
+from graspjax.io import (
+    InputError,
+    check_depth,
+    check_matrix,
+    load_intrinsics,
+    load_mask,
+    read_depth,
+    write_atomic,
+)
+
+K = np.array([[525.0, 0.0, 319.5], [0.0, 520.0, 239.5], [0.0, 0.0, 1.0]])
 
 
 def test_npy_in_metres_and_png_in_millimetres(tmp_path):
     depth = np.full((20, 30), 0.512, np.float32)
     depth[3, 4] = 0.0
     np.save(tmp_path / "d.npy", depth)
+    np.save(tmp_path / "d1.npy", depth[..., None])  # (H, W, 1), as camera tools save it
     Image.fromarray((depth * 1000).round().astype(np.uint16)).save(tmp_path / "d.png")
-    np.testing.assert_array_equal(load_depth(tmp_path / "d.npy"), depth)
-    np.testing.assert_allclose(load_depth(tmp_path / "d.png"), depth, atol=1e-6)
+    for name in ("d.npy", "d1.npy"):
+        got, k = read_depth(tmp_path / name)
+        np.testing.assert_array_equal(got, depth)
+        assert k is None
+    np.testing.assert_allclose(read_depth(tmp_path / "d.png")[0], depth, atol=1e-6)
+
+
+def test_png_depth_scale_and_npz_with_k(tmp_path):
+    depth = np.full((20, 30), 0.7315, np.float32)
+    Image.fromarray((depth * 1e4).round().astype(np.uint16)).save(tmp_path / "d.png")  # 0.1 mm
+    np.testing.assert_allclose(read_depth(tmp_path / "d.png", depth_scale=1e-4)[0], depth,
+                               atol=1e-7)
+    np.savez(tmp_path / "c.npz", depth=depth, K=K, rgb=np.zeros((20, 30, 3), np.uint8))
+    got, k = read_depth(tmp_path / "c.npz")
+    np.testing.assert_array_equal(got, depth)
+    np.testing.assert_array_equal(k, K)
+    np.savez(tmp_path / "no_k.npz", depth=depth)
+    assert read_depth(tmp_path / "no_k.npz")[1] is None
 
 
 @pytest.mark.parametrize("make, match", [
@@ -21,22 +50,32 @@ def test_npy_in_metres_and_png_in_millimetres(tmp_path):
     (lambda p: np.save(p / "x.npy", np.ones((2, 10, 10), np.float32)), "2-D"),
     (lambda p: np.save(p / "x.npy", np.ones((4, 4), np.float32)), "too small"),
     (lambda p: np.save(p / "x.npy", np.ones((10, 10), np.int16)), "float depth"),
+    (lambda p: np.save(p / "x.npy", np.zeros((10, 12, 3), np.uint8)), "colour image"),
     (lambda p: (p / "x.npy").write_text("not numpy"), "cannot read"),
 ])
 def test_bad_npy_files_raise_one_line_errors(tmp_path, make, match):
     make(tmp_path)
     with pytest.raises(InputError, match=match) as info:
-        load_depth(tmp_path / "x.npy")
+        read_depth(tmp_path / "x.npy")
     assert "\n" not in str(info.value)
 
 
-def test_bad_png_and_unknown_formats(tmp_path):
+def test_bad_png_npz_and_unknown_formats(tmp_path):
     Image.fromarray(np.zeros((10, 10), np.uint8)).save(tmp_path / "a.png")
     with pytest.raises(InputError, match="16-bit"):
-        load_depth(tmp_path / "a.png")
+        read_depth(tmp_path / "a.png")
+    Image.fromarray(np.zeros((10, 12, 3), np.uint8)).save(tmp_path / "rgb.png")
+    with pytest.raises(InputError, match=r"colour image \(12x10, 3 channels, uint8\)"):
+        read_depth(tmp_path / "rgb.png")
+    np.savez(tmp_path / "x.npz", rgb=np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(InputError, match="no 'depth' array .*rgb"):
+        read_depth(tmp_path / "x.npz")
+    np.savez(tmp_path / "k.npz", depth=np.ones((10, 10), np.float32), K=np.eye(2))
+    with pytest.raises(InputError, match="3x3"):
+        read_depth(tmp_path / "k.npz")
     (tmp_path / "b.tiff").write_bytes(b"x")
     with pytest.raises(InputError, match="unknown depth format"):
-        load_depth(tmp_path / "b.tiff")
+        read_depth(tmp_path / "b.tiff")
 
 
 def test_check_depth_accepts_nan_as_invalid():
@@ -45,12 +84,60 @@ def test_check_depth_accepts_nan_as_invalid():
     assert check_depth(depth).shape == (10, 10)
 
 
-def test_downsample_takes_the_median_of_valid_pixels():
-    depth = np.zeros((4, 6), np.float32)
-    depth[:2, :2] = [[1.0, 2.0], [3.0, 0.0]]  # median of the valid 1, 2, 3
-    out = downsample(depth, 2)
-    assert out.shape == (2, 3)
-    assert out[0, 0] == 2.0 and out[1, 2] == 0.0
+def test_intrinsics_files(tmp_path):
+    expected = {"fx": 525.0, "fy": 520.0, "cx": 319.5, "cy": 239.5}
+    (tmp_path / "a.json").write_text(json.dumps(expected))
+    (tmp_path / "b.intr").write_text(json.dumps({"_fx": 525.0, "_fy": 520.0, "_cx": 319.5,
+                                                 "_cy": 239.5, "_width": 640, "_height": 480,
+                                                 "_frame": "cam"}))
+    (tmp_path / "c.json").write_text(json.dumps({"K": K.tolist()}))
+    np.save(tmp_path / "d.npy", K)
+    np.savetxt(tmp_path / "e.txt", K)
+    for name in ("a.json", "c.json", "d.npy", "e.txt"):
+        assert load_intrinsics(tmp_path / name) == expected
+    assert load_intrinsics(tmp_path / "b.intr") == {**expected, "width": 640, "height": 480}
+
+
+@pytest.mark.parametrize("name, text, match", [
+    ("x.intr", "{not json", "cannot read intrinsics"),
+    ("x.json", json.dumps({"fx": 500, "fy": 500}), "missing cx, cy"),
+    ("x.json", json.dumps([1, 2]), "JSON object"),
+    ("x.json", json.dumps({"fx": "wide", "fy": 1, "cx": 1, "cy": 1}), "fx must be a number"),
+    ("x.json", json.dumps({"fx": -5, "fy": 1, "cx": 1, "cy": 1}), "> 0"),
+    ("x.txt", "1 2 3\n4 5 6", "3x3"),
+])
+def test_unreadable_intrinsics(tmp_path, name, text, match):
+    (tmp_path / name).write_text(text)
+    with pytest.raises(InputError, match=match) as info:
+        load_intrinsics(tmp_path / name)
+    assert "\n" not in str(info.value)
+
+
+def test_check_matrix_refuses_skew_and_bad_rows():
+    with pytest.raises(InputError, match="no skew"):
+        check_matrix([[500, 3, 320], [0, 500, 240], [0, 0, 1]])
+    with pytest.raises(InputError, match="no skew"):
+        check_matrix([[500, 0, 320], [0, 500, 240], [0, 1, 1]])
+    with pytest.raises(InputError, match="focal lengths"):
+        check_matrix([[0, 0, 320], [0, 500, 240], [0, 0, 1]])
+
+
+def test_masks(tmp_path):
+    mask = np.zeros((20, 30), np.uint8)
+    mask[5:15, 10:25] = 255
+    Image.fromarray(mask).save(tmp_path / "m.png")
+    Image.fromarray(np.stack([mask] * 3, -1)).save(tmp_path / "rgb.png")
+    np.save(tmp_path / "m.npy", mask > 0)
+    for name in ("m.png", "rgb.png", "m.npy"):
+        np.testing.assert_array_equal(load_mask(tmp_path / name, (20, 30)), mask > 0)
+    with pytest.raises(InputError, match="mask .* is 30x20, the depth images are 40x20"):
+        load_mask(tmp_path / "m.png", (20, 40))
+    np.save(tmp_path / "empty.npy", np.zeros((20, 30)))
+    with pytest.raises(InputError, match="empty"):
+        load_mask(tmp_path / "empty.npy", (20, 30))
+    (tmp_path / "m.jpg").write_bytes(b"x")
+    with pytest.raises(InputError, match="unknown mask format"):
+        load_mask(tmp_path / "m.jpg", (20, 30))
 
 
 def test_write_atomic_leaves_nothing_on_failure(tmp_path):

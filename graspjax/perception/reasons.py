@@ -44,3 +44,22 @@ class AlignReason(IntEnum):
     NO_DEPTH = 1  # no valid depth pixel in the image
     NO_PLANE = 2  # every hypothesis was degenerate or left the image
     TOO_FEW_INLIERS = 3  # the best plane has fewer than `min_inliers` inliers
+
+
+class SupportReason(IntEnum):
+    """Why `support_plane` found (0) or did not find the plane the objects stand on."""
+
+    FOUND = 0  # a plane holding at least `min_plane_fraction` of the valid pixels was found
+    NO_DEPTH = 1  # fewer than three valid pixels in the workspace
+    NO_PLANE = 2  # every hypothesis was degenerate or tilted beyond `max_plane_tilt_deg`
+    TOO_FEW_INLIERS = 3  # the best plane holds less than `min_plane_fraction` of the pixels
+    OFF = 4  # not searched (`scene.support = false`: the paper's rule, target = nearest point)
+
+
+class TargetReason(IntEnum):
+    """Why `select_target` found (0) or did not find a target point on a real depth image."""
+
+    FOUND = 0  # a target pixel was chosen
+    EMPTY_WORKSPACE = 1  # no valid depth inside the workspace and depth range
+    NO_OBJECT = 2  # nothing stands `min_height` above the support plane
+    NO_SURFACE = 3  # everything standing is a speck (< `min_target_pixels`) or too steep to face

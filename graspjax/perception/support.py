@@ -1,0 +1,125 @@
+"""The support plane (table or bin floor) of a depth image, for one image.
+
+The paper assumes a camera looking perpendicular at a table with nothing
+but objects nearer than it. A real camera is tilted, so the table's near
+edge is nearer than the objects on it. The plane the objects stand on is
+found here, so that "nearest object" can mean "highest above the support"
+and the view can be turned to face it (`perception/virtual.py`).
+
+RANSAC: `plane_hypotheses` triangles of valid pixels drawn at random (one
+fixed key, so the same image always gives the same plane), each oriented
+toward the camera and scored as its inliers (closer than `plane_threshold`)
+minus the pixels *behind* it (farther from the camera by more than the
+threshold). Objects stand on their support, so nothing lies behind it,
+while the top face of a large object has the whole table behind it.
+Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis
+(walls) are not candidates. The best plane is refit by least squares to the
+pixels within half the threshold of it, `plane_refits` times (the half keeps
+out the feet of walls and objects, which pull on a plane). Everything works on a regular grid of about
+`plane_pixels` pixels of the image (every n-th row and column).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+
+from graspjax.camera import Camera
+from graspjax.config import SceneConfig
+from graspjax.perception.cluster import valid_mask
+from graspjax.perception.reasons import SupportReason
+
+
+@dataclasses.dataclass(frozen=True)
+class SupportPlane:
+    """Result of `support_plane` for one image: the plane `normal . p + distance = 0`."""
+
+    found: jax.Array  # () bool
+    reason: jax.Array  # () int32 SupportReason
+    normal: jax.Array  # (3,) unit normal in the camera frame, pointing toward the camera
+    distance: jax.Array  # () distance from the camera centre to the plane (m)
+    tilt: jax.Array  # () angle between the normal and the optical axis (rad)
+    inliers: jax.Array  # () int32 grid pixels within `plane_threshold` of the best plane (found or not)
+    fraction: jax.Array  # () inliers / valid grid pixels
+
+
+jax.tree_util.register_dataclass(
+    SupportPlane, data_fields=[f.name for f in dataclasses.fields(SupportPlane)], meta_fields=[])
+
+
+def plane_height(points: jax.Array, normal: jax.Array, distance) -> jax.Array:
+    """Signed height `(...)` of camera-frame points `(..., 3)` above the plane (toward the camera)."""
+    return (points[..., 0] * normal[0] + points[..., 1] * normal[1] + points[..., 2] * normal[2]
+            + distance)
+
+
+def _least_squares(points: jax.Array, weight: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Plane `(normal (3,), distance ())` through points `(N, 3)` weighted by `weight` `(N,)`."""
+    total = jnp.maximum(jnp.sum(weight), 1.0)
+    centre = jnp.sum(points * weight[:, None], 0) / total
+    centred = (points - centre) * weight[:, None]
+    _, vectors = jnp.linalg.eigh(centred.T @ (points - centre))
+    normal = vectors[:, 0]
+    normal = jnp.where(jnp.dot(normal, centre) < 0, normal, -normal)  # toward the camera
+    return normal, -jnp.dot(normal, centre)
+
+
+def support_plane(depth: jax.Array, camera: Camera, config: SceneConfig = SceneConfig()
+                  ) -> SupportPlane:
+    """The dominant plane with nothing behind it, facing the camera within `max_plane_tilt_deg`.
+
+    depth: metric depth (H, W) float32, 0 or nan = invalid (pixels outside
+    the workspace must already be invalid). Pure and static-shaped: jit it,
+    vmap it over a leading batch axis of `depth`.
+    """
+    valid = valid_mask(depth)
+    grid = camera.unproject(camera.pixel_grid(), jnp.where(valid, depth, 0.0))  # (H, W, 3)
+    stride = max(1, math.ceil(math.sqrt(valid.size / config.plane_pixels)))
+    points, ok = grid[::stride, ::stride].reshape(-1, 3), valid[::stride, ::stride].reshape(-1)
+    n_valid = jnp.sum(ok)
+
+    # Three valid pixels per hypothesis: invert the running count of valid pixels.
+    k = config.plane_hypotheses
+    draws = jax.random.uniform(jax.random.key(config.seed), (k, 3)) * n_valid
+    index = jnp.minimum(jnp.searchsorted(jnp.cumsum(ok), draws, side="right"), ok.size - 1)
+    corners = points[index]  # (K, 3, 3)
+    cross = jnp.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    area = jnp.linalg.norm(cross, axis=-1)
+    normals = cross / jnp.maximum(area, 1e-12)[:, None]
+    normals = jnp.where(jnp.sum(normals * corners[:, 0], -1, keepdims=True) < 0, normals, -normals)
+    distances = -jnp.sum(normals * corners[:, 0], -1)
+    cos_max = jnp.cos(jnp.deg2rad(config.max_plane_tilt_deg))
+    usable = (area > 1e-6) & (-normals[:, 2] >= cos_max) & (n_valid >= 3)
+
+    # Scores: inliers minus pixels behind the plane (K, N).
+    signed = normals @ points.T + distances[:, None]
+    thr = config.plane_threshold
+    votes = (jnp.abs(signed) < thr).astype(jnp.int32) - (signed < -thr).astype(jnp.int32)
+    score = jnp.sum(jnp.where(ok, votes, 0), -1)
+    best = jnp.argmax(jnp.where(usable, score, jnp.iinfo(jnp.int32).min))
+    normal, distance = normals[best], distances[best]
+    for _ in range(config.plane_refits):  # within half the threshold: the points nearest the plane
+        inlier = ok & (jnp.abs(plane_height(points, normal, distance)) < thr / 2)
+        normal, distance = _least_squares(points, inlier.astype(jnp.float32))
+    any_usable = jnp.any(usable)
+    inliers = jnp.sum(ok & (jnp.abs(plane_height(points, normal, distance)) < thr))
+    inliers = jnp.where(any_usable, inliers, 0)
+    fraction = inliers / jnp.maximum(n_valid, 1)
+
+    reason = jnp.select(
+        [n_valid < 3, ~any_usable, fraction < config.min_plane_fraction],
+        [SupportReason.NO_DEPTH, SupportReason.NO_PLANE, SupportReason.TOO_FEW_INLIERS],
+        SupportReason.FOUND).astype(jnp.int32)
+    found = reason == SupportReason.FOUND
+    return SupportPlane(
+        found=found,
+        reason=reason,
+        normal=jnp.where(found, normal, jnp.nan),
+        distance=jnp.where(found, distance, jnp.nan),
+        tilt=jnp.where(found, jnp.arccos(jnp.clip(-normal[2], -1.0, 1.0)), jnp.nan),
+        inliers=inliers.astype(jnp.int32),
+        fraction=fraction.astype(jnp.float32),
+    )

@@ -1,0 +1,221 @@
+"""The real-image stages one by one: block median, hole filling, target test, support plane,
+virtual view; against hand-computed arrays, NumPy references and analytic scenes."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from real_scenes import tilted_pose
+
+from graspjax import Camera
+from graspjax.config import ConfigError, SceneConfig
+from graspjax.perception.reasons import SupportReason, TargetReason
+from graspjax.perception.support import plane_height, support_plane
+from graspjax.perception.target import (
+    best_candidate,
+    similar_neighbours,
+    surface_slope,
+    target_candidates,
+)
+from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
+from graspjax.perception.workspace import block_median, fill_holes
+from graspjax.synthetic import box, render_depth
+
+WORK = Camera(320, 240, 262.5, 262.5, 159.5, 119.5)  # the PrimeSense at half resolution
+
+
+@pytest.fixture(scope="module")
+def support():
+    return jax.jit(support_plane)
+
+
+def _angle_deg(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.rad2deg(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1)))
+
+
+def _table(solids=(), tilt_deg=13.0, camera=WORK):
+    """Working-resolution depth of `solids` on a table, seen from 0.73 m, tilted; and the pose."""
+    rotation, eye = tilted_pose(0.73, tilt_deg)
+    return render_depth(camera, rotation, eye, list(solids)), rotation, eye
+
+
+@pytest.mark.parametrize("factor", [2, 3, 4])
+def test_block_median_is_the_median_of_the_valid_pixels(factor):
+    rng = np.random.default_rng(factor)
+    depth = rng.uniform(0.5, 1.0, (4 * factor + 1, 6 * factor - 1)).astype(np.float32)
+    depth[rng.random(depth.shape) < 0.3] = 0.0
+    depth[rng.random(depth.shape) < 0.1] = np.nan
+    depth[:factor, :factor] = 0.0  # a block without any valid pixel
+    out = np.asarray(block_median(jnp.asarray(depth), factor))
+    assert out.shape == (4, 5)  # cropped to whole blocks
+    for i in range(4):
+        for j in range(5):
+            block = depth[i * factor:(i + 1) * factor, j * factor:(j + 1) * factor]
+            valid = block[np.isfinite(block) & (block > 0)]
+            assert out[i, j] == pytest.approx(np.median(valid) if valid.size else 0.0, abs=1e-7)
+
+
+def test_fill_holes_bridges_holes_inside_a_surface_but_not_across_a_step():
+    depth = np.full((20, 30), 0.7, np.float32)
+    depth[:, 16:] = 0.6  # a 10 cm step between columns 15 and 16
+    depth[5, 3:12] = 0.0  # a crack one pixel tall in the 0.7 surface
+    depth[10:12, 5:7] = np.nan  # a 2 x 2 hole: each pixel is 2 pixels from valid depth on one side
+    depth[:, 15:17] = 0.0  # a shadow along the step: both sides differ by 10 cm
+    depth[1, 22] = 0.0  # outside the workspace
+    workspace = np.ones(depth.shape, bool)
+    workspace[:3] = False
+    out = np.asarray(fill_holes(jnp.asarray(depth), jnp.asarray(workspace), 2, 0.005))
+    np.testing.assert_allclose(out[5, 3:12], 0.7, atol=1e-6)
+    np.testing.assert_allclose(out[10:12, 5:7], 0.7, atol=1e-6)
+    assert np.all(out[:, 15:17] == 0.0) and out[1, 22] == 0.0
+    one = np.asarray(fill_holes(jnp.asarray(depth), jnp.asarray(workspace), 1, 0.005))
+    assert np.all(one[10:12, 5:7] == 0.0) and one[5, 4] == pytest.approx(0.7)  # 2 wide needs 2
+    off = np.asarray(fill_holes(jnp.asarray(depth), jnp.asarray(workspace), 0, 0.005))
+    np.testing.assert_array_equal(off, np.nan_to_num(depth))
+
+
+def test_similar_neighbours_counts_the_window():
+    depth = np.full((9, 9), 0.8, np.float32)
+    depth[4, 4] = 0.3  # a one-pixel speck
+    depth[8, 8] = 0.0
+    count = np.asarray(similar_neighbours(jnp.asarray(depth), 5, 0.005))
+    assert count[4, 4] == 1 and count[4, 3] == 24  # the speck; its neighbour sees 24 of 25
+    assert count[0, 0] == 9 and count[0, 4] == 15  # the window is cut by the image border
+    assert count[8, 8] == 0 and count[7, 7] == 15  # an invalid pixel counts for nothing
+
+
+def test_specks_smaller_than_the_area_are_never_the_target():
+    camera = Camera(40, 30, 50.0, 50.0, 19.5, 14.5)
+    table = np.full((30, 40), 0.8, np.float32)
+    depth = table.copy()
+    depth[5, 5] = 0.5  # 1 pixel
+    depth[10:12, 10:12] = 0.5  # 4 pixels
+    depth[20:22, 3:7] = 0.5  # 8 pixels
+    args = dict(window=5, min_pixels=9, max_slope_deg=45.0, min_height=0.01, tolerance=0.005)
+
+    def candidates(d, has_plane=True):
+        return target_candidates(jnp.asarray(d), camera, jnp.asarray(0.8 - d),
+                                 jnp.asarray(has_plane), **args)
+
+    cand, _, reason = candidates(depth)
+    assert not np.any(cand) and int(reason) == TargetReason.NO_SURFACE
+    assert int(candidates(table)[2]) == TargetReason.NO_OBJECT
+    assert int(candidates(np.zeros_like(table))[2]) == TargetReason.EMPTY_WORKSPACE
+
+    depth[20:25, 30:35] = 0.6  # a 5 x 5 top, lower than the specks: the target
+    cand, score, reason = candidates(depth)
+    assert int(reason) == TargetReason.FOUND
+    assert np.array_equal(np.argwhere(np.asarray(cand)), np.argwhere(depth == 0.6))
+    seed, pixel = best_candidate(cand, score)
+    assert tuple(np.asarray(pixel)) == (30, 20)  # ties: the first in row-major order
+    assert np.argwhere(np.asarray(seed)).tolist() == [[20, 30]]
+    # Without a support plane the nearest candidate wins, and the table is a candidate too.
+    cand, score, _ = candidates(depth, has_plane=False)
+    assert np.asarray(cand)[0, 0] and tuple(np.asarray(best_candidate(cand, score)[1])) == (30, 20)
+
+
+@pytest.mark.parametrize("slope_deg", [20.0, 60.0])
+def test_surface_slope_of_an_analytic_plane(slope_deg):
+    """Plane z = z0 + tan(a) y seen by the camera: at the principal point the slope is tan(a)."""
+    camera = Camera(41, 31, 300.0, 300.0, 20.0, 15.0)
+    v = np.arange(31, dtype=np.float64)[:, None] * np.ones((1, 41))
+    z = 0.7 / (1.0 - np.tan(np.deg2rad(slope_deg)) * (v - 15.0) / 300.0)
+    slope = np.asarray(surface_slope(jnp.asarray(z, jnp.float32), camera, 2))
+    assert slope[15, 20] == pytest.approx(np.tan(np.deg2rad(slope_deg)), rel=0.03)
+    flat = np.asarray(surface_slope(jnp.full((31, 41), 0.7), camera, 2))
+    assert np.all(flat == 0.0)
+
+
+def test_support_plane_of_a_tilted_table_with_an_object(support):
+    depth, rotation, eye = _table([box((0.04, 0.07, 0.04), (0.02, 0.15, 0.0), 0.3)])
+    plane = support(jnp.asarray(depth), WORK)
+    up = rotation.T @ [0.0, 0.0, 1.0]  # the table's normal toward the camera, camera frame
+    assert int(plane.reason) == SupportReason.FOUND and bool(plane.found)
+    assert _angle_deg(plane.normal, up) < 0.05
+    assert float(plane.distance) == pytest.approx(0.73, abs=5e-4)
+    assert np.rad2deg(float(plane.tilt)) == pytest.approx(13.0, abs=0.05)
+    assert float(plane.fraction) > 0.9
+    # Heights: the box top stands 4 cm above the plane.
+    top = rotation.T @ (np.array([0.02, 0.15, 0.04]) - eye)
+    assert float(plane_height(jnp.asarray(top), plane.normal, plane.distance)) == pytest.approx(
+        0.04, abs=5e-4)
+
+
+def test_support_is_the_table_even_under_a_larger_top_face(support):
+    """A 3 cm slab covering most of the view: its top holds more pixels than the visible table,
+    but the whole table lies behind it."""
+    depth, rotation, _ = _table([box((0.6, 0.5, 0.03), (0.0, 0.17, 0.0))])
+    up = rotation.T @ [0.0, 0.0, 1.0]
+    slab = np.asarray(plane_height(WORK.unproject(WORK.pixel_grid(), jnp.asarray(depth)),
+                                   jnp.asarray(up), 0.73)) > 0.02
+    assert 0.5 < slab.mean() < 0.85  # the slab's top is the largest plane in view
+    plane = support(jnp.asarray(depth), WORK)
+    assert bool(plane.found) and float(plane.distance) == pytest.approx(0.73, abs=5e-4)
+    assert _angle_deg(plane.normal, up) < 0.05
+
+
+def test_support_plane_failures_are_reasons(support):
+    assert int(support(jnp.zeros((240, 320)), WORK).reason) == SupportReason.NO_DEPTH
+    wall, _, _ = _table(tilt_deg=60.0)  # only a plane tilted 60 degrees from the optical axis
+    steep = support(jnp.asarray(wall), WORK)
+    assert int(steep.reason) == SupportReason.NO_PLANE and not bool(steep.found)
+    noise = np.random.default_rng(0).uniform(0.5, 1.0, (240, 320)).astype(np.float32)
+    scattered = support(jnp.asarray(noise), WORK)
+    assert int(scattered.reason) == SupportReason.TOO_FEW_INLIERS
+    assert np.isnan(np.asarray(scattered.normal)).all()
+
+
+def test_virtual_view_faces_the_table():
+    """Re-projected into a camera looking along the table's negative normal, the table has one
+    depth everywhere: the camera's distance to it."""
+    depth, rotation, _ = _table([box((0.04, 0.07, 0.04), (0.02, 0.15, 0.0), 0.3)])
+    up = jnp.asarray(rotation.T @ [0.0, 0.0, 1.0], jnp.float32)
+    turn = view_rotation(up, jnp.asarray(True))
+    np.testing.assert_allclose(np.asarray(turn)[:, 2], -np.asarray(up), atol=1e-6)
+    np.testing.assert_allclose(np.asarray(turn) @ np.asarray(turn).T, np.eye(3), atol=1e-6)
+    view = view_camera(WORK, turn)
+    axis = np.asarray(turn).T @ [0.0, 0.0, 1.0]  # the real optical axis keeps its pixel
+    np.testing.assert_allclose(np.asarray(view.project(jnp.asarray(axis))), [159.5, 119.5],
+                               atol=1e-3)
+    warped = np.asarray(warp_depth(jnp.asarray(depth), WORK, view, turn))
+    valid = warped > 0
+    assert valid.mean() > 0.85
+    table = np.abs(warped[valid] - 0.73) < 1e-4
+    top = np.abs(warped[valid] - 0.69) < 1e-4  # the box top stands 4 cm nearer
+    assert table.mean() > 0.95 and top.sum() > 100
+    assert np.array_equal(np.asarray(view_rotation(up, jnp.asarray(False))), np.eye(3))
+
+
+def test_the_papers_nearest_point_on_a_tilted_table_is_its_near_edge(support):
+    """Why the support plane: without it, the nearest point of a tilted table (its bottom
+    edge) beats a 4 cm box; with it, the box top is highest above the support."""
+    depth, rotation, eye = _table([box((0.04, 0.07, 0.04), (0.02, 0.15, 0.0), 0.3)])
+    depth = jnp.asarray(depth)
+    plane = support(depth, WORK)
+    height = plane_height(WORK.unproject(WORK.pixel_grid(), depth), plane.normal, plane.distance)
+    cfg = SceneConfig()
+    args = dict(window=cfg.target_window_px, min_pixels=cfg.min_target_pixels,
+                max_slope_deg=cfg.max_target_slope_deg, min_height=cfg.min_height,
+                tolerance=0.005)
+    cand, score, _ = target_candidates(depth, WORK, height, jnp.asarray(False), **args)
+    _, nearest = best_candidate(cand, score)
+    assert int(nearest[1]) >= 236  # the table's bottom rows (a box pixel is never that low)
+    cand, score, _ = target_candidates(depth, WORK, height, plane.found, **args)
+    _, highest = best_candidate(cand, score)
+    top = WORK.project(jnp.asarray(rotation.T @ (np.array([0.02, 0.15, 0.04]) - eye)))
+    assert np.linalg.norm(np.asarray(highest) - np.asarray(top)) < 14  # on the 4 x 7 cm top
+    assert float(height[highest[1], highest[0]]) == pytest.approx(0.04, abs=1e-3)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(target_window_px=4), "target_window_px must be odd"),
+    (dict(min_target_pixels=30), "min_target_pixels must be <= target_window_px"),
+    (dict(min_depth=2.0, max_depth=1.0), "min_depth < max_depth"),
+    (dict(crop_px=8), "SceneConfig.crop_px"),
+    (dict(max_targets=0), "SceneConfig.max_targets"),
+])
+def test_scene_config_refuses_bad_values(kwargs, match):
+    with pytest.raises(ConfigError, match=match) as info:
+        SceneConfig(**kwargs)
+    assert "\n" not in str(info.value)
