@@ -5,6 +5,7 @@
 #                                            #   deterministic vs --fast, Tables 1+2 at 1,000 trials with
 #                                            #   cold compiles
 #   experiments/gpu_reference.sh repro       # the same command twice (bit-identical?), another --batch
+#   experiments/gpu_reference.sh detect      # graspjax detect on 640x480 images, batched
 #   experiments/gpu_reference.sh multigpu    # one GPU against all GPUs of the host, same job
 # Every step writes into $OUT (a log per step; run folders packed into tarballs, since the machine
 # returns at most 8 files) and prints a short summary last.
@@ -27,9 +28,9 @@ pack() {  # pack FOLDER...: one tarball for the folders (the machine returns at 
 }
 case "${1:-}" in
   runner)
-    if [ -n "${OLD:-}" ]; then
-      step before env PYTHONPATH="$OLD:$PYTHONPATH" python3 -m graspjax.cli bench pipeline \
-        --objects abcdef --setup 1 --trials 1000
+    if [ -n "${OLD:-}" ]; then  # from the old tree itself: python -m puts the working directory first
+      step before bash -c "cd '$OLD' && python3 -m graspjax.cli bench pipeline --objects abcdef \
+        --setup 1 --trials 1000"
     fi
     step after gj bench pipeline --objects abcdef --setup 1 --trials 1000 --out "$out/after.json"
     step after_fast gj bench pipeline --objects abcdef --setup 1 --trials 1000 --fast \
@@ -39,6 +40,11 @@ case "${1:-}" in
     cat "$out/tables/timings.csv"
     pack runner_tables tables
     grep -h -E "attempts/s|compile" "$out"/before.log "$out"/after.log "$out"/after_fast.log ;;
+  detect)
+    step detect gj bench detect --width 640 --height 480 --batch 1024 --repeats 10 \
+      --out "$out/detect_gpu_h100.json"
+    step detect_2048 gj bench detect --width 640 --height 480 --batch 2048 --repeats 10 \
+      --out "$out/detect_gpu_h100_2048.json" ;;
   repro)
     step twice_a gj run --table 1 --trials 1000 --seed 1 --quiet --out "$out/twice_a"
     step twice_b gj run --table 1 --trials 1000 --seed 1 --quiet --out "$out/twice_b"
@@ -62,5 +68,5 @@ EOF
     step all_gpus gj bench pipeline --objects abcdef --setup 3 --trials 8192 \
       --out "$out/all_gpus.json"
     grep -h -E "device|attempts/s" "$out"/one_gpu.log "$out"/all_gpus.log ;;
-  *) echo "usage: $0 runner|repro|multigpu" >&2; exit 2 ;;
+  *) echo "usage: $0 runner|repro|detect|multigpu" >&2; exit 2 ;;
 esac

@@ -201,7 +201,7 @@ class SimConfig:
     docs/simulation.md); never tuned per object or per cell.
     """
 
-    timestep: float = 0.002  # integration step (s)
+    timestep: float = 0.004  # integration step (s; MuJoCo Playground's Panda pick tasks use 5 ms)
     iterations: int = 5  # Newton solver iterations (it converges in a few on these small systems)
     ls_iterations: int = 4  # solver line-search iterations
     impratio: float = 10.0  # friction-to-normal impedance ratio: firm grip without creep
@@ -215,7 +215,7 @@ class SimConfig:
     finger_kp: float = 1000.0  # finger position servo gain (N/m), force-limited by grip_force
     finger_damping: float = 30.0  # each finger slide (N s/m): the coupled pair about critically damped
     grip_timeconst: float = 0.02  # time constant of the weld pulling the hand to its target (s)
-    segment_steps: int = 50  # physics steps per compiled call; phases are whole segments
+    segment_steps: int = 25  # physics steps per segment (0.1 s); phases are whole segments
     settle_time: float = 0.4  # settling before each attempt's overview (s)
     group_settle_time: float = 0.4  # Setup 2: extra settling of a freshly placed group (s)
     pile_settle_time: float = 1.2  # Setup 3: extra settling of a freshly dropped pile (s)
