@@ -86,17 +86,17 @@ def _in_range(obj: Any, name: str, lo: float, hi: float) -> None:
 class GripperConfig:
     """The parallel-jaw gripper, shared by the double T-beam and the physics.
 
-    Defaults are those of a common research gripper (Franka Hand-like: 8 cm
-    stroke, 2 cm wide finger pads); the paper only says its gripper had "a
-    very small opening".
+    A Franka Hand (8 cm stroke, about 2 cm wide fingertips, up to 70 N of
+    continuous grasping force; palm and camera housing in `sim/scene.py`);
+    the paper only says its gripper had "a very small opening".
     """
 
     opening: float = 0.08  # distance between the fully opened jaws (m)
     finger_width: float = 0.02  # finger extent along the grasped edge (m)
     finger_thickness: float = 0.012  # finger extent along the closing axis (m)
     finger_length: float = 0.05  # how far the fingers reach below the palm (m)
-    grip_force: float = traced(40.0)  # squeezing force of the closed jaws (N)
-    friction: float = traced(1.0)  # finger-pad sliding friction coefficient
+    grip_force: float = traced(40.0)  # force each closed jaw squeezes with (N; the servo's limit)
+    friction: float = traced(0.7)  # fingertip sliding friction (docs/simulation.md: its source)
 
     def __post_init__(self):
         _positive(self, "opening", "finger_width", "finger_thickness", "finger_length",
@@ -121,14 +121,13 @@ class DetectorConfig:
     min_grasp_depth: float = traced(0.008)  # shallowest acceptable finger-tip depth (m)
     depth_clearance: float = traced(0.003)  # free space kept below the finger tips (m)
     finger_samples: int = 3  # depth-check grid per finger (n x n points over its footprint)
-    min_wall_angle_deg: float = traced(45.0)  # each gripped side must fall at least this steeply (0: off)
+    wall_check: bool = traced(False)  # ours: gripped sides must fall steeper than 90 deg - atan(friction)
 
     def __post_init__(self):
         _positive(self, "surface_tolerance", "min_surface_pixels", "max_contour",
                   "tangent_window", "min_edge_pixels", "max_edges", "min_width",
                   "grasp_depth", "min_grasp_depth")
         _in_range(self, "split_angle_deg", 1.0, 90.0)
-        _in_range(self, "min_wall_angle_deg", 0.0, 89.0)
         _in_range(self, "antipodal_tolerance_deg", 0.0, 90.0)
         _require(self.clearance >= 0, f"DetectorConfig.clearance must be >= 0, got {self.clearance!r}")
         _require(self.depth_clearance >= 0,
@@ -167,7 +166,7 @@ class AlignConfig:
 
 @_config
 class CameraConfig:
-    """The tool camera: the paper's Kinect, downsampled, noise-free by default."""
+    """The tool camera: the paper's Kinect, downsampled; exact depth or a Kinect sensor model."""
 
     width: int = 160  # working resolution (paper: Kinect 640 x 480, downsampled)
     height: int = 120
@@ -175,7 +174,12 @@ class CameraConfig:
     fov_y_deg: float = 43.0  # Kinect vertical field of view
     min_range: float = traced(0.05)  # nearer returns are invalid (m)
     max_range: float = traced(3.5)  # farther returns are invalid (m)
-    noise_std: float = traced(0.0)  # depth noise sigma(z) = noise_std * z^2 (m; 0: off, as the paper)
+    sensor: Literal["ideal", "kinect"] = "ideal"  # exact depth (the paper's simulator) or a Kinect
+    noise_scale: float = traced(1.0)  # kinect: multiplies its axial and lateral noise (0: none)
+    baseline: float = 0.075  # kinect: projector beside the camera along +x (m; Kinect v1: 7.5 cm)
+    disparity_step: float = 0.125  # kinect: disparity resolution (native pixels; Kinect v1: 1/8)
+    lateral_px: float = 0.8  # kinect: lateral noise sigma (native pixels; Nguyen et al. 2012)
+    native_width: int = 640  # kinect: native columns; a working pixel is one native pixel
 
     def __post_init__(self):
         _in_range(self, "width", 16, 1280)
@@ -184,7 +188,11 @@ class CameraConfig:
         _in_range(self, "fov_y_deg", 1.0, 170.0)
         _require(0 <= self.min_range < self.max_range,
                  "CameraConfig needs 0 <= min_range < max_range")
-        _require(self.noise_std >= 0, f"CameraConfig.noise_std must be >= 0, got {self.noise_std!r}")
+        _require(self.sensor in ("ideal", "kinect"),
+                 f"CameraConfig.sensor must be 'ideal' or 'kinect', got {self.sensor!r}")
+        _require(self.noise_scale >= 0, f"CameraConfig.noise_scale must be >= 0, got {self.noise_scale!r}")
+        _positive(self, "baseline", "disparity_step", "native_width")
+        _require(self.lateral_px >= 0, f"CameraConfig.lateral_px must be >= 0, got {self.lateral_px!r}")
 
     def camera(self):
         """The pinhole `Camera` of this configuration."""
@@ -208,34 +216,36 @@ class SimConfig:
     condim: int = 3  # sliding friction; finger pads touch at several points, which resists twisting
     max_contact_points: int = 48  # MJX keeps this many most-penetrating contacts per step (piles)
     max_contact_points_alone: int = 24  # ... in scenes of one object at a time (Setup 1)
-    object_friction: float = traced(0.5)  # sliding friction of objects and table (wood, plastic, metal)
-    hand_mass: float = 0.7  # palm and housing (kg), like a Franka Hand's 0.73 kg
+    object_friction: float = traced(0.5)  # objects and table sliding on each other (docs: source)
+    hand_mass: float = 0.73  # palm and camera housing (kg): a Franka Hand's 0.73 kg
     finger_mass: float = 0.05  # each finger (kg)
     finger_armature: float = 0.5  # reflected inertia of the geared finger drive (kg)
-    finger_kp: float = 1000.0  # finger position servo gain (N/m), force-limited by grip_force
-    finger_damping: float = 30.0  # each finger slide (N s/m): the coupled pair about critically damped
+    finger_kp: float = 10000.0  # jaw servo gain (N/m): saturates at 2 grip_force within 8 mm of squeeze
+    finger_damping: float = 100.0  # each finger slide (N s/m): the coupled pair well damped
     grip_timeconst: float = 0.02  # time constant of the weld pulling the hand to its target (s)
     segment_steps: int = 25  # physics steps per segment (0.1 s); phases are whole segments
     settle_time: float = 0.4  # settling before each attempt's overview (s)
+    drop_settle_time: float = 0.8  # Setup 1: extra settling of a dropped object: it topples (s)
     group_settle_time: float = 0.4  # Setup 2: extra settling of a freshly placed group (s)
-    pile_settle_time: float = 1.2  # Setup 3: extra settling of a freshly dropped pile (s)
+    pile_settle_time: float = 1.6  # Setup 3: extra settling of a pile dropped into the bin (s)
     approach_time: float = 0.3  # pre-grasp to grasp pose along the approach axis (s)
-    close_time: float = 0.3  # closing the jaws (s)
+    close_time: float = 0.4  # closing the jaws: the servo target ramps from open to closed (s)
     lift_time: float = 0.4  # lifting by lift_height (s)
     hold_time: float = 0.3  # holding still before the outcome is judged (s)
     pregrasp_distance: float = traced(0.06)  # start of the approach, back along the approach axis (m)
     lift_height: float = traced(0.10)  # how far the gripper lifts (m)
     min_lift: float = traced(0.05)  # success: the target ends at least this much above its start (m)
     approach_tolerance: float = traced(0.015)  # hand further than this from its target: blocked (m)
+    approach_force_limit: float = traced(20.0)  # contact force on the hand that stops the approach (N)
 
     def __post_init__(self):
         _positive(self, "timestep", "iterations", "ls_iterations", "impratio", "max_contact_points",
                   "max_contact_points_alone",
                   "object_friction", "hand_mass", "finger_mass", "finger_armature", "finger_kp",
                   "finger_damping", "grip_timeconst", "segment_steps", "settle_time",
-                  "group_settle_time", "pile_settle_time",
+                  "drop_settle_time", "group_settle_time", "pile_settle_time",
                   "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
-                  "min_lift", "approach_tolerance")
+                  "min_lift", "approach_tolerance", "approach_force_limit")
         _require(self.condim in (1, 3, 4, 6), f"SimConfig.condim must be 1, 3, 4 or 6, got {self.condim}")
         _require(self.pregrasp_distance >= 0, "SimConfig.pregrasp_distance must be >= 0")
         _require(self.min_lift <= self.lift_height, "SimConfig.min_lift must be <= lift_height")
@@ -247,36 +257,46 @@ class SimConfig:
 
 @_config
 class LayoutConfig:
-    """Random object layouts of the three setups (paper Fig. 7)."""
+    """Random object layouts of the three setups (paper Fig. 7; docs/simulation.md)."""
 
-    workspace: float = traced(0.08)  # Setup 1: object centre uniform in a square of this half-size (m)
-    gap_min: float = traced(0.02)  # Setup 2: smallest gap between neighbouring objects (m)
-    gap_max: float = traced(0.05)  # Setup 2: largest gap between neighbouring objects (m)
-    dense_radius: float = traced(0.05)  # Setup 3: object centres uniform in a disc of this radius (m)
-    dense_tilt_deg: float = traced(20.0)  # Setup 3: initial tilt uniform in [0, this] (deg)
-    drop_clearance: float = traced(0.003)  # initial height above the resting pose (m)
+    workspace: float = traced(0.08)  # Setup 1: object centre U(-this, this)^2; Setup 2: group offset
+    drop_height: float = traced(0.01)  # Setup 1: lowest point above the table at the drop (m)
+    gap_min: float = traced(0.005)  # Setup 2: smallest face-to-face gap between members (m)
+    gap_max: float = traced(0.03)  # Setup 2: largest gap to the member placed beside (m)
+    bin_size: float = 0.18  # Setup 3: inner side of the square bin (m): floor = 2x a-f's footprint
+    bin_wall_height: float = 0.05  # Setup 3: height of the bin's walls above the table (m)
+    bin_wall_thickness: float = 0.01  # Setup 3: thickness of the walls (m)
+    drop_clearance: float = traced(0.003)  # Setups 2, 3: lowest point above its support (m)
     stack_gap: float = traced(0.005)  # Setup 3: vertical gap between objects stacked for the drop (m)
 
     def __post_init__(self):
-        _positive(self, "workspace", "gap_max", "dense_radius")
+        _positive(self, "workspace", "gap_max", "bin_size", "bin_wall_height", "bin_wall_thickness")
         _require(self.stack_gap >= 0, "LayoutConfig.stack_gap must be >= 0")
         _require(0 <= self.gap_min <= self.gap_max, "LayoutConfig needs 0 <= gap_min <= gap_max")
-        _in_range(self, "dense_tilt_deg", 0.0, 90.0)
         _require(self.drop_clearance >= 0, "LayoutConfig.drop_clearance must be >= 0")
+        _require(self.drop_height >= 0, "LayoutConfig.drop_height must be >= 0")
+
+
+MAX_REORIENTATIONS = 3  # the re-alignment loop's static length; the budget is traced
 
 
 @_config
 class ProcedureConfig:
     """The paper's procedure (Fig. 1): overview, select, centre, detect, re-align, execute."""
 
-    max_reorientations: int = 1  # re-alignments allowed after a failed detection (paper: 1)
+    max_reorientations: int = traced(1)  # re-alignments allowed after a failed detection (paper: 1)
     camera_height: float = traced(0.5)  # overview and centred views: camera height above the table (m)
     min_view_height: float = traced(0.05)  # a re-aligned camera must stay this high above the table (m)
+    centre: bool = traced(True)  # move the camera over the target before detecting (paper: yes)
+    tcp_error: float = traced(0.0)  # execution error: TCP position sigma per axis (m; 0: exact)
+    tilt_error_deg: float = traced(0.0)  # execution error: rotation sigma about a random axis (deg)
 
     def __post_init__(self):
-        _in_range(self, "max_reorientations", 0, 10)
+        _in_range(self, "max_reorientations", 0, MAX_REORIENTATIONS)
         _in_range(self, "camera_height", 0.15, 3.0)
         _require(self.min_view_height >= 0, "ProcedureConfig.min_view_height must be >= 0")
+        _require(self.tcp_error >= 0, f"ProcedureConfig.tcp_error must be >= 0, got {self.tcp_error!r}")
+        _in_range(self, "tilt_error_deg", 0.0, 45.0)
 
 
 # ---------------------------------------------------------------------------
@@ -381,6 +401,24 @@ def flatten(config: Any, prefix: str = "") -> dict[str, Any]:
         else:
             out[prefix + f.name] = value
     return out
+
+
+PRESETS: dict[str, dict[str, str]] = {
+    # What the paper's text specifies and nothing more: exact depth, the paper's checks alone,
+    # a robot that reaches the computed pose exactly. (The world is the same in both presets.)
+    "paper": {},
+    # A Kinect v1, our wall check, and execution error: a TCP off by a few millimetres and a
+    # degree, as hand-eye calibration and robot accuracy leave it (docs/simulation.md).
+    "realistic": {"camera.sensor": "kinect", "detect.wall_check": "true",
+                  "procedure.tcp_error": "0.002", "procedure.tilt_error_deg": "1.0"},
+}
+
+
+def preset(name: str) -> Config:
+    """The configuration of a named preset (`PRESETS`)."""
+    if name not in PRESETS:
+        raise ConfigError(f"unknown preset {name!r} (presets: {', '.join(PRESETS)})")
+    return override(Config(), PRESETS[name])
 
 
 def stack_configs(configs: list[Any]) -> Any:

@@ -4,14 +4,15 @@ While a run is going:
 
 - `config.json`: every setting, seed, batch, devices, versions, command,
   written before the first chunk;
-- `parts/timings-NNNNN.json` and `parts/attempts-NNNNN.parquet`: one pair
-  per finished chunk, each written atomically; a chunk is done when its
-  attempts part exists;
+- `parts/timings-NNNNN.json`, `parts/rounds-NNNNN.parquet` and
+  `parts/attempts-NNNNN.parquet`: one set per finished chunk, each written
+  atomically; a chunk is done when its attempts part exists;
 - `attempts.csv`: the rows of each finished chunk appended at once (chunk
   order), to watch a long run with any tool.
 
-When every chunk is done, `attempts.csv` and `attempts.parquet` are rebuilt
-from the parts, sorted (so a resumed or split run ends byte-identical to an
+When every chunk is done, `attempts.csv`, `attempts.parquet` and
+`rounds.csv` (one row per Setup 2/3 round: how dense its layout was) are
+rebuilt from the parts, sorted (so a resumed or split run ends byte-identical to an
 uninterrupted one), `timings.csv` joins the chunks' timings, the report
 (`summary.csv`, tables, figures) is computed from the rows alone, and
 `parts/` is removed. `--resume` continues a killed run: it checks that the
@@ -147,7 +148,7 @@ class RunFolder:
         elif self.folder.exists():  # --overwrite: nothing of the old run may mix with this one
             for stale in ("parts", "views", "debug"):
                 shutil.rmtree(self.folder / stale, ignore_errors=True)
-            for stale in ("attempts.csv", "attempts.parquet", "timings.csv"):
+            for stale in ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv"):
                 (self.folder / stale).unlink(missing_ok=True)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
@@ -173,11 +174,15 @@ class RunFolder:
         text = _csv(pd.concat(frames, ignore_index=True), True) if frames else b""
         write_atomic(self.folder / "attempts.csv", text)
 
-    def add(self, chunk: int, frame: pd.DataFrame, timings: dict) -> None:
-        """Keep one finished chunk: its timings, its rows (the part file marks it done), the CSV."""
+    def add(self, chunk: int, frame: pd.DataFrame, layouts: pd.DataFrame, timings: dict) -> None:
+        """Keep one finished chunk: its timings and round rows, its attempt rows (that part file
+        marks it done), the CSV append."""
         buffer = io.BytesIO()
         frame.to_parquet(buffer, index=False)
+        rounds = io.BytesIO()
+        layouts.to_parquet(rounds, index=False)
         write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
+        write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
         if not self.shared:
             csv = self.folder / "attempts.csv"
@@ -189,7 +194,7 @@ class RunFolder:
 
         Returns the files written, or an empty list while chunks are missing.
         """
-        from graspjax.report import build, parse_attempts
+        from graspjax.report import build, load_rounds, parse_attempts
 
         if not self.finished:
             if len(self.done) < self.chunks:
@@ -199,8 +204,12 @@ class RunFolder:
                                     for c in sorted(self.done)])
             parquet = io.BytesIO()
             frame.to_parquet(parquet, index=False)
+            rounds = pd.concat([pd.read_parquet(self.parts / f"rounds-{c:05d}.parquet")
+                                for c in sorted(self.done)], ignore_index=True)
+            rounds = rounds.sort_values(["point", "setup", "round"], kind="stable")
             write_atomic(self.folder / "attempts.parquet", parquet.getvalue())
             write_atomic(self.folder / "attempts.csv", _csv(frame, True))
+            write_atomic(self.folder / "rounds.csv", _csv(rounds, True))
             write_atomic(self.folder / "timings.csv", timings.to_csv(index=False).encode())
             meta = {**self.meta, "finished": datetime.now(UTC).isoformat(timespec="seconds")}
             write_atomic(self.folder / "config.json",
@@ -208,8 +217,9 @@ class RunFolder:
             if not self.shared:  # another process may still be reading them
                 shutil.rmtree(self.parts)
             self.finished = True
-        report = build(parse_attempts((self.folder / "attempts.csv").read_text()))
+        report = build(parse_attempts((self.folder / "attempts.csv").read_text()),
+                       load_rounds(self.folder))
         for name, data in report.items():
             write_atomic(self.folder / name, data)
-        data_files = ("attempts.csv", "attempts.parquet", "timings.csv", "config.json")
+        data_files = ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "config.json")
         return [self.folder / name for name in (*data_files, *report)]

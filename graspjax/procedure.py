@@ -11,15 +11,20 @@ k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
    protocol bookkeeping and uses the simulator's object identities;
    everything the method itself decides uses depth alone.)
 3. Centre: the camera moves parallel to the table until its optical axis
-   passes through that point, and looks again.
+   passes through that point, and looks again (`procedure.centre`: the
+   paper does, "otherwise the influence of shadows increases").
 4. Detect a grasp (double T-beam), with z_min taken on the target's pixels.
 5. Re-align when none is found: the camera turns to look along the negative
    normal of the best neighbour plane, at the same distance from the plane's
    inliers, and detects again; at most `max_reorientations` times (a
    bounded loop with masks).
-6. Execute and judge (`world.play`): approach, close, lift, hold; the
-   lifted object leaves the scene, a failed one stays where it ends up, the
-   hand returns home and the scene settles for the next attempt.
+6. Execute and judge (`world.play`): the robot reaches the grasp pose off by
+   the execution error (`procedure.tcp_error`, `tilt_error_deg`); a pre-grasp
+   pose that would put the open hand inside a part, the bin or the table is
+   refused (`COLLISION`); approach (stopped by a contact force above
+   `approach_force_limit`: `COLLISION`), close, lift, hold; the lifted
+   object leaves the scene, a failed one stays where it ends up, the hand
+   returns home and the scene settles for the next attempt.
 
 Every attempt ends with ONE reason code (`Reason`), computed here with this
 precedence: a diverged simulation; else the physical outcome of an executed
@@ -40,14 +45,26 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.config import Config
-from graspjax.geometry import look_down, rotation_between
+from graspjax.config import MAX_REORIENTATIONS, Config
+from graspjax.geometry import axis_angle, frame_from_axes, look_down, normalize, rotation_between
 from graspjax.perception import Alignment, AlignReason, Grasp, GraspReason, align_tool, detect_grasp
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
 from graspjax.sim.render import render_depth_and_piece
 from graspjax.sim.scene import Scene, mjx
-from graspjax.sim.world import Execution, GraspPose, Outcome, physics_model, play, reset, where_tree
+from graspjax.sim.world import (
+    Execution,
+    GraspPose,
+    LayoutStats,
+    Outcome,
+    hand_clear,
+    hand_waypoints,
+    layout_stats,
+    physics_model,
+    play,
+    reset,
+    where_tree,
+)
 
 ALIGN_BASE = 10  # Reason of an alignment failure: ALIGN_BASE + AlignReason
 DETECT_BASE = 20  # Reason of a detection failure: DETECT_BASE + GraspReason
@@ -126,9 +143,10 @@ class Record:
     lifted_object: jax.Array  # () int32 scene object lifted, -1 if none
     rise: jax.Array  # () target rise after the hold (m; nan if not executed)
     opening: jax.Array  # () half jaw opening after closing (m; nan if not executed)
-    tcp: jax.Array  # (3,) executed grasp: point between the finger tips (world, m; nan if none)
-    approach: jax.Array  # (3,) executed grasp: approach direction
-    closing: jax.Array  # (3,) executed grasp: closing axis
+    tcp: jax.Array  # (3,) planned grasp: point between the finger tips (world, m; nan if none)
+    approach: jax.Array  # (3,) planned grasp: approach direction
+    closing: jax.Array  # (3,) planned grasp: closing axis
+    layout: LayoutStats  # the scene's density after this call's settling
 
 
 @dataclasses.dataclass(frozen=True)
@@ -176,26 +194,28 @@ def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
 
 
 def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec) -> RoundState:
-    """Place the round's layout (not yet settled): one object alone (Setup 1), a group
-    (Setup 2) or a dropped pile (Setup 3) of the members."""
+    """Place the round's layout (not yet settled): one object dropped alone (Setup 1), a group
+    of resting objects (Setup 2) or a pile dropped into the bin (Setup 3)."""
     config = spec.config
     key = jax.random.wrap_key_data(_layout_key(scene, spec))
     n = scene.num_objects
-    one = layout.single(key, spec.order[0], n, config.layout)
-    group = layout.grouped(key, scene.footprint_radius, config.layout)
-    pile = layout.dense(key, scene.object_points, config.layout)
+    points = jnp.asarray(scene.object_points, jnp.float32)
+    one = layout.single(key, spec.order[0], points, config.layout)
+    group = layout.grouped(key, jnp.asarray(scene.resting, jnp.float32), points, config.layout)
+    heap = layout.pile(key, points, config.layout)
     pos, quat = jax.tree.map(lambda a, b, c: jnp.select([spec.setup == 1, spec.setup == 2], [a, b], c),
-                             one[:2], group[:2], pile[:2])
+                             one[:2], group[:2], heap[:2])
     active = jnp.where(spec.setup == 1, one[2], spec.members)
-    data = reset(scene, data, pos, quat, active)
+    data = reset(scene, data, pos, quat, active, bin_in_place=spec.setup == 3)
     return RoundState(data=data, attempted=jnp.zeros(n, bool), removed=jnp.zeros(n, bool), key=key)
 
 
 def _settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array:
     """Segments this world settles after call k: the drop (k = -1), else until the next attempt."""
     s = config.sim
-    extra = jnp.select([spec.setup == 2, spec.setup == 3],
-                       [s.segments(s.group_settle_time), s.segments(s.pile_settle_time)], 0)
+    extra = jnp.select([spec.setup == 1, spec.setup == 2],
+                       [s.segments(s.drop_settle_time), s.segments(s.group_settle_time)],
+                       s.segments(s.pile_settle_time))
     between = jnp.where(k + 1 < spec.order.shape[0], s.segments(s.settle_time), 0)
     return jnp.where(k < 0, s.segments(s.settle_time) + extra, between).astype(jnp.int32)
 
@@ -233,9 +253,11 @@ def select_target(scene: Scene, data, eligible: jax.Array, camera: Camera, confi
 
 
 def centred_pose(point: jax.Array, config: Config):
-    """Camera moved parallel to the table so its optical axis passes through `point` (3,)."""
-    return look_down(jnp.stack([point[0], point[1], jnp.asarray(config.procedure.camera_height,
-                                                                 point.dtype)]))
+    """Camera moved parallel to the table so its optical axis passes through `point` (3,)
+    (with `procedure.centre` off: the overview pose, unmoved)."""
+    over = jnp.where(config.procedure.centre, point[:2], 0.0)
+    return look_down(jnp.concatenate([over, jnp.full(1, config.procedure.camera_height,
+                                                     point.dtype)]))
 
 
 def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Camera,
@@ -272,7 +294,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     k_overview, k_views = jax.random.split(key)
     target, point, depth, objects = select_target(scene, data, eligible, camera, config, k_overview)
     centre_rot, centre_pos = centred_pose(point, config)
-    budget = config.procedure.max_reorientations
+    budget = config.procedure.max_reorientations  # traced; the loop has MAX_REORIENTATIONS + 1 views
 
     def look(carry, r):
         rot, pos, found, blocked, pose, turns, detect_reason, align_reason = carry
@@ -296,7 +318,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     no_pose = GraspPose(nan3, nan3, nan3, jnp.array(False))
     carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
              jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1))
-    carry, per_view = jax.lax.scan(look, carry, jnp.arange(budget + 1))
+    carry, per_view = jax.lax.scan(look, carry, jnp.arange(MAX_REORIENTATIONS + 1))
     _, _, found, blocked, pose, turns, detect_reason, align_reason = carry
     pose = dataclasses.replace(pose, valid=found & (target >= 0))
     views = None
@@ -321,6 +343,18 @@ def _view_positions(v: _View, first: jax.Array) -> jax.Array:
     return jnp.concatenate([first[None], v.next_position[:-1]])
 
 
+def _with_error(pose: GraspPose, key, config: Config) -> GraspPose:
+    """The pose the robot reaches: the planned one off by the execution error (TCP: N(0, sigma^2)
+    per axis; rotation: N(0, sigma^2) about a uniformly random axis)."""
+    k_tcp, k_axis, k_angle = jax.random.split(key, 3)
+    p = config.procedure
+    tcp = pose.tcp + p.tcp_error * jax.random.normal(k_tcp, (3,))
+    axis = normalize(jax.random.normal(k_axis, (3,)))
+    turn = axis_angle(axis, jnp.deg2rad(p.tilt_error_deg) * jax.random.normal(k_angle, ()))
+    return GraspPose(tcp=tcp, approach=turn @ pose.approach, closing=turn @ pose.closing,
+                     valid=pose.valid)
+
+
 def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
             keep_views: bool = False) -> tuple[RoundState, Record, Views | None]:
     """Call k of this world's round: k = -1 settles the freshly placed layout; k >= 0 is the
@@ -331,30 +365,39 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     eligible = spec.members & ~state.attempted & ~state.removed
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     key = jax.random.fold_in(state.key, 1000 + k)
+    k_search, k_error = jax.random.split(key)
 
     def search(_):
         kin = mjx.kinematics(model, state.data)
-        return _search(scene, kin, eligible, key, config, keep_views)
+        target, pose, progress, views = _search(scene, kin, eligible, k_search, config, keep_views)
+        # The pre-grasp pose must leave the open hand clear of every part, the bin and the table.
+        reached = _with_error(pose, k_error, config)
+        waypoints, quat = hand_waypoints(scene, reached, config)
+        rotation = frame_from_axes(reached.approach, reached.closing)
+        clear = hand_clear(scene, kin, waypoints[0], rotation)
+        return target, pose, reached, clear, progress, views
 
     def idle(_):
-        return jax.tree.map(jnp.zeros_like, jax.eval_shape(search, None))
+        return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), jax.eval_shape(search, None))
 
-    target, pose, (blocked, turns, detect_reason, align_reason), views = jax.lax.cond(
-        k >= 0, search, idle, None)
+    target, pose, reached, clear, (blocked, turns, detect_reason, align_reason), views = (
+        jax.lax.cond(k >= 0, search, idle, None))
     target = jnp.where(k >= 0, target, -1)
-    pose = dataclasses.replace(pose, valid=pose.valid & finite & (k >= 0))
-    data, done = play(scene, model, state.data, pose, jnp.maximum(target, 0),
-                      _settle_segments(spec, k, config), k >= 0, config)
+    valid = pose.valid & finite & (k >= 0)
+    pose = dataclasses.replace(pose, valid=valid)
+    data, done = play(scene, model, state.data, dataclasses.replace(reached, valid=valid),
+                      jnp.maximum(target, 0), _settle_segments(spec, k, config), k >= 0, config,
+                      reachable=clear)
 
     attempted = state.attempted | ((jnp.arange(n) == target) & (target >= 0))
     removed = state.removed | ((jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0))
     state = RoundState(data=data, attempted=attempted, removed=removed, key=state.key)
     return state, _record(target, pose, done, finite, blocked, turns, detect_reason,
-                          align_reason), views
+                          align_reason, layout_stats(scene, data)), views
 
 
 def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, detect_reason,
-            align_reason) -> Record:
+            align_reason, stats: LayoutStats) -> Record:
     """The attempt's record, with its one reason (precedence: module docstring)."""
     stopped_by_alignment = blocked & (align_reason >= 0) & (align_reason != AlignReason.FOUND)
     reason = jnp.select(
@@ -370,7 +413,7 @@ def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, de
         align_reason=align_reason, lifted_object=done.lifted_object, rise=done.rise,
         opening=done.opening, tcp=jnp.where(pose.valid, pose.tcp, nan3),
         approach=jnp.where(pose.valid, pose.approach, nan3),
-        closing=jnp.where(pose.valid, pose.closing, nan3))
+        closing=jnp.where(pose.valid, pose.closing, nan3), layout=stats)
 
 
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""

@@ -304,14 +304,41 @@ def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
     return out
 
 
-def build(frame: pd.DataFrame) -> dict[str, bytes]:
-    """Every report file (name -> bytes) from the attempt rows."""
+def load_rounds(folder: str | Path) -> pd.DataFrame | None:
+    """`rounds.csv` of a run folder (one row per Setup 2/3 round), None if it has none."""
+    path = Path(folder) / "rounds.csv"
+    if not path.is_file() or not path.stat().st_size:
+        return None
+    return pd.read_csv(path)
+
+
+def layout_lines(rounds: pd.DataFrame | None) -> list[str]:
+    """How dense the Setup 2/3 layouts were, one markdown line per setup."""
+    if rounds is None or rounds.empty:
+        return []
+    lines = ["", "Layouts once settled (`rounds.csv`), per setup: objects touching another, "
+             "objects resting on another per round, median nearest face-to-face gap, spread "
+             "(median over rounds).", ""]
+    for setup, part in rounds.groupby("setup"):
+        lines.append(f"- Setup {setup} ({len(part)} rounds): touching "
+                     f"{100 * part.touching_fraction.mean():.0f} %, stacked "
+                     f"{part.stacked.mean():.2f} per round, gap "
+                     f"{100 * part.min_face_gap_m.median():.1f} cm, "
+                     f"spread {100 * part.spread_m.median():.1f} cm")
+    return lines
+
+
+def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, bytes]:
+    """Every report file (name -> bytes) from the attempt rows (and the round rows)."""
     summary = summarize(frame)
     files = {"summary.csv": summary.to_csv(index=False).encode()}
     if not varying_config(frame):
         for table in (1, 2):
             if summary["object"].isin(TABLE_OBJECTS[table]).any():
-                files[f"table{table}.md"] = table_markdown(summary, table).encode()
+                text = table_markdown(summary, table)
+                if table == 1:
+                    text += "\n".join(layout_lines(rounds)) + ("\n" if rounds is not None else "")
+                files[f"table{table}.md"] = text.encode()
                 files[f"table{table}.tex"] = table_latex(summary, table).encode()
         files["success_by_object.png"] = success_figure(summary)
     files["outcomes.png"] = outcomes_figure(frame)
@@ -325,7 +352,7 @@ def write_report(folder: str | Path, debug: int = 0) -> list[Path]:
     from graspjax.io import write_atomic
 
     folder = Path(folder)
-    files = build(load_attempts(folder))
+    files = build(load_attempts(folder), load_rounds(folder))
     if debug:
         files.update(debug_figures(folder, debug))
     for name, data in files.items():

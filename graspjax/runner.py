@@ -208,12 +208,13 @@ class Program:
         self.compile_s = time.perf_counter() - start
         self.compiled = True
 
-    def play(self, worlds: tuple[World, ...], points: list[Config],
-             progress: Callable[[int], None]) -> tuple[list[Record], list[Views] | None]:
-        """One round in every world: the drop, then each attempt; records (and views) on the host."""
+    def play(self, worlds: tuple[World, ...], points: list[Config], progress: Callable[[int], None]
+             ) -> tuple[Record, list[Record], list[Views] | None]:
+        """One round in every world: the drop, then each attempt; the drop's record, the
+        attempts' records (and views) on the host."""
         spec = self.spec(worlds, points)
         state = self._start(spec)
-        state, _, _ = self._attempt(state, spec, self._k(-1))
+        state, drop, _ = self._attempt(state, spec, self._k(-1))
         records, views = [], []
         for k in range(self.group.attempts):
             state, record, view = self._attempt(state, spec, self._k(k))
@@ -221,8 +222,8 @@ class Program:
             records.append(record)
             views.append(view)
             progress(len(worlds))
-        records = jax.device_get(records)
-        return records, views if views[0] is not None else None
+        drop, records = jax.device_get((drop, records))
+        return drop, records, views if views[0] is not None else None
 
 
 _PROGRAMS: dict = {}
@@ -289,6 +290,19 @@ def rows(program: Program, worlds: tuple[World, ...], records: list[Record]) -> 
     return pd.concat([f for f in frames if len(f)], ignore_index=True)
 
 
+def round_rows(worlds: tuple[World, ...], drop: Record) -> pd.DataFrame:
+    """One row per Setup 2/3 round: how dense its layout was once the drop settled."""
+    stats = jax.tree.map(lambda x: np.asarray(x)[:len(worlds)], drop.layout)
+    keep = [w for w, world in enumerate(worlds) if world.setup > 1]
+    return pd.DataFrame({
+        "point": [worlds[w].point for w in keep], "seed": [worlds[w].seed for w in keep],
+        "setup": [worlds[w].setup for w in keep], "round": [worlds[w].trial for w in keep],
+        "objects": ["".join(worlds[w].objects) for w in keep],
+        "touching_fraction": stats.touching[keep] / np.maximum(stats.objects[keep], 1),
+        "stacked": stats.stacked[keep], "min_face_gap_m": stats.gap[keep],
+        "spread_m": stats.spread[keep]})
+
+
 def _world_columns(worlds, index, objects) -> pd.DataFrame:
     return pd.DataFrame({
         "point": [worlds[w].point for w in index], "setup": [worlds[w].setup for w in index],
@@ -321,8 +335,9 @@ def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFram
 def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
         keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
         log: Callable[[str], None] = lambda m: None
-        ) -> Iterator[tuple[Chunk, pd.DataFrame, dict, list[Views] | None]]:
-    """Run every chunk not in `done`; yield each as it finishes: (chunk, rows, timings, views)."""
+        ) -> Iterator[tuple[Chunk, pd.DataFrame, pd.DataFrame, dict, list[Views] | None]]:
+    """Run every chunk not in `done`; yield each as it finishes: (chunk, attempt rows, round
+    rows, timings, views)."""
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
     needed = sorted({c.group for c in todo})
@@ -332,15 +347,16 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
     for chunk in todo:
         prog = programs[chunk.group]
         start = time.perf_counter()
-        records, views = prog.play(chunk.worlds, points, progress)
+        drop, records, views = prog.play(chunk.worlds, points, progress)
         frame = rows(prog, chunk.worlds, records)
         frame.insert(0, "chunk", chunk.index)
+        layouts = round_rows(chunk.worlds, drop)
         timings = {"chunk": chunk.index, "group": chunk.group, "scene": "".join(prog.scene.letters),
                    "worlds": len(chunk.worlds), "batch": prog.batch,
                    "attempts": int((frame["attempt"] >= 0).sum()),
                    "compile_s": round(compile_s.pop(chunk.group, 0.0), 3),  # with a group's first
                    "wall_s": round(time.perf_counter() - start, 3)}
-        yield chunk, frame, timings, _selected(views, chunk)
+        yield chunk, frame, layouts, timings, _selected(views, chunk)
 
 
 def _selected(views, chunk):

@@ -83,12 +83,14 @@ class Worlds:
             return play(scene, model, data, grasp, target, segments, execute, config)
 
         self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None)))
-        self._reset = jax.jit(jax.vmap(lambda p, q, a: reset(scene, template, p, q, a)))
+        self._reset = jax.jit(jax.vmap(lambda p, q, a, b: reset(scene, template, p, q, a, b)))
         self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))
 
-    def reset(self, pos, quat, active):
-        """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n)."""
-        return self._reset(*map(jnp.asarray, (pos, quat, active)))
+    def reset(self, pos, quat, active, bin_in_place=False):
+        """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n); the bin in
+        place (Setup 3) or parked."""
+        bins = jnp.full(SIM_BATCH, bin_in_place, bool)
+        return self._reset(*map(jnp.asarray, (pos, quat, active)), bins)
 
     def settle(self, data, seconds: float):
         segments = self.scene.sim.segments(seconds)

@@ -226,15 +226,17 @@ def _lying_prism(sides_deg, base=0.055, length=0.08):
     return _lying([(-base / 2, 0), (base / 2, 0), (0, ridge)], length)
 
 
+WALLS = DetectorConfig(wall_check=True)  # ours, off in the paper's checks
+
+
 def test_a_band_cut_from_a_gentle_slope_has_no_wall(camera, detect, render):
     """From above, a 25 degree ramp's depth band is a strip of the slope: across it, one finger
     would press on the slope, outside the pads' friction cone: NO_WALL."""
-    g = detect(jnp.asarray(render([_wedge(25.0)])), camera)
+    g = detect(jnp.asarray(render([_wedge(25.0)])), camera, WALLS)
     assert _reason(g) == GraspReason.NO_WALL and not bool(g.found)
     # Without the wall check, the paper's checks alone accept the strip (its high side is a
     # real wall, its low side an iso-depth line on the slope).
-    unchecked = detect(jnp.asarray(render([_wedge(25.0)])), camera,
-                       DetectorConfig(min_wall_angle_deg=0.0))
+    unchecked = detect(jnp.asarray(render([_wedge(25.0)])), camera)
     assert bool(unchecked.found)
     assert float(unchecked.width) < 0.03  # the strip, far narrower than the 5 x 6.5 cm ramp
 
@@ -244,11 +246,22 @@ def test_a_ridge_between_steep_sides_is_grasped_across(camera, detect, render, s
     """60 degree sides (an equilateral prism): steeper than the friction cone, so the narrow
     band along the ridge is a grasp, wherever the ridge falls on the pixel grid."""
     ridge = _lying_prism(60.0).moved(np.eye(3), [shift_px * 0.46 / camera.fx, 0.0, 0.0])
-    g = detect(jnp.asarray(render([ridge])), camera)
+    g = detect(jnp.asarray(render([ridge])), camera, WALLS)
     assert bool(g.found), _reason(g)
     assert abs(float(g.closing_axis[0])) > np.cos(np.deg2rad(3.0))  # across the ridge
-    gentle = detect(jnp.asarray(render([_lying_prism(30.0)])), camera)
+    gentle = detect(jnp.asarray(render([_lying_prism(30.0)])), camera, WALLS)
     assert _reason(gentle) in (GraspReason.NO_WALL, GraspReason.TOO_NARROW)
+
+
+@pytest.mark.parametrize("friction, holds", [(0.7, True), (0.5, False)])
+def test_the_wall_angle_follows_the_pad_friction(camera, detect, render, friction, holds):
+    """60 degree sides hold pads of friction 0.7 (they need 90 - atan(0.7) = 55 degrees) but not
+    of 0.5 (63.4 degrees)."""
+    g = detect(jnp.asarray(render([_lying_prism(60.0)])), camera, WALLS,
+               GripperConfig(friction=friction))
+    assert bool(g.found) == holds
+    if not holds:
+        assert _reason(g) == GraspReason.NO_WALL
 
 
 def test_the_slope_seen_head_on_is_grasped_across_the_ramp(camera, detect):

@@ -1,68 +1,135 @@
+"""Layout samplers of the three setups, and footprint gaps against brute-force polygon distances."""
+
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
+from scipy.spatial import ConvexHull
 
 from graspjax.config import LayoutConfig
 from graspjax.geometry import quat_to_matrix
 from graspjax.sim import OBJECTS, layout
+from graspjax.sim.objects import resting_poses
 
 CFG = LayoutConfig()
 LETTERS = "abcdef"
-RADIUS = np.array([OBJECTS[c].footprint_radius for c in LETTERS])
 POINTS = [OBJECTS[c].points() for c in LETTERS]
-PADDED = np.stack([np.concatenate([p, np.repeat(p[:1], 40 - len(p), 0)]) for p in POINTS])
+PADDED = jnp.asarray(np.stack([np.concatenate([p, np.repeat(p[:1], 40 - len(p), 0)])
+                               for p in POINTS]), jnp.float32)
+RESTING = jnp.asarray(np.stack([resting_poses(c) for c in LETTERS]), jnp.float32)
+
+
+def _rotations(quat):
+    return np.stack([np.asarray(quat_to_matrix(jnp.asarray(q))) for q in quat])
+
+
+def _outline(points, rotation, xy):
+    """Convex outline (K, 2) of vertices seen from above, at origin xy."""
+    flat = (np.asarray(points) @ rotation.T)[:, :2] + xy
+    return flat[ConvexHull(flat).vertices]
+
+
+def _polygon_distance(a, b):
+    """Distance between two disjoint convex polygons (0 if they overlap): brute force."""
+    def point_segment(p, s0, s1):
+        t = np.clip(np.dot(p - s0, s1 - s0) / np.dot(s1 - s0, s1 - s0), 0, 1)
+        return np.linalg.norm(p - (s0 + t * (s1 - s0)))
+
+    def inside(p, poly):
+        edges = np.roll(poly, -1, 0) - poly
+        cross = edges[:, 0] * (p[1] - poly[:, 1]) - edges[:, 1] * (p[0] - poly[:, 0])
+        return (cross >= 0).all() or (cross <= 0).all()
+
+    if any(inside(p, b) for p in a) or any(inside(p, a) for p in b):
+        return 0.0
+    return min(point_segment(p, s, t) for poly, other in ((a, b), (b, a))
+               for p in poly for s, t in zip(other, np.roll(other, -1, 0), strict=True))
+
+
+def test_footprint_gap_matches_brute_force_polygon_distance():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        i, j = rng.choice(6, 2, replace=False)
+        rot = [np.asarray(RESTING[k, rng.integers(64)]) for k in (i, j)]
+        xy = [np.zeros(2), rng.uniform(-0.12, 0.12, 2)]
+        supports = [layout.support(jnp.asarray((POINTS[k] @ r.T)[:, :2], jnp.float32))
+                    for k, r in zip((i, j), rot, strict=True)]
+        ours = float(layout.gap(supports[0], jnp.asarray(xy[0]), supports[1], jnp.asarray(xy[1])))
+        truth = _polygon_distance(_outline(POINTS[i], rot[0], xy[0]), _outline(POINTS[j], rot[1], xy[1]))
+        if truth > 0:
+            assert truth - 2.5e-4 <= ours <= truth + 1e-6  # under by at most 8 cm / 2 * sin(pi / 512)
+        else:
+            assert ours <= 1e-4
 
 
 def test_same_seed_same_layout_other_trial_other_layout():
-    a = layout.single(layout.layout_key(7, 1, 2, 5), 2, 6, CFG)
-    b = layout.single(layout.layout_key(7, 1, 2, 5), 2, 6, CFG)
-    c = layout.single(layout.layout_key(7, 1, 2, 6), 2, 6, CFG)
+    a = layout.single(layout.layout_key(7, 1, 2, 5), 2, PADDED, CFG)
+    b = layout.single(layout.layout_key(7, 1, 2, 5), 2, PADDED, CFG)
+    c = layout.single(layout.layout_key(7, 1, 2, 6), 2, PADDED, CFG)
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
-    assert not np.allclose(a[0], c[0])
-    assert not np.allclose(layout.dense(layout.layout_key(7, 3, 0), PADDED, CFG)[0],
-                           layout.dense(layout.layout_key(8, 3, 0), PADDED, CFG)[0])
+    assert not np.allclose(a[1], c[1])
+    assert not np.allclose(layout.pile(layout.layout_key(7, 3, 0), PADDED, CFG)[0],
+                           layout.pile(layout.layout_key(8, 3, 0), PADDED, CFG)[0])
 
 
-def test_setup1_one_object_in_the_workspace():
-    for trial in range(20):
-        pos, quat, active = layout.single(layout.layout_key(0, 1, 4, trial), 4, 6, CFG)
+def test_setup1_drops_one_object_from_any_orientation():
+    ups = []
+    for trial in range(40):
+        pos, quat, active = layout.single(layout.layout_key(0, 1, 4, trial), 4, PADDED, CFG)
         assert np.asarray(active).tolist() == [False] * 4 + [True, False]
         assert (np.abs(np.asarray(pos[4, :2])) <= CFG.workspace).all()
-        np.testing.assert_allclose(np.linalg.norm(quat, axis=1), 1.0, rtol=1e-6)
+        rotation = _rotations(quat)[4]
+        lowest = (POINTS[4] @ rotation.T)[:, 2].min() + float(pos[4, 2])
+        assert lowest == pytest.approx(CFG.drop_height, abs=1e-6)
+        ups.append(rotation[2])  # the world's up in the object frame
+    ups = np.array(ups)
+    # Uniform orientations: the object's up direction covers the sphere (mean near zero).
+    assert np.linalg.norm(ups.mean(0)) < 0.35 and (ups[:, 2] < -0.5).any() and (ups[:, 2] > 0.5).any()
 
 
-def test_setup2_neighbours_keep_a_gap():
-    for r in range(20):
-        pos, _, active = layout.grouped(layout.layout_key(0, 2, r), RADIUS, CFG)
-        xy = np.asarray(pos[:, :2])
-        assert np.asarray(active).all()
-        dist = np.linalg.norm(xy[:, None] - xy[None], axis=-1)
-        clearance = dist - RADIUS[:, None] - RADIUS[None]
-        np.fill_diagonal(clearance, np.inf)
-        assert clearance.min() >= CFG.gap_min - 1e-6  # footprint circles never touch
-        assert clearance.min() <= CFG.gap_max + 1e-6  # and the group stays together
-
-
-def test_setup3_dense_stack_starts_without_overlap():
+def test_setup2_members_keep_their_face_to_face_gaps():
     for r in range(10):
-        pos, quat, _ = layout.dense(layout.layout_key(0, 3, r), PADDED, CFG)
-        assert (np.linalg.norm(np.asarray(pos[:, :2]), axis=1) <= CFG.dense_radius + 1e-6).all()
+        pos, quat, active = layout.grouped(layout.layout_key(0, 2, r), RESTING, PADDED, CFG)
+        assert np.asarray(active).all()
+        rotations, xy = _rotations(quat), np.asarray(pos[:, :2])
+        outlines = [_outline(POINTS[i], rotations[i], xy[i]) for i in range(6)]
+        apart = np.array([[_polygon_distance(outlines[i], outlines[j]) if i != j else np.inf
+                           for j in range(6)] for i in range(6)])
+        nearest = apart.min(1)
+        assert nearest.min() >= CFG.gap_min - 5e-4  # never nearer than gap_min (brute force)
+        assert nearest.max() <= CFG.gap_max + 5e-4  # each next to a member at most gap_max away
+        for i in range(6):  # resting on the table: one of the object's resting poses, turned
+            lowest = (POINTS[i] @ rotations[i].T)[:, 2].min() + float(pos[i, 2])
+            assert lowest == pytest.approx(CFG.drop_clearance, abs=1e-6)
+
+
+def test_setup3_pile_starts_inside_the_bin_without_overlap():
+    half = CFG.bin_size / 2
+    for r in range(10):
+        pos, quat, _ = layout.pile(layout.layout_key(0, 3, r), PADDED, CFG)
+        rotations = _rotations(quat)
         spans = []
         for i in range(6):
-            rot = np.asarray(quat_to_matrix(jnp.asarray(quat[i])))
-            z = (POINTS[i] @ rot.T)[:, 2] + float(pos[i, 2])
-            spans.append((z.min(), z.max()))
-            tilt = np.degrees(np.arccos(np.clip(rot[2, 2], -1, 1)))
-            assert tilt <= CFG.dense_tilt_deg + 1e-3
+            world = POINTS[i] @ rotations[i].T + np.asarray(pos[i])
+            assert (np.abs(world[:, :2]) <= half + 1e-6).all()  # inside the walls
+            spans.append((world[:, 2].min(), world[:, 2].max()))
         spans.sort()
         assert spans[0][0] >= CFG.drop_clearance - 1e-6  # nothing starts in the table
         for (_, top), (bottom, _) in zip(spans[:-1], spans[1:], strict=True):
             assert bottom > top  # each object starts above everything dropped before it
 
 
+def test_the_bin_floor_is_at_most_twice_the_objects_footprint():
+    """The paper's dense clutter: objects a-f cover about half the bin's floor."""
+    mean_area = sum(np.mean([ConvexHull((POINTS[i] @ r.T)[:, :2]).volume
+                             for r in np.asarray(RESTING[i])]) for i in range(6))
+    assert CFG.bin_size ** 2 <= 2.0 * mean_area
+
+
 def test_samplers_vmap_over_keys():
     keys = jax.vmap(lambda i: layout.layout_key(1, 3, i))(jnp.arange(4))
-    pos, quat, active = jax.vmap(lambda k: layout.dense(k, PADDED, CFG))(keys)
+    pos, quat, active = jax.vmap(lambda k: layout.pile(k, PADDED, CFG))(keys)
     assert pos.shape == (4, 6, 3) and quat.shape == (4, 6, 4) and active.shape == (4, 6)
-    np.testing.assert_array_equal(pos[2], layout.dense(layout.layout_key(1, 3, 2), PADDED, CFG)[0])
+    np.testing.assert_allclose(pos[2], layout.pile(layout.layout_key(1, 3, 2), PADDED, CFG)[0],
+                               rtol=1e-6)

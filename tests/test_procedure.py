@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import SIM_BATCH
 
-from graspjax.config import Config
+from graspjax.config import Config, override
 from graspjax.geometry import axis_angle, look_down
 from graspjax.perception import Alignment, AlignReason, GraspReason
 from graspjax.procedure import (
@@ -14,11 +14,12 @@ from graspjax.procedure import (
     DETECT_BASE,
     Reason,
     _record,
+    _with_error,
     centred_pose,
     select_target,
     view,
 )
-from graspjax.sim.world import Execution, GraspPose, Outcome
+from graspjax.sim.world import Execution, GraspPose, LayoutStats, Outcome
 
 CONFIG = Config()
 CAMERA = CONFIG.camera.camera()
@@ -60,6 +61,27 @@ def test_centring_keeps_the_height_and_aims_at_the_target():
     # The optical axis passes through the target point.
     along = np.asarray(point) - np.asarray(position)
     np.testing.assert_allclose(np.cross(axis, along), 0.0, atol=1e-7)
+    # Without centring the camera stays over the workspace centre.
+    still = override(CONFIG, ["procedure.centre=false"])
+    np.testing.assert_allclose(centred_pose(point, still)[1], [0, 0, CONFIG.procedure.camera_height])
+
+
+def test_execution_error_has_its_configured_spread():
+    """2 mm per axis and 1 degree about a random axis, over 4000 draws."""
+    config = override(CONFIG, ["procedure.tcp_error=0.002", "procedure.tilt_error_deg=1.0"])
+    pose = GraspPose(jnp.zeros(3), jnp.array([0.0, 0.0, -1.0]), jnp.array([1.0, 0.0, 0.0]),
+                     jnp.array(True))
+    keys = jax.random.split(jax.random.key(0), 4000)
+    reached = jax.vmap(lambda k: _with_error(pose, k, config))(keys)
+    np.testing.assert_allclose(np.std(np.asarray(reached.tcp), 0), 0.002, rtol=0.06)
+    tilt = np.degrees(np.arccos(np.clip(-np.asarray(reached.approach)[:, 2], -1, 1)))
+    # The approach axis turns by the rotation's angle times the sine of its axis' angle to it:
+    # for an isotropic axis E|sin| = pi / 4, and E|N(0, 1 deg)| = sqrt(2 / pi) deg.
+    assert np.mean(tilt) == pytest.approx(np.pi / 4 * np.sqrt(2 / np.pi), rel=0.06)
+    closing = np.asarray(reached.closing)
+    np.testing.assert_allclose(np.sum(closing * np.asarray(reached.approach), 1), 0, atol=1e-6)
+    exact = jax.vmap(lambda k: _with_error(pose, k, CONFIG))(keys[:10])
+    np.testing.assert_array_equal(np.asarray(exact.tcp), 0.0)
 
 
 NAN3 = jnp.full(3, jnp.nan)
@@ -69,8 +91,9 @@ def _reason(*, executed=False, outcome=Outcome.NOT_EXECUTED, finite=True, target
             blocked=False, align=-1, detect=GraspReason.NO_ROOM):
     pose = GraspPose(NAN3, NAN3, NAN3, jnp.array(executed))
     done = Execution(jnp.int32(outcome), jnp.int32(-1), jnp.float32(0), jnp.float32(0))
+    stats = LayoutStats(*(jnp.int32(0),) * 3, jnp.float32(0), jnp.float32(0))
     record = _record(jnp.int32(target), pose, done, jnp.array(finite), jnp.array(blocked),
-                     jnp.int32(0), jnp.int32(detect), jnp.int32(align))
+                     jnp.int32(0), jnp.int32(detect), jnp.int32(align), stats)
     return Reason(int(record.reason))
 
 

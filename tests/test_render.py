@@ -76,17 +76,70 @@ def test_gripper_is_invisible_and_range_limits_apply(basic_sim):
     np.testing.assert_allclose(limited, np.where(inside, plain, 0.0), atol=1e-6)
 
 
-def test_noise_model_grows_with_depth_squared(basic_sim):
-    cfg = CameraConfig(noise_std=0.003)
-    camera = cfg.camera()
+def _cube_alone(sim):
+    """The cube (a) at the origin, nothing else; one world after kinematics."""
+    n = sim.scene.num_objects
+    pos, quat = np.zeros((SIM_BATCH, n, 3)), np.tile([1.0, 0, 0, 0], (SIM_BATCH, n, 1))
+    active = np.zeros((SIM_BATCH, n), bool)
+    active[:, 0] = True
+    return jax.tree.map(lambda x: x[0], sim.kinematics(sim.reset(pos, quat, active)))
+
+
+KINECT = CameraConfig(sensor="kinect", noise_scale=0.0)
+
+
+def test_kinect_shadow_falls_where_the_projector_cannot_see(basic_sim):
+    """A 5 cm cube under the camera at 0.5 m, the projector 7.5 cm along +x: the table strip
+    just left of the cube is seen by the camera but hidden from the projector (no depth);
+    by similar triangles it spans x from -0.025 * 0.5 / 0.45 to (0.075 - 0.1 * 0.5 / 0.45)."""
+    camera = KINECT.camera()
+    rotation, position = look_down(jnp.array([0.0, 0.0, 0.5]))
+    one = _cube_alone(basic_sim)
+    draw = jax.jit(render, static_argnums=(0, 4, 5))
+    exact = np.asarray(draw(basic_sim.scene, one, rotation, position, camera, CameraConfig()))
+    kinect = np.asarray(draw(basic_sim.scene, one, rotation, position, camera, KINECT,
+                             jax.random.key(0)))
+    lost = (exact > 0) & (kinect == 0)
+    uv = np.asarray(camera.pixel_grid())
+    x = (uv[..., 0] - camera.cx) * exact / camera.fx  # world x of each pixel's point (camera x)
+    y = -(uv[..., 1] - camera.cy) * exact / camera.fy
+    near, far = -0.025 * 0.5 / 0.45, 0.075 - 0.1 * 0.5 / 0.45
+    pixel = 0.5 / camera.fx
+    predicted = (x > far - pixel) & (x < near + pixel) & (np.abs(y) < 0.025 * 0.5 / 0.45 + pixel)
+    core = (x > far + pixel) & (x < near - pixel) & (np.abs(y) < 0.02)
+    assert core.sum() >= 10 and lost[core].all()  # the strip's inside has no depth
+    assert not (lost & ~predicted).any()  # and nothing else lost its depth
+    assert kinect[(x > 0.03) & (exact > 0)].all()  # no shadow on the projector's side
+
+
+def test_kinect_depth_is_quantized_in_disparity(basic_sim):
+    """No noise: a table at 0.8 m reads f b / d with d the disparity rounded to 1/8 pixel."""
+    camera = KINECT.camera()
     rotation, position = look_down(jnp.array([0.0, 0.0, 0.8]))
-    one = jax.tree.map(lambda x: x[0], _state(basic_sim))
-    clean = np.asarray(render(basic_sim.scene, one, rotation, position, camera, CameraConfig()))
-    noisy = np.asarray(render(basic_sim.scene, one, rotation, position, camera, cfg,
-                              jax.random.key(0)))
-    table = clean == 0.8
-    residual = (noisy - clean)[table]
-    assert abs(residual.mean()) < 1e-4
-    assert residual.std() == pytest.approx(0.003 * 0.8**2, rel=0.05)
-    exact = np.asarray(render(basic_sim.scene, one, rotation, position, camera, cfg))  # no key
-    np.testing.assert_array_equal(exact, clean)
+    one = _cube_alone(basic_sim)
+    depth = np.asarray(jax.jit(render, static_argnums=(0, 4, 5))(
+        basic_sim.scene, one, rotation, position, camera, KINECT, jax.random.key(0)))
+    f = 640 / (2 * np.tan(np.deg2rad(57.0) / 2))  # native focal length (pixels)
+    expected = f * 0.075 / (np.round(f * 0.075 / 0.8 * 8) / 8)
+    table = np.abs(depth - 0.8) < 0.01
+    assert table.sum() > 0.9 * depth.size
+    np.testing.assert_allclose(depth[table], expected, rtol=1e-5)
+    assert abs(expected - 0.8) <= 0.8**2 / (f * 0.075) / 16 + 1e-9  # half a disparity step
+
+
+@pytest.mark.parametrize("scale", [1.0, 2.0])
+def test_kinect_noise_grows_as_measured_by_nguyen_et_al(basic_sim, scale):
+    """A table at 0.8 m: depth noise sigma 1.2 mm + 1.9 mm/m^2 (z - 0.4 m)^2 (times the scale),
+    plus the disparity quantization's uniform error."""
+    camera = KINECT.camera()
+    rotation, position = look_down(jnp.array([0.0, 0.0, 0.8]))
+    one = _cube_alone(basic_sim)
+    noisy = CameraConfig(sensor="kinect", noise_scale=scale)
+    depth = np.asarray(jax.jit(render, static_argnums=(0, 4, 5))(
+        basic_sim.scene, one, rotation, position, camera, noisy, jax.random.key(1)))
+    table = depth[np.abs(depth - 0.8) < 0.02]
+    f = 640 / (2 * np.tan(np.deg2rad(57.0) / 2))
+    step = 0.8**2 / (f * 0.075) / 8  # depth of one disparity step at 0.8 m
+    sigma = scale * (0.0012 + 0.0019 * 0.4**2)
+    assert table.std() == pytest.approx(np.sqrt(sigma**2 + step**2 / 12), rel=0.1)
+    assert abs(table.mean() - 0.8) < 3e-4

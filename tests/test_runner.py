@@ -33,8 +33,8 @@ def tiny_run(tmp_path_factory):
 
 
 def test_run_writes_every_file_with_the_right_columns(tiny_run):
-    for name in ("attempts.csv", "attempts.parquet", "timings.csv", "config.json", "summary.csv",
-                 "table1.md", "table1.tex", "success_by_object.png", "outcomes.png"):
+    for name in ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "config.json",
+                 "summary.csv", "table1.md", "table1.tex", "success_by_object.png", "outcomes.png"):
         assert (tiny_run / name).is_file(), name
     assert not (tiny_run / "parts").exists()  # assembled and removed
     frame = pd.read_csv(tiny_run / "attempts.csv")
@@ -53,6 +53,7 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run):
     assert meta["seed"] == 3 and meta["overrides"] == {"align.window_px": 12}
     assert meta["config"]["align.window_px"] == 12 and meta["versions"]["jax"]
     assert meta["batch"] == 3 and meta["deterministic"] is True and meta["finished"]
+    assert meta["preset"] == "paper"
     assert meta["devices"] and meta["devices"][0].startswith("cpu")
     summary = pd.read_csv(tiny_run / "summary.csv")
     row = summary[summary.object == "a"].iloc[0]
@@ -169,6 +170,35 @@ def test_rounds_attempt_every_object_once(rounds_runs):
         assert len(lifted) == len(set(lifted))  # nothing is lifted twice
     table = (rounds_runs[1] / "table1.md").read_text()
     assert "Setup 2, ours" in table and "Setup 3, paper" in table
+
+
+def test_rounds_csv_says_how_dense_the_layouts_were(rounds_runs):
+    """One row per Setup 2/3 round: Setup 2's face-to-face gaps in their configured range, Setup
+    3's bin pile touching; the table states them beside the rates."""
+    from graspjax.config import LayoutConfig
+
+    rounds = pd.read_csv(rounds_runs[1] / "rounds.csv")
+    assert sorted(zip(rounds.setup, rounds["round"], strict=True)) == [(2, 0), (2, 1), (3, 0), (3, 1)]
+    assert set(rounds.columns) >= {"touching_fraction", "stacked", "min_face_gap_m", "spread_m"}
+    cfg = LayoutConfig()
+    group = rounds[rounds.setup == 2]
+    assert ((group.min_face_gap_m >= cfg.gap_min - 0.002)
+            & (group.min_face_gap_m <= cfg.gap_max)).all()
+    pile = rounds[rounds.setup == 3]
+    assert (pile.touching_fraction > 0).all() and (pile.min_face_gap_m < cfg.gap_min).all()
+    assert "Setup 3 (2 rounds): touching" in (rounds_runs[1] / "table1.md").read_text()
+
+
+def test_the_realistic_preset_is_recorded_and_runs(tmp_path):
+    out = tmp_path / "realistic"
+    assert main(["run", "--setup", "1", "--objects", "c", "--trials", "2", "--batch", "2",
+                 "--preset", "realistic", "--quiet", "--out", str(out)]) == 0
+    meta = json.loads((out / "config.json").read_text())
+    assert meta["preset"] == "realistic"
+    assert meta["overrides"] == {"camera.sensor": "kinect", "detect.wall_check": True,
+                                 "procedure.tcp_error": 0.002, "procedure.tilt_error_deg": 1.0}
+    frame = pd.read_csv(out / "attempts.csv")
+    assert len(frame) == 2 and (frame["cfg.camera.sensor"] == "kinect").all()
 
 
 def test_failed_attempts_keep_their_views_and_report_draws_them(rounds_runs, capsys):

@@ -184,16 +184,21 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     reach = jnp.minimum(wanted, jnp.min(free, -1) - config.depth_clearance)
     room = reach >= config.min_grasp_depth
 
-    # Walls: a closing finger touches each side at its tip depth; the contact holds only if
-    # the side falls at least min_wall_angle steeply (inside the pads' friction cone). So at
-    # `beyond` past each edge the surface must lie `beyond * tan(angle)` below the top,
-    # where `beyond` reaches the finger tips (capped at the open finger).
-    slope = jnp.tan(jnp.deg2rad(config.min_wall_angle_deg))
-    beyond = jnp.clip(jnp.minimum(reach / jnp.maximum(slope, 1e-6), (gripper.opening - c) / 2),
-                      0.0, None)
+    # Walls (ours, `wall_check`): a closing finger touches each side at its tip depth and
+    # presses along the closing axis, so the contact holds only if the side's normal lies in
+    # the pads' friction cone: the side falls at least 90 deg - atan(friction) steeply, a drop
+    # of 1 / friction per unit of run. So at `beyond` past each edge, where `beyond` reaches
+    # the finger tips (capped at the open finger), the surface must lie `run / friction` below
+    # the band's lowest point, `run` counted from the band's last pixel centre (half a pixel
+    # inside the fitted edge line).
+    slope = 1.0 / gripper.friction
+    edge = jnp.max(jnp.where(cluster, depth, -jnp.inf)) - z_s  # the band's edge below its mean
+    half_pixel = 0.5 * z_s * (jnp.abs(axis[..., 0]) / camera.fx + jnp.abs(axis[..., 1]) / camera.fy)
+    beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
     wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
     wall_free, _ = _sample(below_surface, to_pixels(wall_points), jnp.inf)
-    walls = (config.min_wall_angle_deg <= 0) | jnp.all(wall_free >= (beyond * slope)[..., None], -1)
+    needed = edge + (beyond + half_pixel) * slope
+    walls = ~config.wall_check | jnp.all(wall_free >= needed[..., None], -1)
 
     reason = jnp.select(
         [~antipodal, ~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],

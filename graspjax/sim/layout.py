@@ -3,30 +3,42 @@
 A layout is data, not a model: initial object poses plus an `active` mask
 (inactive objects stay parked). Every sampler takes one PRNG key; derive it
 with `layout_key(seed, setup, ...)` so that any attempt can be rebuilt from
-(seed, setup, object, trial).
+(seed, setup, object, trial). The world's settling (`procedure.py`) then
+lets the physics finish the layout.
 
-- Setup 1: one object, centre uniform in the workspace square, yaw uniform.
-- Setup 2: all objects in a group on a jittered grid, neighbours a few
-  centimetres apart (footprint circles never overlap), group rotated and
-  placed at random.
-- Setup 3: all objects dropped densely: centres uniform in a small disc,
-  random yaw and tilt, each starting above all earlier ones, then settled, so
-  they touch, lean on and overlap each other.
+- Setup 1: one object dropped from a uniformly random orientation, its
+  lowest point `drop_height` above the table, at a random position; it
+  topples onto any of its stable faces while the world settles.
+- Setup 2: the objects as a group. Each rests in one of its resting poses
+  (`Scene.resting`: where drops of it came to rest) with a random yaw, and
+  is placed next to a random member already placed, at a face-to-face gap
+  U(gap_min, gap_max) measured between footprints (the objects' outlines
+  seen from above), never nearer than gap_min to any other member.
+- Setup 3: the objects dropped into the bin from random orientations, over
+  its floor, each starting above everything dropped before it.
+
+Footprints are convex outlines handled through their support functions on
+`DIRECTIONS` fixed directions: the distance between two convex outlines is
+the largest separation along any direction (here underestimated by at most
+half the longest edge times sin(pi / DIRECTIONS): 0.25 mm for our objects).
 """
 
 from __future__ import annotations
-
-import math
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from graspjax.config import LayoutConfig
-from graspjax.geometry import axis_angle, matrix_to_quat
+from graspjax.geometry import matrix_to_quat, quat_to_matrix
+
+DIRECTIONS = 512  # directions of the footprints' support functions (0.7 degrees apart)
+_CANDIDATES = 16  # Setup 2: placements tried per object (the first that keeps every gap wins)
+_ANGLES = 2 * np.pi * np.arange(DIRECTIONS) / DIRECTIONS
+UNIT = np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], -1).astype(np.float32)  # (K, 2)
 
 
-def layout_key(seed: int, setup: int, *indices: int) -> jax.Array:
+def layout_key(seed, setup, *indices) -> jax.Array:
     """The PRNG key of one layout: seed, then setup, then (object, trial) or (round,)."""
     key = jax.random.fold_in(jax.random.key(seed), setup)
     for index in indices:
@@ -34,82 +46,151 @@ def layout_key(seed: int, setup: int, *indices: int) -> jax.Array:
     return key
 
 
-def _yaw_quat(yaw) -> jax.Array:
-    return jnp.stack([jnp.cos(yaw / 2), jnp.zeros_like(yaw), jnp.zeros_like(yaw),
-                      jnp.sin(yaw / 2)], axis=-1)
+# ---------------------------------------------------------------------------
+# Footprints
 
 
-def single(key: jax.Array, target: jax.Array, num_objects: int, config: LayoutConfig):
-    """Setup 1: object `target` alone on the table.
+def support(points: jax.Array) -> jax.Array:
+    """Support function (K,) of a footprint: points (V, 2) relative to its object's origin."""
+    return jnp.max(points @ jnp.asarray(UNIT).T, axis=0)
 
-    Returns positions (n, 3), quaternions (n, 4) and the active mask (n,).
+
+def gap(support_a: jax.Array, xy_a: jax.Array, support_b: jax.Array, xy_b: jax.Array) -> jax.Array:
+    """Distance () between two footprints (support (K,), origin (2,)); negative: they overlap."""
+    flipped = jnp.roll(support_b, -DIRECTIONS // 2)  # h_b(-u_k)
+    return jnp.max(jnp.asarray(UNIT) @ (xy_b - xy_a) - support_a - flipped)
+
+
+def _offset_for_gap(support_a: jax.Array, support_b: jax.Array, direction: jax.Array,
+                    wanted: jax.Array) -> jax.Array:
+    """How far () along unit `direction` (2,) from footprint a's origin footprint b's origin
+    goes so that their distance is `wanted`."""
+    width = support_a + jnp.roll(support_b, -DIRECTIONS // 2)
+    along = jnp.asarray(UNIT) @ direction
+    return jnp.min(jnp.where(along > 1e-3, (wanted + width) / jnp.maximum(along, 1e-3), jnp.inf))
+
+
+def footprints(points: jax.Array, rotations: jax.Array) -> jax.Array:
+    """Support functions (n, K) of objects with vertices (n, V, 3) in rotations (n, 3, 3)."""
+    xy = jnp.einsum("nij,nvj->nvi", rotations, points)[..., :2]
+    return jax.vmap(support)(xy)
+
+
+def gaps(supports: jax.Array, xy: jax.Array) -> jax.Array:
+    """Pairwise footprint distances (n, n) of objects at origins xy (n, 2); inf on the diagonal."""
+    n = supports.shape[0]
+    pair = jax.vmap(lambda i: jax.vmap(lambda j: gap(supports[i], xy[i], supports[j], xy[j]))(
+        jnp.arange(n)))(jnp.arange(n))
+    return jnp.where(jnp.eye(n, dtype=bool), jnp.inf, pair)
+
+
+# ---------------------------------------------------------------------------
+# Samplers
+
+
+def _random_rotation(key) -> jax.Array:
+    """A uniformly random rotation (3, 3): a normalized 4-D Gaussian is a uniform quaternion."""
+    q = jax.random.normal(key, (4,))
+    return quat_to_matrix(q / jnp.linalg.norm(q))
+
+
+def _yaw(angle) -> jax.Array:
+    c, s = jnp.cos(angle), jnp.sin(angle)
+    return jnp.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _lift(points: jax.Array, rotation: jax.Array, clearance) -> jax.Array:
+    """Height () of an object's origin that puts its lowest point `clearance` above the table."""
+    return clearance - jnp.min((points @ rotation.T)[:, 2])
+
+
+def single(key: jax.Array, target, points: jax.Array, config: LayoutConfig):
+    """Setup 1: object `target` alone, dropped from a random orientation.
+
+    points: vertices (n, V, 3) of every object. Returns positions (n, 3),
+    quaternions (n, 4) and the active mask (n,).
     """
-    k_xy, k_yaw = jax.random.split(key)
+    n = points.shape[0]
+    k_xy, k_rot = jax.random.split(key)
     # object centre: U(-workspace, workspace)^2
     xy = jax.random.uniform(k_xy, (2,), minval=-config.workspace, maxval=config.workspace)
-    # object yaw: U(-pi, pi)
-    yaw = jax.random.uniform(k_yaw, (), minval=-jnp.pi, maxval=jnp.pi)
-    active = jnp.arange(num_objects) == target
-    pos = jnp.zeros((num_objects, 3)).at[:, :2].set(xy).at[:, 2].set(config.drop_clearance)
-    quat = jnp.broadcast_to(_yaw_quat(yaw), (num_objects, 4))
-    return pos, quat, active
+    # object orientation: uniform over all rotations
+    rotation = _random_rotation(k_rot)
+    z = _lift(points[target], rotation, config.drop_height)
+    pos = jnp.broadcast_to(jnp.concatenate([xy, z[None]]), (n, 3))
+    quat = jnp.broadcast_to(matrix_to_quat(rotation), (n, 4))
+    return pos, quat, jnp.arange(n) == target
 
 
-def grouped(key: jax.Array, radius: np.ndarray, config: LayoutConfig):
-    """Setup 2: all objects in a loose group (radius: footprint radius of each object (n,))."""
-    n = len(radius)
-    cols = math.ceil(math.sqrt(n))
-    rows = math.ceil(n / cols)
-    k_perm, k_gx, k_gy, k_yaw, k_rot, k_xy = jax.random.split(key, 6)
-    # cell of each object: a uniform random permutation of the grid cells
-    cell = jax.random.permutation(k_perm, rows * cols)[:n]
-    col, row = cell % cols, cell // cols
-    r = jnp.asarray(radius, jnp.float32)
-    col_r = jnp.zeros(cols).at[col].max(r)  # widest footprint in each column
-    row_r = jnp.zeros(rows).at[row].max(r)
-    # gaps between neighbouring columns / rows: U(gap_min, gap_max)
-    gap_x = jax.random.uniform(k_gx, (cols - 1,), minval=config.gap_min, maxval=config.gap_max)
-    gap_y = jax.random.uniform(k_gy, (rows - 1,), minval=config.gap_min, maxval=config.gap_max)
-    x = jnp.concatenate([jnp.zeros(1), jnp.cumsum(col_r[:-1] + col_r[1:] + gap_x)])
-    y = jnp.concatenate([jnp.zeros(1), jnp.cumsum(row_r[:-1] + row_r[1:] + gap_y)])
-    centres = jnp.stack([x[col], y[row]], axis=-1)
-    centres = centres - (centres.max(0) + centres.min(0)) / 2
-    # group rotation: U(-pi, pi); group offset: U(-workspace/2, workspace/2)^2
-    angle = jax.random.uniform(k_rot, (), minval=-jnp.pi, maxval=jnp.pi)
-    rot = jnp.array([[jnp.cos(angle), -jnp.sin(angle)], [jnp.sin(angle), jnp.cos(angle)]])
-    offset = jax.random.uniform(k_xy, (2,), minval=-config.workspace / 2,
+def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: LayoutConfig):
+    """Setup 2: every object in a resting pose, in a group with face-to-face gaps.
+
+    resting: resting rotations (n, R, 3, 3) of each object; points:
+    vertices (n, V, 3). Returns positions (n, 3), quaternions (n, 4), the
+    active mask (n,).
+    """
+    n, poses = resting.shape[:2]
+    k_pose, k_yaw, k_order, k_place, k_offset = jax.random.split(key, 5)
+    # resting pose of each object: uniform over its recorded drops; yaw: U(-pi, pi)
+    which = jax.random.randint(k_pose, (n,), 0, poses)
+    yaw = jax.random.uniform(k_yaw, (n,), minval=-jnp.pi, maxval=jnp.pi)
+    rotations = jax.vmap(lambda r, a: _yaw(a) @ r)(resting[jnp.arange(n), which], yaw)
+    supports = footprints(points, rotations)
+    # placement order: a uniform random permutation
+    order = jax.random.permutation(k_order, n)
+    xy = jnp.zeros((n, 2))
+    placed = jnp.zeros(n, bool).at[order[0]].set(True)
+    for step, k_step in zip(range(1, n), jax.random.split(k_place, max(n - 1, 1)), strict=False):
+        obj = order[step]
+        k_nb, k_dir, k_gap = jax.random.split(k_step, 3)
+        # per candidate: a neighbour uniform among those placed, a direction U(-pi, pi) and a
+        # gap U(gap_min, gap_max)
+        neighbour = order[jax.random.randint(k_nb, (_CANDIDATES,), 0, step)]
+        angle = jax.random.uniform(k_dir, (_CANDIDATES,), minval=-jnp.pi, maxval=jnp.pi)
+        wanted = jax.random.uniform(k_gap, (_CANDIDATES,), minval=config.gap_min,
+                                    maxval=config.gap_max)
+
+        def candidate(nb, a, g, obj=obj, xy=xy, placed=placed):
+            direction = jnp.stack([jnp.cos(a), jnp.sin(a)])
+            spot = xy[nb] + _offset_for_gap(supports[nb], supports[obj], direction, g) * direction
+            others = jax.vmap(lambda j: gap(supports[j], xy[j], supports[obj], spot))(jnp.arange(n))
+            return spot, jnp.min(jnp.where(placed, others, jnp.inf))
+
+        spots, nearest = jax.vmap(candidate)(neighbour, angle, wanted)
+        ok = nearest >= config.gap_min - 1e-6
+        best = jnp.where(jnp.any(ok), jnp.argmax(ok), jnp.argmax(nearest))
+        xy = xy.at[obj].set(spots[best])
+        placed = placed.at[obj].set(True)
+    # the group: centred, then moved by U(-workspace/2, workspace/2)^2
+    offset = jax.random.uniform(k_offset, (2,), minval=-config.workspace / 2,
                                 maxval=config.workspace / 2)
-    xy = centres @ rot.T + offset
-    # object yaw: U(-pi, pi), independently per object
-    yaw = jax.random.uniform(k_yaw, (n,), minval=-jnp.pi, maxval=jnp.pi)
-    pos = jnp.concatenate([xy, jnp.full((n, 1), config.drop_clearance)], axis=-1)
-    return pos, _yaw_quat(yaw), jnp.ones(n, bool)
+    xy = xy - (jnp.max(xy, 0) + jnp.min(xy, 0)) / 2 + offset
+    z = jax.vmap(_lift, in_axes=(0, 0, None))(points, rotations, config.drop_clearance)
+    return (jnp.concatenate([xy, z[:, None]], -1), jax.vmap(matrix_to_quat)(rotations),
+            jnp.ones(n, bool))
 
 
-def dense(key: jax.Array, points: np.ndarray, config: LayoutConfig):
-    """Setup 3: all objects dropped densely (points: object vertices (n, V, 3))."""
+def pile(key: jax.Array, points: jax.Array, config: LayoutConfig):
+    """Setup 3: every object dropped into the bin (centred at the origin) from a random
+    orientation, each starting `stack_gap` above everything dropped before it.
+
+    points: vertices (n, V, 3). Returns positions (n, 3), quaternions (n, 4),
+    the active mask (n,).
+    """
     n = points.shape[0]
-    k_r, k_phi, k_yaw, k_axis, k_tilt, k_order = jax.random.split(key, 6)
-    # object centre: uniform in a disc of radius dense_radius
-    r = config.dense_radius * jnp.sqrt(jax.random.uniform(k_r, (n,)))
-    phi = jax.random.uniform(k_phi, (n,), minval=-jnp.pi, maxval=jnp.pi)
-    xy = jnp.stack([r * jnp.cos(phi), r * jnp.sin(phi)], axis=-1)
-    # object yaw: U(-pi, pi); tilt axis direction: U(-pi, pi); tilt: U(0, dense_tilt_deg)
-    yaw = jax.random.uniform(k_yaw, (n,), minval=-jnp.pi, maxval=jnp.pi)
-    axis_angle_xy = jax.random.uniform(k_axis, (n,), minval=-jnp.pi, maxval=jnp.pi)
-    tilt = jax.random.uniform(k_tilt, (n,), maxval=jnp.deg2rad(config.dense_tilt_deg))
-
-    def orientation(yaw_i, axis_i, tilt_i):
-        axis = jnp.array([jnp.cos(axis_i), jnp.sin(axis_i), 0.0])
-        return axis_angle(axis, tilt_i) @ axis_angle(jnp.array([0.0, 0.0, 1.0]), yaw_i)
-
-    rots = jax.vmap(orientation)(yaw, axis_angle_xy, tilt)
-    z_of_points = jnp.einsum("nij,nvj->nvi", rots, jnp.asarray(points, jnp.float32))[..., 2]
-    lowest, height = z_of_points.min(1), z_of_points.max(1) - z_of_points.min(1)
+    k_rot, k_xy, k_order = jax.random.split(key, 3)
+    # object orientation: uniform over all rotations
+    rotations = jax.vmap(_random_rotation)(jax.random.split(k_rot, n))
+    rotated = jnp.einsum("nij,nvj->nvi", rotations, points)
+    reach = jnp.max(jnp.linalg.norm(rotated[..., :2], axis=-1), axis=1)
+    # object centre: uniform over the bin floor, clear of the walls
+    room = jnp.maximum(config.bin_size / 2 - reach, 0.0)[:, None]
+    xy = jax.random.uniform(k_xy, (n, 2), minval=-1.0, maxval=1.0) * room
+    lowest, height = rotated[..., 2].min(1), rotated[..., 2].max(1) - rotated[..., 2].min(1)
     # drop order: a uniform random permutation; each object starts above all earlier ones
     order = jax.random.permutation(k_order, n)
     below = jnp.cumsum(height[order] + config.stack_gap) - (height[order] + config.stack_gap)
     start = jnp.zeros(n).at[order].set(below)
     z = config.drop_clearance - lowest + start
-    pos = jnp.concatenate([xy, z[:, None]], axis=-1)
-    return pos, jax.vmap(matrix_to_quat)(rots), jnp.ones(n, bool)
+    return (jnp.concatenate([xy, z[:, None]], -1), jax.vmap(matrix_to_quat)(rotations),
+            jnp.ones(n, bool))

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import io
 import math
 import sys
@@ -104,6 +105,14 @@ def _prism(sides: int, radius: float, z0: float, z1: float, axis: str = "z",
     return _hull(np.asarray(pts) + centre)
 
 
+def _ring(sides: int, radius: float, wall: float, z0: float, z1: float) -> tuple[Piece, ...]:
+    """A thin upright wall around z: `sides` boxes of thickness `wall` centred on `radius`."""
+    half_side = radius * math.tan(math.pi / sides) + wall / 2  # the boxes meet at the corners
+    return tuple(_box((wall / 2, half_side, (z1 - z0) / 2),
+                      (radius * math.cos(a), radius * math.sin(a), (z0 + z1) / 2), a)
+                 for a in 2 * math.pi * np.arange(sides) / sides)
+
+
 def _extrude_xz(profile, y0: float, y1: float) -> Piece:
     """Convex polygon in the x-z plane extruded along y."""
     return _hull([(x, y, z) for y in (y0, y1) for x, z in profile])
@@ -114,6 +123,7 @@ def _catalogue() -> dict[str, ObjectSpec]:
     hexagon_r = 0.045 / math.sqrt(3)  # 4.5 cm across flats
     gear_r, tooth = 0.024, (0.0045, 0.004, 0.0075)
     ring_r, tube = 0.020, 0.005
+    cup_wall = 0.003
     ring_side = 2 * ring_r * math.tan(math.pi / 8)
     shaft_axis = 0.022 * math.cos(math.pi / 16)
     objects = [
@@ -136,9 +146,11 @@ def _catalogue() -> dict[str, ObjectSpec]:
                     *(_box(tooth, ((gear_r + 0.0025) * math.cos(a), (gear_r + 0.0025) * math.sin(a),
                                    0.0075), a)
                       for a in 2 * math.pi * np.arange(8) / 8))),
-        ObjectSpec("h", "candlestick", "candlestick (Sileane), ceramic: base, stem and cup", 2000.0,
+        ObjectSpec("h", "candlestick",
+                   "candlestick (Sileane), ceramic: base, stem and a hollow cup (3 mm wall)", 2000.0,
                    (_prism(16, 0.035, 0.0, 0.012), _prism(12, 0.009, 0.012, 0.100),
-                    _prism(16, 0.022, 0.100, 0.122))),
+                    _prism(16, 0.022, 0.100, 0.104),  # the cup's floor
+                    *_ring(12, 0.022 - cup_wall / 2, cup_wall, 0.104, 0.122))),
         ObjectSpec("i", "pepper_mill", "pepper mill (Sileane), wood: body, neck and knob", 800.0,
                    (_prism(16, 0.026, 0.0, 0.100), _prism(12, 0.017, 0.100, 0.115),
                     _prism(12, 0.011, 0.115, 0.130))),
@@ -163,6 +175,7 @@ def _catalogue() -> dict[str, ObjectSpec]:
 
 OBJECTS: dict[str, ObjectSpec] = _catalogue()
 LETTER_INDEX = {c: i for i, c in enumerate(OBJECTS)}  # a = 0 ... l = 11 (layout seeds use it)
+RESTING_POSES = 64  # drops recorded per object for Setup 2's resting poses
 BASIC = tuple("abcdef")  # Table 1 objects (Setups 1-3)
 INDUSTRIAL = tuple("ghijkl")  # Table 2 objects (Setup 1)
 
@@ -251,6 +264,42 @@ def object_obj(spec: ObjectSpec) -> str:
             out.write("f " + " ".join(str(base + int(i)) for i in face) + "\n")
         base += len(pts)
     return out.getvalue()
+
+
+def resting_poses(letter: str, count: int = RESTING_POSES, seed: int = 0) -> np.ndarray:
+    """Rotations (count, 3, 3) in which object `letter` comes to rest after drops on a table.
+
+    Each drop starts from a uniformly random orientation with the lowest
+    point 5 mm above the table and runs 2 s of CPU MuJoCo (the object alone,
+    friction 0.5); its resting orientation is kept. So every stable face
+    appears about as often as a real drop lands on it. Deterministic.
+    """
+    return _resting_poses(letter, count, seed).copy()
+
+
+@functools.cache
+def _resting_poses(letter: str, count: int, seed: int) -> np.ndarray:
+    import mujoco
+
+    spec = OBJECTS[letter]
+    model = mujoco.MjModel.from_xml_string(standalone_mjcf(spec))
+    model.geom_friction[:, 0] = 0.5
+    data = mujoco.MjData(model)
+    points = spec.points()
+    rng = np.random.default_rng([seed, ord(letter)])
+    out = np.empty((count, 3, 3))
+    for i in range(count):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        rotation = np.empty(9)
+        mujoco.mju_quat2Mat(rotation, q)
+        mujoco.mj_resetData(model, data)
+        data.qpos[:3] = (0.0, 0.0, 0.005 - (points @ rotation.reshape(3, 3).T)[:, 2].min())
+        data.qpos[3:7] = q
+        mujoco.mj_step(model, data, nstep=int(2.0 / model.opt.timestep))
+        mujoco.mju_quat2Mat(rotation, data.qpos[3:7] / np.linalg.norm(data.qpos[3:7]))
+        out[i] = rotation.reshape(3, 3)
+    return out
 
 
 def object_mass(spec: ObjectSpec) -> float:

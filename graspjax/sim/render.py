@@ -12,7 +12,8 @@ entry distance itself, because the ray's z component is 1. The result is
 exact for polyhedra (tested against an independent analytic renderer).
 
 This is cheaper than `mjx.ray` (which tests every triangle of every mesh per
-ray and has no cylinder case): one division per pixel, plane and piece.
+ray and has no cylinder case): one division per pixel, plane and piece. The
+Kinect model casts a second set of rays, from its projector, for shadows.
 """
 
 from __future__ import annotations
@@ -85,6 +86,45 @@ def render_depth(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.
                                   config, key)[0]
 
 
+def _first_hits(normals: jax.Array, offsets: jax.Array, rays: jax.Array,
+                min_t: float) -> tuple[jax.Array, jax.Array]:
+    """Where rays `(H, W, 3)` from one origin first enter a convex piece: ray parameter t
+    `(H, W)` (inf: none) and the piece index `(H, W)` (-1: none). Pieces are half-spaces
+    `normals . x <= offsets` `(G, P, 3)`, `(G, P)` relative to the origin; entries at
+    t <= min_t do not count."""
+
+    def nearest(carry, piece):
+        """Keep the nearer of the hits so far and this convex piece's entry."""
+        best, seen = carry
+        planes, limits, index = piece  # (P, 3), (P,), ()
+        enter = jnp.full(best.shape, -jnp.inf)
+        leave = jnp.full(best.shape, jnp.inf)
+        outside = jnp.zeros(best.shape, bool)
+        for p in range(planes.shape[0]):  # unrolled: a handful of planes per piece
+            denom = rays @ planes[p]
+            num = limits[p]
+            t = num / jnp.where(denom == 0, 1.0, denom)
+            enter = jnp.where(denom < 0, jnp.maximum(enter, t), enter)
+            leave = jnp.where(denom > 0, jnp.minimum(leave, t), leave)
+            outside = outside | ((denom == 0) & (num < 0))
+        hit = ~outside & (enter <= leave) & (enter > min_t)
+        closer = hit & (enter < best)
+        return (jnp.where(closer, enter, best), jnp.where(closer, index, seen)), None
+
+    # One piece at a time keeps memory at one image per world, whatever the piece count.
+    shape = rays.shape[:2]
+    (t, piece), _ = jax.lax.scan(
+        nearest, (jnp.full(shape, jnp.inf), jnp.full(shape, -1, jnp.int32)),
+        (normals, offsets, jnp.arange(normals.shape[0], dtype=jnp.int32)))
+    return t, piece
+
+
+def kinect_axial_sigma(z):
+    """Axial noise sigma (m) of a Kinect v1 at depth z (m): Nguyen, Izadi and Lovell (2012),
+    "Modeling Kinect Sensor Noise for Improved 3D Reconstruction and Tracking", Eq. 6."""
+    return 0.0012 + 0.0019 * (z - 0.4) ** 2
+
+
 def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.Array,
                            rotation: jax.Array, position: jax.Array, camera: Camera,
                            config: CameraConfig = CameraConfig(), key: jax.Array | None = None
@@ -94,8 +134,12 @@ def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_
 
     geom_xpos, geom_xmat: (ngeom, 3), (ngeom, 3, 3) or (ngeom, 9) world poses of
     all geoms (MJX `Data` fields after kinematics); rotation: camera-to-world
-    (3, 3); position: camera centre (3,). key: PRNG key of the noise model
-    (None: exact depth).
+    (3, 3); position: camera centre (3,). `config.sensor`: "ideal" gives the
+    exact depth; "kinect" models a Kinect v1 (docs/simulation.md): lateral
+    noise on each pixel's ray, structured-light shadows (no depth where the
+    projector, `baseline` beside the camera along +x, does not see the
+    point), axial noise growing with depth, and disparity quantized in
+    `disparity_step`s of a native pixel. key: PRNG key of the Kinect's noise.
     """
     ids = geometry.geom_ids
     rot_g = geom_xmat[ids].reshape(-1, 3, 3)  # (G, 3, 3)
@@ -106,32 +150,29 @@ def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_
     offset_cam = offset_world - normal_world @ position  # (G, P)
 
     rays = camera.rays()  # (H, W, 3), z = 1
-
-    def nearest(carry, piece):
-        """Keep the nearer of the image so far and this convex piece's entry distance."""
-        depth, seen = carry
-        normals, offsets, index = piece  # (P, 3), (P,), ()
-        enter = jnp.full(depth.shape, -jnp.inf)
-        leave = jnp.full(depth.shape, jnp.inf)
-        outside = jnp.zeros(depth.shape, bool)
-        for p in range(normals.shape[0]):  # unrolled: a handful of planes per piece
-            denom = rays @ normals[p]
-            num = offsets[p]
-            t = num / jnp.where(denom == 0, 1.0, denom)
-            enter = jnp.where(denom < 0, jnp.maximum(enter, t), enter)
-            leave = jnp.where(denom > 0, jnp.minimum(leave, t), leave)
-            outside = outside | ((denom == 0) & (num < 0))
-        hit = ~outside & (enter <= leave) & (enter > 0)
-        closer = hit & (enter < depth)
-        return (jnp.where(closer, enter, depth), jnp.where(closer, index, seen)), None
-
-    # One piece at a time keeps memory at one image per world, whatever the piece count.
-    shape = (camera.height, camera.width)
-    (depth, piece), _ = jax.lax.scan(
-        nearest, (jnp.full(shape, jnp.inf), jnp.full(shape, -1, jnp.int32)),
-        (normal_cam, offset_cam, jnp.arange(len(ids), dtype=jnp.int32)))
-    if key is not None:
-        # depth noise: N(0, (noise_std * z^2)^2), Kinect-like growth with distance
-        depth = depth + config.noise_std * depth**2 * jax.random.normal(key, depth.shape)
+    kinect = config.sensor == "kinect"
+    if kinect:
+        if key is None:
+            raise ValueError("the kinect sensor model needs a PRNG key")
+        k_lateral, k_axial = jax.random.split(key)
+        native_fx = camera.fx * config.native_width / camera.width  # focal length of the disparity
+        # lateral noise: each pixel's ray off by N(0, lateral_px^2) native pixels in u and v
+        jitter = config.noise_scale * config.lateral_px / native_fx
+        rays = rays.at[..., :2].add(jitter * jax.random.normal(k_lateral, rays.shape[:2] + (2,)))
+    depth, piece = _first_hits(normal_cam, offset_cam, rays, 0.0)  # z = 1: t is the depth
+    if kinect:
+        # Shadows: the ray from the projector to the point must not enter any piece before it.
+        projector = jnp.array([config.baseline, 0.0, 0.0])
+        points = rays * jnp.where(jnp.isfinite(depth), depth, 0.0)[..., None]
+        t, _ = _first_hits(normal_cam, offset_cam - normal_cam @ projector, points - projector,
+                           1e-6)
+        lit = t >= 1.0 - 1e-3
+        # axial noise: N(0, sigma(z)^2), then disparity (native pixels) quantized
+        depth = depth + config.noise_scale * kinect_axial_sigma(depth) * jax.random.normal(
+            k_axial, depth.shape)
+        disparity = native_fx * config.baseline / depth
+        step = config.disparity_step
+        depth = native_fx * config.baseline / (jnp.round(disparity / step) * step)
+        depth = jnp.where(lit, depth, jnp.inf)
     valid = jnp.isfinite(depth) & (depth >= config.min_range) & (depth <= config.max_range)
     return jnp.where(valid, depth, 0.0).astype(jnp.float32), jnp.where(valid, piece, -1)

@@ -1,17 +1,24 @@
-"""Scene models: a table, a set of objects and the floating parallel-jaw gripper.
+"""Scene models: a table, a set of objects, a bin, and a floating parallel-jaw gripper.
 
 One compiled model serves every layout of its objects: an object that is not
 in the current layout is *parked*, at rest in the air far from the workspace
 with gravity compensated (`world.physics_model` sets its `body_gravcomp` per
 world), so it makes no contacts and adds no constraint to the solver. The
-a-f scene with object-object contacts serves Setups 2 and 3; scenes without
-them (one object at a time, fewer contact slots) serve Setup 1.
+a-f scene with object-object contacts and the bin serves Setups 2 and 3 (the
+bin is a mocap body, moved into place in Setup 3 worlds and parked far away
+otherwise); scenes without them (one object at a time, fewer contact slots)
+serve Setup 1.
 
-The gripper is a free-floating hand welded to a mocap target (so it follows
-any 6-D pose), with two slide-joint box fingers coupled by a joint equality
-and driven by one force-limited position servo. In the hand frame, z points
-from the palm to the finger tips (the approach direction) and x is the
-closing axis.
+The gripper is a free-floating hand (gravity compensated, as a robot arm's
+controller does) welded to a mocap target, so it follows any 6-D pose. Its
+palm has the size of a Franka Hand's (the MuJoCo Menagerie model's collision
+capsule: 20 cm along the closing axis, 8 cm across) with a wrist camera
+housing (an Intel RealSense D435's 9 x 2.5 x 2.5 cm) on its side. Two
+slide-joint box fingers are coupled by a joint equality and driven by one
+position servo whose force is limited to twice `grip_force` (each finger
+then presses with `grip_force`; the coupling carries the other half). In
+the hand frame, z points from the palm to the finger tips (the approach
+direction) and x is the closing axis.
 """
 
 from __future__ import annotations
@@ -24,8 +31,8 @@ import jax
 import mujoco
 import numpy as np
 
-from graspjax.config import GripperConfig, SimConfig
-from graspjax.sim.objects import OBJECTS, object_mjcf
+from graspjax.config import GripperConfig, LayoutConfig, SimConfig
+from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses
 from graspjax.sim.render import RenderGeometry, render_geometry
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
@@ -35,8 +42,12 @@ with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend w
 _TABLE, _OBJECT, _GRIPPER = 1, 2, 4
 PARK_HEIGHT = 1.0  # parked objects hang this high above the table (m), far outside the view
 _PARK_X = 3.0  # first parking spot (m); objects park 0.5 m apart along x
+BIN_PARK = np.array([-3.0, 0.0, 0.0])  # where the bin waits outside Setup 3 (m)
 GRIPPER_HOME = np.array([0.0, 0.0, 1.5])  # the gripper waits here, above the camera's view
-PALM_HALF = np.array([0.02, 0.05, 0.01])  # palm box half extents (m)
+PALM_HALF = np.array([0.10, 0.04, 0.03])  # palm half extents (m): a Franka Hand's envelope
+HOUSING_HALF = np.array([0.045, 0.0125, 0.0125])  # wrist camera housing half extents (m)
+CLOSED_TARGET = -0.01  # servo target of closed jaws, beyond touching: the force limit decides (m)
+PAD_TIMECONST = 0.01  # contact time constant of the hand's geoms (s): stiff pads, 2 steps
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: usable as a static jit argument
@@ -50,18 +61,23 @@ class Scene:
     object_qpos: np.ndarray  # (n,) qpos address of each object's free joint
     object_qvel: np.ndarray  # (n,) qvel address of each object's free joint
     park_pos: np.ndarray  # (n, 3) parking position of each object
+    has_bin: bool  # the scene holds the bin
+    bin_mocap: int  # mocap index of the bin (-1 without one)
+    hand_mocap: int  # mocap index of the hand's target
     hand_body: int  # body id of the hand
     hand_qpos: int  # qpos address of the hand's free joint
     hand_qvel: int
     finger_qpos: np.ndarray  # (2,) qpos addresses of the two finger slides
     finger_qvel: np.ndarray
-    gripper_geom: np.ndarray  # (ngeom,) bool: palm and finger geoms (their friction is the pads')
+    gripper_geom: np.ndarray  # (ngeom,) bool: palm, housing and fingers (their friction: the pads')
+    geom_object: np.ndarray  # (ngeom,) int32 object index of each geom, -1 for others
+    hand_points: np.ndarray  # (P, 3) corners and face centres of the open hand's boxes, hand frame
     tcp_offset: float  # hand-frame z of the point between the finger tips (m)
     object_com: np.ndarray  # (n, 3) centre of mass of each object in its frame (m)
     object_points: np.ndarray  # (n, V, 3) piece vertices in the object frame, padded by repeats
-    footprint_radius: np.ndarray  # (n,) horizontal radius around the object origin (m)
-    render: RenderGeometry  # half-spaces of the table and every object piece
-    piece_object: np.ndarray  # (G,) object index of each rendered piece, -1 for the table
+    resting: np.ndarray  # (n, R, 3, 3) rotations in which drops of each object came to rest
+    render: RenderGeometry  # half-spaces of the table, the bin walls and every object piece
+    piece_object: np.ndarray  # (G,) object index of each rendered piece, -1 for table and bin
     gripper: GripperConfig
     sim: SimConfig
 
@@ -70,8 +86,31 @@ class Scene:
         return len(self.letters)
 
 
-def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide: bool) -> str:
-    """The MJCF text of a scene with the given objects."""
+def _box_points(half: np.ndarray, centre) -> np.ndarray:
+    """Corners, edge midpoints and face centres (26, 3) of a box."""
+    grid = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)
+                     if (x, y, z) != (0, 0, 0)], float)
+    return grid * half + np.asarray(centre, float)
+
+
+def _bin_mjcf(layout: LayoutConfig) -> str:
+    """A mocap body with the bin's four walls (the table is its floor), parked."""
+    inner, wall, height = layout.bin_size, layout.bin_wall_thickness, layout.bin_wall_height
+    reach = inner / 2 + wall / 2
+    long_half = inner / 2 + wall
+    walls = [((reach, 0.0), (wall / 2, long_half)), ((-reach, 0.0), (wall / 2, long_half)),
+             ((0.0, reach), (long_half, wall / 2)), ((0.0, -reach), (long_half, wall / 2))]
+    geoms = "\n".join(
+        f'<geom name="bin_{k}" type="box" size="{hx:g} {hy:g} {height / 2:g}" '
+        f'pos="{x:g} {y:g} {height / 2:g}" contype="{_TABLE}" conaffinity="{_OBJECT | _GRIPPER}" '
+        f'material="default"/>' for k, ((x, y), (hx, hy)) in enumerate(walls))
+    park = " ".join(f"{v:g}" for v in BIN_PARK)
+    return f'<body name="bin" mocap="true" pos="{park}">\n{geoms}\n</body>'
+
+
+def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide: bool,
+               layout: LayoutConfig = LayoutConfig()) -> str:
+    """The MJCF text of a scene with the given objects (and the bin when objects collide)."""
     friction = f"{sim.object_friction:g} 0.005 0.0001"
     contacts = sim.max_contact_points if objects_collide else sim.max_contact_points_alone
     object_affinity = _TABLE | _GRIPPER | (_OBJECT if objects_collide else 0)
@@ -85,9 +124,8 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
     g = gripper
     finger_z = PALM_HALF[2] + g.finger_length / 2
     finger_size = f"{g.finger_thickness / 2:g} {g.finger_width / 2:g} {g.finger_length / 2:g}"
+    housing_pos = f"0 {PALM_HALF[1] + HOUSING_HALF[1]:g} {PALM_HALF[2] - HOUSING_HALF[2]:g}"
     home = " ".join(f"{v:g}" for v in GRIPPER_HOME)
-    # Each finger presses with half the servo force (the joint coupling carries
-    # the other half), so the servo is limited to twice the grip force.
     return f"""<mujoco model="graspjax_{''.join(letters)}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{sim.timestep:g}" iterations="{sim.iterations}" ls_iterations="{sim.ls_iterations}"
@@ -99,7 +137,7 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
     <geom condim="{sim.condim}" friction="{friction}" contype="{_OBJECT}" conaffinity="{object_affinity}"/>
     <default class="gripper">
       <geom contype="{_GRIPPER}" conaffinity="{_TABLE | _OBJECT}"
-            friction="{g.friction:g} 0.005 0.0001"/>
+            friction="{g.friction:g} 0.005 0.0001" solref="{PAD_TIMECONST:g} 1"/>
       <joint type="slide" range="0 {g.opening / 2:g}" armature="{sim.finger_armature:g}"
              damping="{sim.finger_damping:g}"/>
     </default>
@@ -111,18 +149,22 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
   <worldbody>
     <geom name="table" type="plane" size="0 0 1" contype="{_TABLE}" conaffinity="{_OBJECT | _GRIPPER}"
           material="default"/>
+{_bin_mjcf(layout) if objects_collide else ""}
 {chr(10).join(bodies)}
     <body name="gripper_target" mocap="true" pos="{home}"/>
     <body name="hand" pos="{home}" gravcomp="1">
       <freejoint name="hand"/>
       <geom name="palm" class="gripper" type="box" size="{PALM_HALF[0]:g} {PALM_HALF[1]:g} {PALM_HALF[2]:g}"
             mass="{sim.hand_mass:g}"/>
-      <body name="finger_1" pos="0 0 {finger_z:g}">
+      <geom name="housing" class="gripper" type="box"
+            size="{HOUSING_HALF[0]:g} {HOUSING_HALF[1]:g} {HOUSING_HALF[2]:g}" pos="{housing_pos}"
+            mass="0"/>
+      <body name="finger_1" pos="0 0 {finger_z:g}" gravcomp="1">
         <joint name="finger_1" class="gripper" axis="1 0 0"/>
         <geom name="finger_1" class="gripper" type="box" size="{finger_size}"
               pos="{g.finger_thickness / 2:g} 0 0" mass="{sim.finger_mass:g}"/>
       </body>
-      <body name="finger_2" pos="0 0 {finger_z:g}">
+      <body name="finger_2" pos="0 0 {finger_z:g}" gravcomp="1">
         <joint name="finger_2" class="gripper" axis="-1 0 0"/>
         <geom name="finger_2" class="gripper" type="box" size="{finger_size}"
               pos="{-g.finger_thickness / 2:g} 0 0" mass="{sim.finger_mass:g}"/>
@@ -132,10 +174,11 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
   <contact><exclude body1="finger_1" body2="finger_2"/></contact>
   <equality>
     <weld name="grip" body1="gripper_target" body2="hand" solref="{sim.grip_timeconst:g} 1"/>
-    <joint joint1="finger_1" joint2="finger_2"/>
+    <joint joint1="finger_1" joint2="finger_2" solref="{2 * sim.timestep:g} 1"/>
   </equality>
   <actuator>
-    <position name="jaws" joint="finger_1" kp="{sim.finger_kp:g}" ctrlrange="0 {g.opening / 2:g}"
+    <position name="jaws" joint="finger_1" kp="{sim.finger_kp:g}"
+              ctrlrange="{CLOSED_TARGET:g} {g.opening / 2:g}"
               forcerange="{-2 * g.grip_force:g} {2 * g.grip_force:g}"/>
   </actuator>
 </mujoco>
@@ -152,17 +195,21 @@ def scene_for(letters, config, objects_collide: bool) -> Scene:
     them with `world.physics_model`, so every sweep point shares one scene.
     """
     key = (tuple(letters), jax.tree.structure(config.gripper), jax.tree.structure(config.sim),
-           bool(objects_collide))
+           jax.tree.structure(config.layout), bool(objects_collide))
     if key not in _SCENES:
-        _SCENES[key] = build_scene(letters, config.gripper, config.sim, objects_collide)
+        _SCENES[key] = build_scene(letters, config.gripper, config.sim, objects_collide,
+                                   config.layout)
     return _SCENES[key]
 
 
 def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfig = SimConfig(),
-                objects_collide: bool = True) -> Scene:
+                objects_collide: bool = True, layout: LayoutConfig = LayoutConfig()) -> Scene:
     """Compile a scene of the given object letters (one MJX model for all layouts)."""
     letters = tuple(letters)
-    mj_model = mujoco.MjModel.from_xml_string(scene_mjcf(letters, gripper, sim, objects_collide))
+    mj_model = mujoco.MjModel.from_xml_string(
+        scene_mjcf(letters, gripper, sim, objects_collide, layout))
+    if (mj_model.geom_condim != 3).any():
+        raise ValueError("every geom must have condim 3 (contact forces are read as 4-row pyramids)")
 
     def obj_id(kind, name):
         return mujoco.mj_name2id(mj_model, kind, name)
@@ -173,11 +220,25 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
     fingers = np.array([obj_id(mujoco.mjtObj.mjOBJ_JOINT, f"finger_{k}") for k in (1, 2)])
     hand_body = int(mj_model.jnt_bodyid[hand])
     finger_bodies = [int(b) for b in mj_model.jnt_bodyid[fingers]]
-    table = obj_id(mujoco.mjtObj.mjOBJ_GEOM, "table")
-    visible = [table] + [g for g in range(mj_model.ngeom) if mj_model.geom_bodyid[g] in bodies]
+    bin_geoms = [obj_id(mujoco.mjtObj.mjOBJ_GEOM, f"bin_{k}") for k in range(4)] if objects_collide \
+        else []
+    statics = [obj_id(mujoco.mjtObj.mjOBJ_GEOM, "table"), *bin_geoms]
+    object_geoms = [g for g in range(mj_model.ngeom) if mj_model.geom_bodyid[g] in bodies]
+    geom_object = np.full(mj_model.ngeom, -1, np.int32)
+    for g in object_geoms:
+        geom_object[g] = int(np.flatnonzero(bodies == mj_model.geom_bodyid[g])[0])
     points = [OBJECTS[c].points() for c in letters]
     most = max(len(p) for p in points)
     padded = np.stack([np.concatenate([p, np.repeat(p[:1], most - len(p), 0)]) for p in points])
+    opened = gripper.opening / 2 + gripper.finger_thickness / 2
+    finger_half = np.array([gripper.finger_thickness, gripper.finger_width,
+                            gripper.finger_length]) / 2
+    finger_z = PALM_HALF[2] + gripper.finger_length / 2
+    hand_points = np.concatenate([
+        _box_points(PALM_HALF, (0, 0, 0)),
+        _box_points(HOUSING_HALF, (0, PALM_HALF[1] + HOUSING_HALF[1], PALM_HALF[2] - HOUSING_HALF[2])),
+        _box_points(finger_half, (opened, 0, finger_z)),
+        _box_points(finger_half, (-opened, 0, finger_z))])
     return Scene(
         letters=letters,
         mj_model=mj_model,
@@ -186,19 +247,25 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         object_qpos=mj_model.jnt_qposadr[joints],
         object_qvel=mj_model.jnt_dofadr[joints],
         park_pos=mj_model.body_pos[bodies].copy(),
+        has_bin=bool(objects_collide),
+        bin_mocap=int(mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, "bin")])
+        if objects_collide else -1,
+        hand_mocap=int(mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, "gripper_target")]),
         hand_body=hand_body,
         hand_qpos=int(mj_model.jnt_qposadr[hand]),
         hand_qvel=int(mj_model.jnt_dofadr[hand]),
         finger_qpos=mj_model.jnt_qposadr[fingers],
         finger_qvel=mj_model.jnt_dofadr[fingers],
         gripper_geom=np.isin(mj_model.geom_bodyid, [hand_body, *finger_bodies]),
+        geom_object=geom_object,
+        hand_points=hand_points,
         tcp_offset=float(PALM_HALF[2] + gripper.finger_length),
         object_com=mj_model.body_ipos[bodies].copy(),
         object_points=padded,
-        footprint_radius=np.array([OBJECTS[c].footprint_radius for c in letters]),
-        render=render_geometry(mj_model, visible),
-        piece_object=np.array([-1] + [int(np.flatnonzero(bodies == mj_model.geom_bodyid[g])[0])
-                                      for g in visible[1:]], np.int32),
+        resting=np.stack([resting_poses(c) for c in letters]),
+        render=render_geometry(mj_model, statics + object_geoms),
+        piece_object=np.array([-1] * len(statics) + [int(geom_object[g]) for g in object_geoms],
+                              np.int32),
         gripper=gripper,
         sim=sim,
     )

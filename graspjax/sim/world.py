@@ -7,6 +7,13 @@ follow a static waypoint schedule, then the judge decides the outcome, the
 lifted object leaves the scene, the hand returns home, and the world settles
 for its own number of segments. One loop means one copy of the MJX step in
 the compiled program, whatever the phases.
+
+The hand can fail as a real one does: a pre-grasp pose whose hand would be
+inside a part, the bin or the table is refused; during the approach the
+contact force on the hand is watched at every step and the motion stops
+where it exceeds `approach_force_limit` (a collision reflex), which ends the
+attempt as `COLLISION`; the jaws close by a servo ramp and squeeze with
+`grip_force`, the servo's force limit.
 """
 
 from __future__ import annotations
@@ -21,8 +28,9 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import CameraConfig, Config
 from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
+from graspjax.sim.layout import footprints, gaps
 from graspjax.sim.render import render_depth
-from graspjax.sim.scene import GRIPPER_HOME, Scene, mjx
+from graspjax.sim.scene import BIN_PARK, CLOSED_TARGET, GRIPPER_HOME, Scene, mjx
 
 HOME_QUAT = np.array([0.0, 1.0, 0.0, 0.0])  # hand z (approach) pointing down
 _HELD_MARGIN = 0.01  # target centre of mass within the jaw span plus this (m)
@@ -103,9 +111,13 @@ def with_parking(scene: Scene, model: mjx.Model, data: mjx.Data) -> mjx.Model:
 
 
 def reset(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
-          active: jax.Array) -> mjx.Data:
-    """Place the active objects at (pos (n, 3), quat (n, 4)), park the rest, open the gripper at home."""
+          active: jax.Array, bin_in_place: jax.Array | bool = False) -> mjx.Data:
+    """Place the active objects at (pos (n, 3), quat (n, 4)), park the rest, open the gripper at
+    home; the bin (if the scene has one) at the origin when `bin_in_place`, else parked."""
     qpos, qvel = data.qpos, jnp.zeros_like(data.qvel)
+    if scene.has_bin:
+        spot = jnp.where(bin_in_place, 0.0, jnp.asarray(BIN_PARK, jnp.float32))
+        data = data.replace(mocap_pos=data.mocap_pos.at[scene.bin_mocap].set(spot))
     park_quat = jnp.array([1.0, 0.0, 0.0, 0.0])
     for i in range(scene.num_objects):
         a = scene.object_qpos[i]
@@ -126,8 +138,9 @@ def move_hand(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
     qpos = jnp.where(opened, qpos.at[scene.finger_qpos].set(half), qpos)
     qvel = jnp.where(opened, qvel.at[scene.finger_qvel].set(0.0), qvel)
     ctrl = jnp.where(opened, jnp.full_like(data.ctrl, half), data.ctrl)
-    return data.replace(qpos=qpos, qvel=qvel, ctrl=ctrl, mocap_pos=data.mocap_pos.at[0].set(pos),
-                        mocap_quat=data.mocap_quat.at[0].set(quat))
+    m = scene.hand_mocap
+    return data.replace(qpos=qpos, qvel=qvel, ctrl=ctrl, mocap_pos=data.mocap_pos.at[m].set(pos),
+                        mocap_quat=data.mocap_quat.at[m].set(quat))
 
 
 def park(scene: Scene, data: mjx.Data, which: jax.Array) -> mjx.Data:
@@ -143,19 +156,71 @@ def park(scene: Scene, data: mjx.Data, which: jax.Array) -> mjx.Data:
     return data.replace(qpos=qpos, qvel=qvel)
 
 
+def hand_contact_force(scene: Scene, data: mjx.Data) -> jax.Array:
+    """Total normal force () of every contact on the hand (palm, housing, fingers) (N).
+
+    Contacts are pyramidal with condim 3: the normal force is the sum of a
+    contact's four pyramid-edge forces (MuJoCo's `mj_contactForce`).
+    """
+    contact = data._impl.contact
+    on_hand = jnp.asarray(scene.gripper_geom)[contact.geom].any(-1)
+    rows = np.asarray(contact.efc_address)[:, None] + np.arange(4)
+    normal = jnp.sum(data._impl.efc_force[np.maximum(rows, 0)], -1)
+    return jnp.sum(jnp.where(on_hand & (np.asarray(contact.efc_address) >= 0), normal, 0.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class Reflex:
+    """The approach's collision reflex: whether it fired, and where the hand target stopped."""
+
+    tripped: jax.Array  # () bool
+    stop: jax.Array  # (3,) hand target where the motion stopped
+
+
+jax.tree_util.register_dataclass(Reflex, data_fields=["tripped", "stop"], meta_fields=[])
+
+
 def segment(scene: Scene, model: mjx.Model, data: mjx.Data, start: jax.Array, end: jax.Array,
-            quat: jax.Array, ctrl: jax.Array) -> mjx.Data:
-    """`segment_steps` physics steps; the hand target moves linearly from `start` to `end` (3,)."""
+            quat: jax.Array, ctrl: jax.Array, reflex: Reflex, watch: jax.Array,
+            force_limit) -> tuple[mjx.Data, Reflex]:
+    """`segment_steps` physics steps: the hand target moves linearly from `start` to `end` (3,)
+    and the jaw servo's target from ctrl[0] to ctrl[1]. While `watch`, a contact force on the
+    hand above `force_limit` stops the hand where it is (open jaws) for good."""
     n = scene.sim.segment_steps
+    opened = scene.gripper.opening / 2
 
-    def step(d, i):
-        target = start + (end - start) * (i + 1) / n
-        d = d.replace(mocap_pos=d.mocap_pos.at[0].set(target),
-                      mocap_quat=d.mocap_quat.at[0].set(quat), ctrl=jnp.full_like(d.ctrl, ctrl))
-        return mjx.step(model, d), None
+    def step(carry, i):
+        d, reflex = carry
+        f = (i + 1) / n
+        target = jnp.where(reflex.tripped, reflex.stop, start + (end - start) * f)
+        jaws = jnp.where(reflex.tripped, opened, ctrl[0] + (ctrl[1] - ctrl[0]) * f)
+        m = scene.hand_mocap
+        d = d.replace(mocap_pos=d.mocap_pos.at[m].set(target),
+                      mocap_quat=d.mocap_quat.at[m].set(quat), ctrl=jnp.full_like(d.ctrl, jaws))
+        d = mjx.step(model, d)
+        trip = watch & ~reflex.tripped & (hand_contact_force(scene, d) > force_limit)
+        reflex = Reflex(tripped=reflex.tripped | trip,
+                        stop=jnp.where(trip, d.qpos[scene.hand_qpos:scene.hand_qpos + 3],
+                                       reflex.stop))
+        return (d, reflex), None
 
-    data, _ = jax.lax.scan(step, data, jnp.arange(n))
-    return data
+    (data, reflex), _ = jax.lax.scan(step, (data, reflex), jnp.arange(n))
+    return data, reflex
+
+
+def hand_clear(scene: Scene, data: mjx.Data, position: jax.Array, rotation: jax.Array,
+               margin: float = 0.001) -> jax.Array:
+    """Whether the open hand at a pose (position (3,), rotation (3, 3)) is out of every part,
+    the bin and the table: sample points of its boxes (`Scene.hand_points`) against the
+    half-spaces of every rendered piece (state after kinematics). () bool."""
+    points = jnp.asarray(scene.hand_points) @ rotation.T + position  # (P, 3)
+    geometry = scene.render
+    ids = geometry.geom_ids
+    rot = data.geom_xmat[ids].reshape(-1, 3, 3)
+    normals = jnp.einsum("gij,gpj->gpi", rot, jnp.asarray(geometry.planes[..., :3]))
+    offsets = geometry.planes[..., 3] + jnp.einsum("gpi,gi->gp", normals, data.geom_xpos[ids])
+    depth = offsets[None] - jnp.einsum("gpi,ki->kgp", normals, points)  # inside where all > 0
+    return ~jnp.any(jnp.min(depth, -1) > margin)
 
 
 def snapshot(scene: Scene, data: mjx.Data) -> Snapshot:
@@ -169,7 +234,7 @@ def snapshot(scene: Scene, data: mjx.Data) -> Snapshot:
         object_com=pos + jnp.einsum("nij,nj->ni", rot, jnp.asarray(scene.object_com, jnp.float32)),
         hand_pos=qpos[h:h + 3],
         hand_rot=quat_to_matrix(qpos[h + 3:h + 7]),
-        target_pos=data.mocap_pos[0],
+        target_pos=data.mocap_pos[scene.hand_mocap],
         opening=qpos[scene.finger_qpos[0]],
         finite=jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel)),
     )
@@ -194,8 +259,9 @@ def hand_waypoints(scene: Scene, grasp: GraspPose, config: Config):
 
 
 def judge(scene: Scene, config: Config, start: Snapshot, approached: Snapshot, closed: Snapshot,
-          held: Snapshot, target: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Outcome code and the index of the lifted object (-1 if none) of one executed attempt."""
+          held: Snapshot, target: jax.Array, stopped: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Outcome code and the index of the lifted object (-1 if none) of one executed attempt
+    (`stopped`: the collision reflex fired during the approach)."""
     rise = held.object_pos[:, 2] - start.object_pos[:, 2]
     lifted = rise >= config.sim.min_lift
     com_local = held.hand_rot.T @ (held.object_com[target] - held.hand_pos)
@@ -207,9 +273,9 @@ def judge(scene: Scene, config: Config, start: Snapshot, approached: Snapshot, c
     something = closed.opening > _CLOSED
     finite = start.finite & approached.finite & closed.finite & held.finite
     outcome = jnp.select(
-        [~finite, success, jnp.any(others), blocked, something],
-        [Outcome.DIVERGED, Outcome.SUCCESS, Outcome.WRONG_OBJECT, Outcome.COLLISION,
-         Outcome.SLIPPED], Outcome.MISSED).astype(jnp.int32)
+        [~finite, stopped, success, jnp.any(others), blocked, something],
+        [Outcome.DIVERGED, Outcome.COLLISION, Outcome.SUCCESS, Outcome.WRONG_OBJECT,
+         Outcome.COLLISION, Outcome.SLIPPED], Outcome.MISSED).astype(jnp.int32)
     lifted_object = jnp.where(success, target,
                               jnp.where(jnp.any(others), jnp.argmax(jnp.where(others, rise, -1)), -1))
     return outcome, lifted_object.astype(jnp.int32)
@@ -221,15 +287,18 @@ class Schedule:
 
     Waypoints are indexed as `hand_waypoints` returns them: 0 pre-grasp,
     1 grasp, 2 lifted, 3 home. Segment i moves the hand target from
-    `lerp(start[i], end[i], f0[i])` to `lerp(start[i], end[i], f1[i])`.
+    `lerp(start[i], end[i], f0[i])` to `lerp(start[i], end[i], f1[i])`, and
+    the jaw servo's target from closed fraction c0[i] to c1[i] (0: open,
+    1: `CLOSED_TARGET`, beyond touching, so the force limit decides the squeeze).
     """
 
     start: np.ndarray  # (S,) int32 waypoint the phase starts from
     end: np.ndarray  # (S,) int32 waypoint the phase goes to
     f0: np.ndarray  # (S,) float32 fraction of the phase done at the segment's start
     f1: np.ndarray  # (S,) float32 ... and at its end
-    closed: np.ndarray  # (S,) bool jaws commanded closed
-    approached: int  # segment after which the approach is judged
+    c0: np.ndarray  # (S,) float32 jaw servo target, closed fraction at the segment's start
+    c1: np.ndarray  # (S,) float32 ... and at its end
+    approach: int  # segments of the approach (the collision reflex watches them)
     closed_at: int  # segment after which the jaws are judged
 
     @property
@@ -239,41 +308,46 @@ class Schedule:
     @classmethod
     def of(cls, config: Config) -> Schedule:
         s = config.sim
-        phases = [(0, 1, s.segments(s.approach_time), False),  # approach: pre-grasp -> grasp
-                  (1, 1, s.segments(s.close_time), True),  # close the jaws
-                  (1, 2, s.segments(s.lift_time), True),  # lift
-                  (2, 2, s.segments(s.hold_time), True)]  # hold
-        rows = [(a, b, k / n, (k + 1) / n, shut) for a, b, n, shut in phases for k in range(n)]
-        start, end, f0, f1, closed = (np.array(col) for col in zip(*rows, strict=True))
-        n_approach, n_close = phases[0][2], phases[1][2]
+        n = [s.segments(t) for t in (s.approach_time, s.close_time, s.lift_time, s.hold_time)]
+        rows = ([(0, 1, k / n[0], (k + 1) / n[0], 0.0, 0.0) for k in range(n[0])]  # approach
+                + [(1, 1, 1.0, 1.0, k / n[1], (k + 1) / n[1]) for k in range(n[1])]  # close
+                + [(1, 2, k / n[2], (k + 1) / n[2], 1.0, 1.0) for k in range(n[2])]  # lift
+                + [(2, 2, 1.0, 1.0, 1.0, 1.0)] * n[3])  # hold
+        start, end, f0, f1, c0, c1 = (np.array(col) for col in zip(*rows, strict=True))
         return cls(start.astype(np.int32), end.astype(np.int32), f0.astype(np.float32),
-                   f1.astype(np.float32), closed, n_approach - 1, n_approach + n_close - 1)
+                   f1.astype(np.float32), c0.astype(np.float32), c1.astype(np.float32),
+                   n[0], n[0] + n[1] - 1)
 
 
 def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, target: jax.Array,
-         settle_segments: jax.Array, execute: jax.Array, config: Config
-         ) -> tuple[mjx.Data, Execution]:
+         settle_segments: jax.Array, execute: jax.Array, config: Config,
+         reachable: jax.Array | bool = True) -> tuple[mjx.Data, Execution]:
     """Execute `grasp` on object `target`, judge it, remove what was lifted, then settle.
 
     Execution (when `execute` and `grasp.valid`): the hand appears at the
-    pre-grasp pose with open jaws, approaches, closes, lifts and holds
-    (`Schedule`); the judge then decides the outcome, the lifted object is
-    parked and the hand returns home with open jaws. Then the world settles
-    for `settle_segments` () int32 segments, hand at home. Worlds that do not
-    execute only settle. `execute` is () bool, the same for every world.
+    pre-grasp pose with open jaws, approaches (the collision reflex
+    watching), closes, lifts and holds (`Schedule`); the judge then decides
+    the outcome, the lifted object is parked and the hand returns home with
+    open jaws. A grasp whose pre-grasp pose is not `reachable` (the hand
+    would be inside something) is not executed and ends as `COLLISION`. Then
+    the world settles for `settle_segments` () int32 segments, hand at home.
+    Worlds that do not execute only settle. `execute` is () bool, the same
+    for every world.
     """
     plan = Schedule.of(config)
     n_exec = plan.segments
     waypoints, quat = hand_waypoints(scene, grasp, config)
-    executing = execute & grasp.valid
+    refused = execute & grasp.valid & ~reachable
+    executing = execute & grasp.valid & reachable
     opened = scene.gripper.opening / 2
     data = where_tree(executing, move_hand(scene, data, waypoints[0], quat, opened=True), data)
     start = snapshot(scene, data)
-    no = Execution(outcome=jnp.int32(Outcome.NOT_EXECUTED), lifted_object=jnp.int32(-1),
-                   rise=jnp.float32(jnp.nan), opening=jnp.float32(jnp.nan))
+    no = Execution(outcome=jnp.where(refused, Outcome.COLLISION, Outcome.NOT_EXECUTED).astype(jnp.int32),
+                   lifted_object=jnp.int32(-1), rise=jnp.float32(jnp.nan), opening=jnp.float32(jnp.nan))
+    travel = CLOSED_TARGET - opened  # jaw servo target from open to closed
 
     def body(carry):
-        i, data, approached, closed, result = carry
+        i, data, reflex, approached, closed, result = carry
         row = jnp.clip(i, 0, n_exec - 1)
         in_exec = i < n_exec
 
@@ -281,29 +355,78 @@ def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, targe
             a, b = waypoints[jnp.asarray(plan.start)[row]], waypoints[jnp.asarray(plan.end)[row]]
             return jnp.where(in_exec, a + (b - a) * f, waypoints[3])
 
-        ctrl = jnp.where(in_exec & jnp.asarray(plan.closed)[row], 0.0, opened)
-        data = segment(scene, with_parking(scene, model, data), data, lerp(jnp.asarray(plan.f0)[row]),
-                       lerp(jnp.asarray(plan.f1)[row]),
-                       jnp.where(in_exec, quat, jnp.asarray(HOME_QUAT, jnp.float32)), ctrl)
+        jaws = opened + travel * jnp.stack([jnp.asarray(plan.c0)[row],
+                                                     jnp.asarray(plan.c1)[row]])
+        data, reflex = segment(scene, with_parking(scene, model, data), data,
+                               lerp(jnp.asarray(plan.f0)[row]), lerp(jnp.asarray(plan.f1)[row]),
+                               jnp.where(in_exec, quat, jnp.asarray(HOME_QUAT, jnp.float32)),
+                               jnp.where(in_exec, jaws, opened), reflex,
+                               in_exec & (i < plan.approach), config.sim.approach_force_limit)
         now = snapshot(scene, data)
-        approached = where_tree(i == plan.approached, now, approached)
+        approached = where_tree(i == plan.approach - 1, now, approached)
         closed = where_tree(i == plan.closed_at, now, closed)
         # After the hold: judge, take the lifted object out, send the hand home.
         done = i == n_exec - 1
-        outcome, lifted = judge(scene, config, start, approached, closed, now, target)
+        outcome, lifted = judge(scene, config, start, approached, closed, now, target,
+                                reflex.tripped)
         rise = now.object_pos[target, 2] - start.object_pos[target, 2]
         result = where_tree(done, Execution(outcome, lifted, rise, closed.opening), result)
         gone = (jnp.arange(scene.num_objects) == lifted) & (lifted >= 0)
         home = move_hand(scene, park(scene, data, gone), waypoints[3],
                          jnp.asarray(HOME_QUAT, jnp.float32), opened=True)
         data = where_tree(done, home, data)
-        return i + 1, data, approached, closed, result
+        return i + 1, data, reflex, approached, closed, result
 
     first = jnp.where(executing, 0, n_exec).astype(jnp.int32)
     last = n_exec + settle_segments.astype(jnp.int32)
-    carry = (first, data, start, start, no)
-    _, data, _, _, result = jax.lax.while_loop(lambda c: c[0] < last, body, carry)
+    reflex = Reflex(tripped=jnp.array(False), stop=waypoints[0])
+    carry = (first, data, reflex, start, start, no)
+    _, data, _, _, _, result = jax.lax.while_loop(lambda c: c[0] < last, body, carry)
     return data, result
+
+
+@dataclasses.dataclass(frozen=True)
+class LayoutStats:
+    """How dense one world's layout is (Setups 2, 3; `rounds.csv`)."""
+
+    objects: jax.Array  # () int32 objects on the table
+    touching: jax.Array  # () int32 of them in contact with another object
+    stacked: jax.Array  # () int32 of them resting on another object
+    gap: jax.Array  # () median over objects of the nearest footprint-to-footprint distance (m)
+    spread: jax.Array  # () largest distance between two objects' origins, seen from above (m)
+
+
+jax.tree_util.register_dataclass(
+    LayoutStats, data_fields=[f.name for f in dataclasses.fields(LayoutStats)], meta_fields=[])
+
+
+def layout_stats(scene: Scene, data: mjx.Data) -> LayoutStats:
+    """Contacts and footprint gaps of the objects on the table (state after a step)."""
+    n = scene.num_objects
+    present = ~parked(scene, data)
+    contact = data._impl.contact
+    owner = jnp.asarray(scene.geom_object)[contact.geom]  # (C, 2)
+    real = (contact.dist < 1e-3) & (owner[:, 0] >= 0) & (owner[:, 1] >= 0) & (
+        owner[:, 0] != owner[:, 1])
+    pairs = jnp.zeros((n, n), bool).at[owner[:, 0], owner[:, 1]].max(real)
+    pairs = pairs | pairs.T
+    snap = snapshot(scene, data)
+    vertical = jnp.abs(contact.frame[:, 0, 2]) > 0.7
+    higher = snap.object_com[owner[:, 0], 2] > snap.object_com[owner[:, 1], 2]
+    on_top = jnp.zeros(n, bool).at[jnp.where(higher, owner[:, 0], owner[:, 1])].max(real & vertical)
+    rotations = jax.vmap(quat_to_matrix)(
+        jnp.stack([data.qpos[a + 3:a + 7] for a in scene.object_qpos]))
+    xy = snap.object_pos[:, :2]
+    apart = gaps(footprints(jnp.asarray(scene.object_points), rotations), xy)
+    apart = jnp.where(present[:, None] & present[None], apart, jnp.inf)
+    nearest = jnp.clip(jnp.min(apart, 1), 0.0, None)
+    distance = jnp.linalg.norm(xy[:, None] - xy[None], axis=-1)
+    spread = jnp.max(jnp.where(present[:, None] & present[None], distance, 0.0))
+    return LayoutStats(objects=jnp.sum(present).astype(jnp.int32),
+                       touching=jnp.sum(present & jnp.any(pairs, 1)).astype(jnp.int32),
+                       stacked=jnp.sum(present & on_top).astype(jnp.int32),
+                       gap=jnp.nanmedian(jnp.where(present & jnp.isfinite(nearest), nearest, jnp.nan)),
+                       spread=spread)
 
 
 def where_tree(flag: jax.Array, a, b):
