@@ -142,12 +142,12 @@ def _bench_detect(args, progress):
 def cmd_bench(args) -> int:
     _check_writable(args.out)
     from graspjax.bench import format_perception, perception_benchmark
-    from graspjax.config import Config, override
+    from graspjax.config import override, preset
 
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
     progress = lambda m: print(m, file=sys.stderr)  # noqa: E731
-    config = None if args.what == "detect" else override(Config(), args.set or [])
+    config = None if args.what == "detect" else override(preset(args.preset), args.set or [])
     if args.what == "detect":
         result, text = _bench_detect(args, progress)
     elif args.what == "perception":
@@ -271,20 +271,20 @@ def _experiment(args, grid_items=None) -> int:
     import dataclasses
 
     from graspjax import runner
-    from graspjax.config import Config, differences, flatten, override
+    from graspjax.config import Config, differences, flatten, override, preset
     from graspjax.outputs import RunFolder, check_output_folder, environment, finish_frame, run_id
     from graspjax.views import ViewSaver
 
     jobs = _jobs(args)
     part, parts = _part(args.part)
     out = check_output_folder(args.out, args.resume or parts > 1, args.overwrite)
-    config = override(Config(), args.set or [])
+    config = override(preset(args.preset), args.set or [])
     keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
     configs = [c for _, c in points]
     batch = args.batch or runner.default_batch()
     groups = runner.plan(jobs, configs, args.seed)
     chunks = runner.chunks(groups, batch)
-    meta = {"seed": args.seed, "jobs": [dataclasses.asdict(j) for j in jobs],
+    meta = {"seed": args.seed, "preset": args.preset, "jobs": [dataclasses.asdict(j) for j in jobs],
             "overrides": differences(config, Config()),
             "grid": {k: [p[0][k] for p in points] for k in keys}, "points": len(points),
             "config": flatten(config),
@@ -302,11 +302,11 @@ def _experiment(args, grid_items=None) -> int:
         log(f"{len(points)} grid points of {', '.join(keys)}; point i has seed {args.seed} + i")
     saver = ViewSaver(out, args.save_views, args.max_views, configs)
     with bar:
-        for chunk, frame, timings, views in runner.run(
+        for chunk, frame, layouts, timings, views in runner.run(
                 groups, configs, batch, skip, keep_views=args.save_views != "none",
                 progress=bar.update, log=log):
             frame = finish_frame(frame, configs, keys, meta["run_id"], config)
-            folder.add(chunk.index, frame, timings)
+            folder.add(chunk.index, frame, layouts, timings)
             if views is not None:
                 saver.save(chunk, frame, views)
     files = folder.finish()
@@ -373,6 +373,9 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--trials", type=int, default=10,
                    help="trials per object (Setup 1) or rounds (Setups 2, 3); paper: 10")
     p.add_argument("--seed", type=int, default=0, help="base seed of every layout and key")
+    p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
+                   help="paper: exact depth, the paper's checks, exact execution (default); "
+                        "realistic: Kinect sensor, our wall check, execution error")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
@@ -470,6 +473,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=10, help="timed calls (median is reported)")
     p.add_argument("--out", help="write the full record to this JSON file")
     p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")
+    p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
+                   help="configuration preset (see graspjax run --help)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
     p.set_defaults(func=cmd_bench)
     return parser
