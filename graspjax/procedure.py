@@ -299,7 +299,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     def look(carry, r):
         rot, pos, found, blocked, pose, turns, detect_reason, align_reason = carry
         v = view(scene, data, rot, pos, target, camera, config, jax.random.fold_in(k_views, r))
-        searching = ~found & ~blocked
+        searching = ~found & ~blocked & (r <= budget)  # views past the budget are not taken
         fresh = searching & v.grasp.found & (target >= 0)
         pose = where_tree(fresh, v.grasp_pose, pose)
         detect_reason = jnp.where(searching, v.grasp.reason, detect_reason)

@@ -156,3 +156,25 @@ def test_grasp_pose_in_the_world(basic_sim):
     # The finger tips go grasp_depth (2 cm) below the cube's top, near its centre.
     assert np.linalg.norm(np.asarray(g.tcp)[:2]) < 0.01
     assert float(g.tcp[2]) == pytest.approx(0.05 - 0.02 * float(-g.approach[2]), abs=0.004)
+
+
+@pytest.mark.parametrize("budget", [0, 1])
+def test_the_search_stops_at_the_re_alignment_budget(basic_sim, budget):
+    """The wedge (c) under the wall check: its top band has no wall, so the centred view fails
+    and the procedure re-aligns; with budget 0 it takes that one view and no more."""
+    from graspjax.procedure import _search
+
+    config = override(CONFIG, ["detect.wall_check=true",
+                               f"procedure.max_reorientations={budget}"])
+    data = _world(basic_sim, {2: (0.0, 0.0, 0.0)})
+    eligible = jnp.zeros(6, bool).at[2].set(True)
+    search = jax.jit(lambda d, c: _search(basic_sim.scene, d, eligible, jax.random.key(3), c, True))
+    target, pose, (blocked, turns, detect_reason, _), views = search(data, config)
+    assert int(target) == 2
+    looked = np.asarray(views.looked)
+    assert looked[:2].all() and looked.sum() == 2 + int(turns)  # overview, then each view taken
+    assert int(turns) <= budget and not looked[2 + budget:].any()
+    if budget == 0:
+        assert not bool(pose.valid) and int(detect_reason) == GraspReason.NO_WALL
+    else:
+        assert bool(pose.valid) and int(turns) == 1
