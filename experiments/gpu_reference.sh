@@ -7,7 +7,8 @@
 #   experiments/gpu_reference.sh repro       # the same command twice (bit-identical?), another --batch
 #   experiments/gpu_reference.sh detect      # graspjax detect on 640x480 images, batched
 #   experiments/gpu_reference.sh tables      # Tables 1 and 2 at 1,000 trials per cell, both presets
-#   experiments/gpu_reference.sh studies     # every study (experiments/studies.sh), reproducibility
+#   experiments/gpu_reference.sh studies     # the traced studies (experiments/studies.sh traced),
+#                                            #   the same command twice, the bin's physics with a Kinect
 #   experiments/gpu_reference.sh bench       # the bin scene's physics, Kinect rendering, perception
 #   experiments/gpu_reference.sh multigpu    # one GPU against all GPUs of the host, same job
 # Every step writes into $OUT (a log per step; run folders packed into tarballs, since the machine
@@ -69,28 +70,20 @@ EOF
     step tables env OUT="$out" bash experiments/paper_tables.sh gpu
     for preset in paper realistic; do cat "$out/${preset}_gpu_1000/timings.csv"; done
     pack tables paper_gpu_1000 realistic_gpu_1000 ;;
-  studies)
-    step studies env OUT="$out" bash experiments/studies.sh all
-    # Reproducibility: the window study again (bit-identical?) and at another --batch
-    # (statistically equal?); both reuse its compiled programs but for Setup 1 at 1,200 worlds.
+  studies)  # the traced studies (one set of compiled programs), reproducibility, the bin's physics
+    step studies env OUT="$out" bash experiments/studies.sh traced
     step window_again gj sweep --table 1 --preset realistic --trials 100 --seed 0 --quiet \
       --grid align.window_px=5,10,15,20,25,30 --out "$out/window_again"
-    step window_batch gj sweep --table 1 --preset realistic --trials 100 --seed 0 --quiet \
-      --batch 1200 --grid align.window_px=5,10,15,20,25,30 --out "$out/window_batch"
     if cmp -s "$out/window/attempts.csv" "$out/window_again/attempts.csv"; then
       echo "same command twice: attempts.csv identical"
     else
       echo "same command twice: attempts.csv DIFFERS"
     fi
-    python3 - "$out" <<'EOF'
-import sys, pandas as pd
-for name in ("window", "window_batch"):
-    f = pd.read_csv(f"{sys.argv[1]}/{name}/attempts.csv")
-    print(name, f.groupby("setup")["success"].agg(["sum", "size"]).to_dict("index"))
-EOF
     rm -rf "$out/window_again"
-    pack studies window threshold reorientations friction noise execution centring resolution \
-      window_batch ;;
+    step physics_kinect gj bench physics --objects abcdef --setup 3 --batch 8192 --preset realistic \
+      --out "$out/physics_gpu_h100_bin_8192_kinect.json"
+    grep -h -E "world-steps/s|images/s" "$out"/physics_kinect.log
+    pack studies window threshold reorientations friction noise execution centring ;;
   bench)
     step physics_paper gj bench physics --objects abcdef --setup 3 --batch 8192 \
       --out "$out/physics_gpu_h100_bin_8192.json"
@@ -100,10 +93,10 @@ EOF
       --out "$out/perception_gpu_h100_4096.json"
     grep -h -E "world-steps/s|images/s" "$out"/physics_paper.log "$out"/physics_kinect.log \
       "$out"/perception.log ;;
-  multigpu)
+  multigpu)  # the same job on one GPU and on every GPU, 3,000 worlds per GPU per call
     step one_gpu env CUDA_VISIBLE_DEVICES=0 python3 -m graspjax.cli bench pipeline \
-      --objects abcdef --setup 3 --trials 8192 --out "$out/one_gpu.json"
-    step all_gpus gj bench pipeline --objects abcdef --setup 3 --trials 8192 \
+      --objects abcdef --setup 1 --trials 2000 --batch 3000 --out "$out/one_gpu.json"
+    step all_gpus gj bench pipeline --objects abcdef --setup 1 --trials 2000 --batch 6000 \
       --out "$out/all_gpus.json"
     grep -h -E "device|attempts/s" "$out"/one_gpu.log "$out"/all_gpus.log ;;
   *) echo "usage: $0 runner|repro|detect|tables|studies|bench|multigpu" >&2; exit 2 ;;
