@@ -496,14 +496,20 @@ def _compilation_cache() -> None:
 def _deterministic_gpu(args) -> None:
     """XLA's GPU scatter-adds are not deterministic: ask for deterministic ops unless --fast.
 
-    XLA reads the flag when JAX starts its backend, so this runs before any device is used.
+    XLA reads its flags once, when JAX starts its first backend; so this runs before any device
+    is used, and importing graspjax must start none (tests/test_cli.py checks both).
     """
     if getattr(args, "fast", True):
         return
+    from jax._src import xla_bridge
+
     flag = "--xla_gpu_deterministic_ops=true"
     flags = os.environ.get("XLA_FLAGS", "")
-    if flag not in flags:
-        os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
+    if flag in flags:
+        return
+    if xla_bridge.backends_are_initialized():
+        raise RuntimeError("a JAX backend started before the deterministic-ops flag was set")
+    os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
+import threading
 import time
 from collections.abc import Callable, Iterator
 
@@ -152,33 +153,41 @@ def padded_size(worlds: int, batch: int) -> int:
 
 
 class Program:
-    """The compiled `start_round` and `attempt` of one group, sharded over every local device."""
+    """The compiled `start_round` and `attempt` of one group, one copy per local device.
+
+    The batch is cut into equal slices, one per device, and each device runs the one-device
+    program on its slice (dispatches are asynchronous, so the devices run together). Worlds
+    never communicate, so there is nothing to partition: no SPMD partitioner is involved (XLA's
+    crashed compiling the `shard_map` of this program over two H200s), and each device computes
+    exactly what one device would on a batch of its slice's size.
+    """
 
     def __init__(self, group: Group, batch: int, keep_views: bool):
         self.group, self.batch = group, batch
+        self.devices = jax.local_devices()
+        self.per_device = batch // len(self.devices)
         self.scene: Scene = scene_for(group.letters, group.config, group.collide)
         scene = self.scene
         template = mjx.make_data(scene.mj_model)
-        mesh = jax.sharding.Mesh(np.array(jax.local_devices()), ("worlds",))
-        self.sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("worlds"))
-        shard = functools.partial(jax.shard_map, mesh=mesh, out_specs=jax.sharding.PartitionSpec("worlds"),
-                                  check_vma=False)
-        worlds, whole = jax.sharding.PartitionSpec("worlds"), jax.sharding.PartitionSpec()
-        self.replicated = jax.sharding.NamedSharding(mesh, whole)
-        # Explicit output shardings: even zero-size fields stay split by world, so the state
-        # returned by one call is exactly what the next compiled call expects.
-        self._start_fn = jax.jit(shard(jax.vmap(lambda spec: start_round(scene, template, spec)),
-                                       in_specs=(worlds,)), out_shardings=self.sharding)
+        self._start_fn = jax.jit(jax.vmap(lambda spec: start_round(scene, template, spec)))
         one = functools.partial(attempt, scene, keep_views=keep_views)
-        self._attempt_fn = jax.jit(shard(jax.vmap(one, in_axes=(0, 0, None)),
-                                         in_specs=(worlds, worlds, whole)),
-                                   out_shardings=self.sharding, donate_argnums=0)
-        self._start, self._attempt = self._start_fn, self._attempt_fn
-        self.compile_s, self.compiled = 0.0, False
+        self._attempt_fn = jax.jit(jax.vmap(one, in_axes=(0, 0, None)), donate_argnums=0)
+        self._start: list = [None] * len(self.devices)
+        self._attempt: list = [None] * len(self.devices)
+        self._compile_s = [0.0] * len(self.devices)
 
-    def spec(self, worlds: tuple[World, ...], points: list[Config]) -> WorldSpec:
-        """The device batch of these worlds (grid point i: `points[i]`), padded with copies of
-        the first."""
+    @property
+    def compiled(self) -> bool:
+        return all(f is not None for f in self._attempt)
+
+    @property
+    def compile_s(self) -> float:
+        """Seconds to compile (devices compile in parallel: the slowest)."""
+        return max(self._compile_s)
+
+    def spec(self, worlds: tuple[World, ...], points: list[Config]) -> list[WorldSpec]:
+        """The device slices of these worlds' batch (grid point i: `points[i]`), padded with
+        copies of the first world."""
         scene, n = self.scene, self.scene.num_objects
         padded = list(worlds) + [worlds[0]] * (self.batch - len(worlds))
         order = np.array([[scene.letters.index(c) for c in w.objects] for w in padded], np.int32)
@@ -189,41 +198,59 @@ class Program:
                          setup=np.array([w.setup for w in padded], np.int32),
                          trial=np.array([w.trial for w in padded], np.int32),
                          order=order, members=members, config=config)
-        return jax.device_put(spec, self.sharding)
+        m = self.per_device
+        return [jax.device_put(jax.tree.map(lambda x, i=i: x[i * m:(i + 1) * m], spec), device)
+                for i, device in enumerate(self.devices)]
 
-    def _k(self, k: int) -> jax.Array:
-        return jax.device_put(jnp.int32(k), self.replicated)
-
-    def compile(self) -> None:
-        """Compile both functions ahead of time (thread-safe: groups compile in parallel)."""
-        if self.compiled:
+    def compile(self, device: int) -> None:
+        """Compile both functions ahead of time for one device (thread-safe: devices and groups
+        compile in parallel)."""
+        if self._attempt[device] is not None:
             return
         start = time.perf_counter()
-        spec = self.spec(self.group.worlds[:1], [self.group.config])
-        self._start = self._start_fn.lower(spec).compile()
-        state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=self.sharding),
+        spec = self.spec(self.group.worlds[:1], [self.group.config])[device]
+        self._start[device] = self._start_fn.lower(spec).compile()
+        sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
+        state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding),
                              jax.eval_shape(self._start_fn, spec))
-        k = jax.ShapeDtypeStruct((), jnp.int32, sharding=self.replicated)
-        self._attempt = self._attempt_fn.lower(state, spec, k).compile()
-        self.compile_s = time.perf_counter() - start
-        self.compiled = True
+        k = jax.ShapeDtypeStruct((), jnp.int32, sharding=sharding)
+        self._attempt[device] = self._attempt_fn.lower(state, spec, k).compile()
+        self._compile_s[device] = time.perf_counter() - start
 
     def play(self, worlds: tuple[World, ...], points: list[Config], progress: Callable[[int], None]
              ) -> tuple[Record, list[Record], list[Views] | None]:
         """One round in every world: the drop, then each attempt; the drop's record, the
-        attempts' records (and views) on the host."""
-        spec = self.spec(worlds, points)
-        state = self._start(spec)
-        state, drop, _ = self._attempt(state, spec, self._k(-1))
-        records, views = [], []
-        for k in range(self.group.attempts):
-            state, record, view = self._attempt(state, spec, self._k(k))
-            jax.block_until_ready(record.reason)
-            records.append(record)
-            views.append(view)
-            progress(len(worlds))
-        drop, records = jax.device_get((drop, records))
-        return drop, records, views if views[0] is not None else None
+        attempts' records (and views) on the host.
+
+        Each device's calls run in a thread of their own: a call whose physics loop is a
+        `while_loop` holds its caller until the device finishes it (the host reads the loop
+        condition), so calls from one thread would run the devices one after another."""
+        specs = self.spec(worlds, points)
+        m, lock = self.per_device, threading.Lock()
+
+        def one_device(i: int):
+            real = min(max(len(worlds) - i * m, 0), m)  # worlds of the slice that are not padding
+            k_on = functools.partial(jax.device_put, device=self.devices[i])
+            state = self._start[i](specs[i])
+            state, drop, _ = self._attempt[i](state, specs[i], k_on(jnp.int32(-1)))
+            records, views = [], []
+            for k in range(self.group.attempts):
+                state, record, view = self._attempt[i](state, specs[i], k_on(jnp.int32(k)))
+                jax.block_until_ready(record.reason)
+                records.append(record)
+                views.append(view)
+                with lock:
+                    progress(real)
+            return jax.device_get((drop, records, views))
+
+        with concurrent.futures.ThreadPoolExecutor(max_workers=len(self.devices)) as pool:
+            parts = list(pool.map(one_device, range(len(self.devices))))
+        joined = functools.partial(jax.tree.map, lambda *xs: np.concatenate(xs))
+        drop = joined(*[p[0] for p in parts])
+        records = [joined(*[p[1][k] for p in parts]) for k in range(self.group.attempts)]
+        if parts[0][2][0] is None:
+            return drop, records, None
+        return drop, records, [joined(*[p[2][k] for p in parts]) for k in range(self.group.attempts)]
 
 
 _PROGRAMS: dict = {}
@@ -241,14 +268,16 @@ def program(group: Group, batch: int, keep_views: bool) -> Program:
 
 def compile_programs(groups: list[Group], batch: int, keep_views: bool,
                      log: Callable[[str], None] = lambda m: None) -> list[Program]:
-    """One program per group, compiled in parallel threads (XLA compiles release the GIL)."""
+    """One program per group, compiled for every device in parallel threads (XLA compiles
+    release the GIL)."""
     programs = [program(g, batch, keep_views) for g in groups]
     todo = list({id(p): p for p in programs if not p.compiled}.values())
     if todo:
         log(f"compiling {len(todo)} program(s) ...")
         start = time.perf_counter()
-        with concurrent.futures.ThreadPoolExecutor(max_workers=len(todo)) as pool:
-            list(pool.map(Program.compile, todo))
+        tasks = [(p, d) for p in todo for d in range(len(p.devices))]
+        with concurrent.futures.ThreadPoolExecutor(max_workers=len(tasks)) as pool:
+            list(pool.map(lambda task: task[0].compile(task[1]), tasks))
         log(f"compiled in {time.perf_counter() - start:.1f} s")
     return programs
 

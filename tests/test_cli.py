@@ -1,6 +1,7 @@
 """`graspjax detect` end to end: one image, a folder of real-looking images, one-line errors."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -167,3 +168,23 @@ def test_console_script_exit_status(tmp_path):
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "negative depth" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_importing_graspjax_starts_no_backend_so_xla_flags_apply():
+    """XLA reads XLA_FLAGS when the first backend starts: the CLI's deterministic-ops flag takes
+    effect only if importing graspjax starts none."""
+    code = """
+import os
+import graspjax.bench, graspjax.cli, graspjax.procedure, graspjax.realdepth, graspjax.report
+import graspjax.runner, graspjax.views, graspjax.viz
+from jax._src import xla_bridge
+assert not xla_bridge.backends_are_initialized(), "a backend started at import"
+graspjax.cli._deterministic_gpu(type("Args", (), {"fast": False})())
+import jax
+jax.numpy.zeros(1).block_until_ready()
+print(os.environ["XLA_FLAGS"])
+"""
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "--xla_gpu_deterministic_ops=true"

@@ -25,15 +25,18 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
 
+# Module constants are numpy: importing graspjax must not start a JAX backend (XLA reads its
+# flags, e.g. the CLI's deterministic GPU ops, when the first backend starts).
 # Moore neighbourhood, clockwise on screen (v grows downward): E, SE, S, SW, W, NW, N, NE.
-_DU = jnp.array([1, 1, 0, -1, -1, -1, 0, 1], jnp.int32)
-_DV = jnp.array([0, 1, 1, 1, 0, -1, -1, -1], jnp.int32)
+_DU = np.array([1, 1, 0, -1, -1, -1, 0, 1], np.int32)
+_DV = np.array([0, 1, 1, 1, 0, -1, -1, -1], np.int32)
 # Direction index of an offset (du, dv), indexed [dv + 1, du + 1] (centre unused).
-_DIRECTION_OF = jnp.array([[5, 6, 7], [4, 0, 0], [3, 2, 1]], jnp.int32)
+_DIRECTION_OF = np.array([[5, 6, 7], [4, 0, 0], [3, 2, 1]], np.int32)
 _WEST = 4
 
 
@@ -74,17 +77,18 @@ def trace_contour(mask: jax.Array, max_points: int) -> Contour:
     nonempty = mask.reshape(-1)[flat]
     v0, u0 = jnp.divmod(flat, width)
     start = jnp.stack([u0, v0]).astype(jnp.int32)
+    du, dv, direction_of = jnp.asarray(_DU), jnp.asarray(_DV), jnp.asarray(_DIRECTION_OF)
 
     def step(p, back):
         # Search clockwise from the backtrack neighbour for the next region pixel.
         order = (back + 1 + jnp.arange(8, dtype=jnp.int32)) % 8
-        found = padded[p[1] + 1 + _DV[order], p[0] + 1 + _DU[order]]
+        found = padded[p[1] + 1 + dv[order], p[0] + 1 + du[order]]
         k = jnp.argmax(found)
         d = order[k]
-        nxt = p + jnp.stack([_DU[d], _DV[d]])
+        nxt = p + jnp.stack([du[d], dv[d]])
         before = (d + 7) % 8  # last background neighbour checked becomes the new backtrack
-        offset = p + jnp.stack([_DU[before], _DV[before]]) - nxt
-        return nxt, _DIRECTION_OF[offset[1] + 1, offset[0] + 1], found[k]
+        offset = p + jnp.stack([du[before], dv[before]]) - nxt
+        return nxt, direction_of[offset[1] + 1, offset[0] + 1], found[k]
 
     second, back1, has_neighbour = step(start, jnp.int32(_WEST))
     points = jnp.full((max_points, 2), -1, jnp.int32).at[0].set(start)

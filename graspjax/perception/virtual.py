@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from graspjax.camera import Camera
 from graspjax.geometry import rotation_between
 from graspjax.perception.cluster import valid_mask
 
-_OPTICAL_AXIS = jnp.array([0.0, 0.0, 1.0], jnp.float32)
+_OPTICAL_AXIS = np.array([0.0, 0.0, 1.0], np.float32)  # numpy: no backend at import
 
 
 def view_rotation(normal: jax.Array, turn: jax.Array) -> jax.Array:
