@@ -37,7 +37,7 @@ def study_argv(name: str, out: str) -> list[str]:
     common = ["--preset", "realistic", "--seed", "0", "--quiet", "--overwrite",
               "--out", os.path.join(out, name)]
     if name == "resolution":  # each resolution compiles its own programs: Setup 1 alone
-        return ["sweep", "--setup", "1", "--objects", "abcdef", "--trials", "200", *common,
+        return ["sweep", "--setup", "1", "--objects", "abcdef", "--trials", "100", *common,
                 "--grid", "camera.width:camera.height=80:60,160:120,320:240"]
     grid = TRACED[name]
     return ["sweep", "--table", "1", "--trials", str(ROUNDS // points(grid)), *common,
