@@ -208,7 +208,9 @@ class Program:
         if self._attempt[device] is not None:
             return
         start = time.perf_counter()
-        spec = self.spec(self.group.worlds[:1], [self.group.config])[device]
+        # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
+        example = dataclasses.replace(self.group.worlds[0], point=0)
+        spec = self.spec((example,), [self.group.config])[device]
         self._start[device] = self._start_fn.lower(spec).compile()
         sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
         state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding),

@@ -138,6 +138,19 @@ def test_sweep_points_share_one_program_and_have_their_own_seed(tiny_run, tmp_pa
     assert (out / "sweep_align.distance_threshold.png").is_file()
 
 
+def test_a_sweep_over_a_static_value_compiles_one_program_per_point(tiny_run, tmp_path):
+    """Point 0 (the tiny run's values and seed) reuses its program and gives its rows; point 1, a
+    static value, compiles a program of its own."""
+    out = tmp_path / "static"
+    assert main(["sweep", *TINY, "--grid", "detect.finger_samples=3,2", "--out", str(out)]) == 0
+    frame = pd.read_csv(out / "attempts.csv")
+    assert frame.groupby("point")["seed"].first().tolist() == [3, 4]
+    assert pd.read_csv(out / "timings.csv")["group"].nunique() == 2
+    first = frame[frame["point"] == 0].drop(columns=[*VOLATILE, "point", "cfg.detect.finger_samples"])
+    reference = pd.read_csv(tiny_run / "attempts.csv").drop(columns=[*VOLATILE, "point"])
+    pd.testing.assert_frame_equal(first.reset_index(drop=True), reference, check_dtype=False)
+
+
 @pytest.fixture(scope="module")
 def rounds_runs(tmp_path_factory):
     """Setup 2 alone, and Setups 2 and 3 together, in one chunk of 4 worlds each."""
