@@ -497,27 +497,32 @@ def _deterministic_gpu(args) -> None:
     """XLA's GPU scatter-adds are not deterministic: ask for deterministic ops unless --fast.
 
     XLA reads its flags once, when JAX starts its first backend; so this runs before any device
-    is used, and importing graspjax must start none (tests/test_cli.py checks both).
+    is used, and importing graspjax must start none (tests/test_cli.py checks both). Called
+    from Python after JAX has started (several runs in one process), it can only check: the
+    CPU needs no flag, a GPU without it is refused.
     """
     if getattr(args, "fast", True):
         return
+    import jax
     from jax._src import xla_bridge
 
     flag = "--xla_gpu_deterministic_ops=true"
     flags = os.environ.get("XLA_FLAGS", "")
     if flag in flags:
         return
-    if xla_bridge.backends_are_initialized():
-        raise RuntimeError("a JAX backend started before the deterministic-ops flag was set")
-    os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
+    if not xla_bridge.backends_are_initialized():
+        os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
+    elif jax.default_backend() == "gpu":
+        raise UsageError("JAX started on the GPU without deterministic ops: set XLA_FLAGS="
+                         f"{flag} before JAX starts, or pass --fast")
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    _deterministic_gpu(args)
-    _compilation_cache()
     try:
+        _deterministic_gpu(args)
+        _compilation_cache()
         return args.func(args)
     except (InputError, ConfigError, UsageError) as exc:
         print(f"graspjax: error: {exc}", file=sys.stderr)
