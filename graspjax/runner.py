@@ -185,22 +185,25 @@ class Program:
         """Seconds to compile (devices compile in parallel: the slowest)."""
         return max(self._compile_s)
 
-    def spec(self, worlds: tuple[World, ...], points: list[Config]) -> list[WorldSpec]:
-        """The device slices of these worlds' batch (grid point i: `points[i]`), padded with
-        copies of the first world."""
+    def spec(self, worlds: tuple[World, ...], points: list[Config]) -> WorldSpec:
+        """These worlds' batch on the host (grid point i: `points[i]`), padded with copies of the
+        first world."""
         scene, n = self.scene, self.scene.num_objects
         padded = list(worlds) + [worlds[0]] * (self.batch - len(worlds))
         order = np.array([[scene.letters.index(c) for c in w.objects] for w in padded], np.int32)
         members = np.zeros((self.batch, n), bool)
         np.put_along_axis(members, order, True, axis=1)
         config = stack_configs([points[w.point] for w in padded])
-        spec = WorldSpec(seed=np.array([w.seed for w in padded], np.int32),
+        return WorldSpec(seed=np.array([w.seed for w in padded], np.int32),
                          setup=np.array([w.setup for w in padded], np.int32),
                          trial=np.array([w.trial for w in padded], np.int32),
                          order=order, members=members, config=config)
+
+    def on_device(self, spec: WorldSpec, device: int) -> WorldSpec:
+        """The slice of a host batch that `device` runs, on that device."""
         m = self.per_device
-        return [jax.device_put(jax.tree.map(lambda x, i=i: x[i * m:(i + 1) * m], spec), device)
-                for i, device in enumerate(self.devices)]
+        return jax.device_put(jax.tree.map(lambda x: x[device * m:(device + 1) * m], spec),
+                              self.devices[device])
 
     def compile(self, device: int) -> None:
         """Compile both functions ahead of time for one device (thread-safe: devices and groups
@@ -210,7 +213,7 @@ class Program:
         start = time.perf_counter()
         # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
         example = dataclasses.replace(self.group.worlds[0], point=0)
-        spec = self.spec((example,), [self.group.config])[device]
+        spec = self.on_device(self.spec((example,), [self.group.config]), device)
         self._start[device] = self._start_fn.lower(spec).compile()
         sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
         state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding),
@@ -227,17 +230,18 @@ class Program:
         Each device's calls run in a thread of their own: a call whose physics loop is a
         `while_loop` holds its caller until the device finishes it (the host reads the loop
         condition), so calls from one thread would run the devices one after another."""
-        specs = self.spec(worlds, points)
+        batch = self.spec(worlds, points)
         m, lock = self.per_device, threading.Lock()
 
         def one_device(i: int):
             real = min(max(len(worlds) - i * m, 0), m)  # worlds of the slice that are not padding
+            spec = self.on_device(batch, i)
             k_on = functools.partial(jax.device_put, device=self.devices[i])
-            state = self._start[i](specs[i])
-            state, drop, _ = self._attempt[i](state, specs[i], k_on(jnp.int32(-1)))
+            state = self._start[i](spec)
+            state, drop, _ = self._attempt[i](state, spec, k_on(jnp.int32(-1)))
             records, views = [], []
             for k in range(self.group.attempts):
-                state, record, view = self._attempt[i](state, specs[i], k_on(jnp.int32(k)))
+                state, record, view = self._attempt[i](state, spec, k_on(jnp.int32(k)))
                 jax.block_until_ready(record.reason)
                 records.append(record)
                 views.append(view)
