@@ -48,6 +48,7 @@ from graspjax.camera import Camera
 from graspjax.config import MAX_REORIENTATIONS, Config
 from graspjax.geometry import axis_angle, frame_from_axes, look_down, normalize, rotation_between
 from graspjax.perception import Alignment, AlignReason, Grasp, GraspReason, align_tool, detect_grasp
+from graspjax.perception.cluster import nearest_pixel
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
 from graspjax.sim.render import render_depth_and_piece
@@ -244,11 +245,9 @@ def select_target(scene: Scene, data, eligible: jax.Array, camera: Camera, confi
     rotation, position = overview_pose(config)
     depth, objects = _look(scene, data, rotation, position, camera, config, key)
     allowed = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
-    flat = jnp.argmin(jnp.where(allowed, depth, jnp.inf).reshape(-1))
-    v, u = jnp.divmod(flat, camera.width)
-    point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth.reshape(-1)[flat])
-    seen = allowed.reshape(-1)[flat]
-    index = jnp.where(seen, objects.reshape(-1)[flat], -1).astype(jnp.int32)
+    (u, v), _ = nearest_pixel(depth, allowed)
+    point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth[v, u])
+    index = jnp.where(allowed[v, u], objects[v, u], -1).astype(jnp.int32)
     return index, rotation @ point_cam + position, depth, objects
 
 
@@ -327,20 +326,17 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
         rotation, position = overview_pose(config)
         views = Views(depth=jnp.concatenate([depth[None], v.depth]),
                       target_mask=jnp.concatenate([(objects == target)[None], v.target_mask]),
-                      rotation=jnp.concatenate([rotation[None], _view_rotations(v, centre_rot)]),
-                      position=jnp.concatenate([position[None], _view_positions(v, centre_pos)]),
+                      rotation=jnp.concatenate([rotation[None], _view_poses(centre_rot, v.next_rotation)]),
+                      position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
                       looked=jnp.concatenate([jnp.array([True]), searched]),
                       grasp=v.grasp, alignment=v.alignment)
     return target, pose, (blocked, turns, detect_reason, align_reason), views
 
 
-def _view_rotations(v: _View, first: jax.Array) -> jax.Array:
-    """Camera rotation of each view (V, 3, 3): the centred one, then each re-aligned one."""
-    return jnp.concatenate([first[None], v.next_rotation[:-1]])
-
-
-def _view_positions(v: _View, first: jax.Array) -> jax.Array:
-    return jnp.concatenate([first[None], v.next_position[:-1]])
+def _view_poses(first: jax.Array, following: jax.Array) -> jax.Array:
+    """A camera pose per view (V, ...): the centred one `first`, then each re-aligned one (the
+    `following` (V, ...) pose each view chose; the last view's choice is never taken)."""
+    return jnp.concatenate([first[None], following[:-1]])
 
 
 def _with_error(pose: GraspPose, key, config: Config) -> GraspPose:
@@ -372,7 +368,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
         target, pose, progress, views = _search(scene, kin, eligible, k_search, config, keep_views)
         # The pre-grasp pose must leave the open hand clear of every part, the bin and the table.
         reached = _with_error(pose, k_error, config)
-        waypoints, quat = hand_waypoints(scene, reached, config)
+        waypoints, _ = hand_waypoints(scene, reached, config)
         rotation = frame_from_axes(reached.approach, reached.closing)
         clear = hand_clear(scene, kin, waypoints[0], rotation)
         return target, pose, reached, clear, progress, views

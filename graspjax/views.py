@@ -61,7 +61,7 @@ class ViewSaver:
     def __init__(self, folder: Path, mode: str, cap: int, points: list[Config]):
         self.folder, self.mode, self.cap, self.points = Path(folder) / "views", mode, cap, points
         self.saved = len(list(self.folder.glob("*.npz"))) if self.folder.is_dir() else 0
-        self._contour = jax.jit(jax.vmap(surface_contour, in_axes=(0, None, 0)), static_argnums=1)
+        self._contour = jax.jit(jax.vmap(surface_contour, in_axes=(0, None, 0)))
 
     def save(self, chunk, frame: pd.DataFrame, views: list[Views]) -> None:
         """Keep the views of `frame`'s chosen attempts; `views[k]` holds attempt k of every world."""

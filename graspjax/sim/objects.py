@@ -69,11 +69,6 @@ class ObjectSpec:
         pts = self.points()
         return pts.max(0) - pts.min(0)
 
-    @property
-    def footprint_radius(self) -> float:
-        """Radius of the smallest z-axis-centred circle around the object (m)."""
-        return float(np.linalg.norm(self.points()[:, :2], axis=1).max())
-
 
 def _box(half, pos, yaw: float = 0.0) -> Piece:
     return Piece("box", half_size=tuple(map(float, half)), pos=tuple(map(float, pos)), yaw=yaw)

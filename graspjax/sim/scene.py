@@ -64,7 +64,6 @@ class Scene:
     has_bin: bool  # the scene holds the bin
     bin_mocap: int  # mocap index of the bin (-1 without one)
     hand_mocap: int  # mocap index of the hand's target
-    hand_body: int  # body id of the hand
     hand_qpos: int  # qpos address of the hand's free joint
     hand_qvel: int
     finger_qpos: np.ndarray  # (2,) qpos addresses of the two finger slides
@@ -251,7 +250,6 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         bin_mocap=int(mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, "bin")])
         if objects_collide else -1,
         hand_mocap=int(mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, "gripper_target")]),
-        hand_body=hand_body,
         hand_qpos=int(mj_model.jnt_qposadr[hand]),
         hand_qvel=int(mj_model.jnt_dofadr[hand]),
         finger_qpos=mj_model.jnt_qposadr[fingers],
