@@ -193,7 +193,9 @@ class Program:
         order = np.array([[scene.letters.index(c) for c in w.objects] for w in padded], np.int32)
         members = np.zeros((self.batch, n), bool)
         np.put_along_axis(members, order, True, axis=1)
-        config = stack_configs([points[w.point] for w in padded])
+        used = sorted({w.point for w in padded})  # a chunk's points share their static values
+        which = np.searchsorted(used, [w.point for w in padded])
+        config = jax.tree.map(lambda x: x[which], stack_configs([points[i] for i in used]))
         return WorldSpec(seed=np.array([w.seed for w in padded], np.int32),
                          setup=np.array([w.setup for w in padded], np.int32),
                          trial=np.array([w.trial for w in padded], np.int32),
@@ -236,12 +238,12 @@ class Program:
         def one_device(i: int):
             real = min(max(len(worlds) - i * m, 0), m)  # worlds of the slice that are not padding
             spec = self.on_device(batch, i)
-            k_on = functools.partial(jax.device_put, device=self.devices[i])
+            k_on = functools.partial(jax.device_put, device=self.devices[i])  # numpy in: one copy
             state = self._start[i](spec)
-            state, drop, _ = self._attempt[i](state, spec, k_on(jnp.int32(-1)))
+            state, drop, _ = self._attempt[i](state, spec, k_on(np.int32(-1)))
             records, views = [], []
             for k in range(self.group.attempts):
-                state, record, view = self._attempt[i](state, spec, k_on(jnp.int32(k)))
+                state, record, view = self._attempt[i](state, spec, k_on(np.int32(k)))
                 jax.block_until_ready(record.reason)
                 records.append(record)
                 views.append(view)
@@ -376,9 +378,10 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
     needed = sorted({c.group for c in todo})
+    ready = {g for g in needed if program(groups[g], batch, keep_views).compiled}
     programs = dict(zip(needed, compile_programs([groups[g] for g in needed], batch, keep_views,
                                                  log), strict=True))
-    compile_s = {g: p.compile_s for g, p in programs.items()}
+    compile_s = {g: p.compile_s for g, p in programs.items() if g not in ready}  # this run's
     for chunk in todo:
         prog = programs[chunk.group]
         start = time.perf_counter()
