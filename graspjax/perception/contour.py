@@ -66,10 +66,12 @@ for _cls, _fields in ((Contour, ["points", "length", "closed"]),
     jax.tree_util.register_dataclass(_cls, data_fields=_fields, meta_fields=[])
 
 
-def trace_contour(mask: jax.Array, max_points: int) -> Contour:
+def trace_contour(mask: jax.Array, max_points: int, steps_per_iteration: int = 8) -> Contour:
     """Outer boundary of the 8-connected region holding the first mask pixel in row-major order.
 
-    mask: (H, W) bool. Returns a `Contour` of static length `max_points`.
+    mask: (H, W) bool. Returns a `Contour` of static length `max_points`. The loop takes
+    `steps_per_iteration` tracing steps per iteration (steps after the stop change nothing):
+    on a GPU every loop iteration costs a kernel launch and a host sync.
     """
     width = mask.shape[1]
     padded = jnp.pad(mask, 1)
@@ -93,12 +95,20 @@ def trace_contour(mask: jax.Array, max_points: int) -> Contour:
     second, back1, has_neighbour = step(start, jnp.int32(_WEST))
     points = jnp.full((max_points, 2), -1, jnp.int32).at[0].set(start)
 
-    def body(state):
-        i, p, back, pts, _ = state
+    def advance(state):
+        i, p, back, pts, done = state
         nxt, nxt_back, _ = step(p, back)
         closing = jnp.all(p == start) & jnp.all(nxt == second)  # Jacob's stopping rule
-        pts = jnp.where(closing, pts, pts.at[i].set(p))
-        return jnp.where(closing, i, i + 1), nxt, nxt_back, pts, closing
+        moving = ~done & (i < max_points)
+        record = moving & ~closing
+        pts = jnp.where(record, pts.at[jnp.minimum(i, max_points - 1)].set(p), pts)
+        return (jnp.where(record, i + 1, i), jnp.where(record, nxt, p),
+                jnp.where(record, nxt_back, back), pts, done | (moving & closing))
+
+    def body(state):
+        for _ in range(steps_per_iteration):
+            state = advance(state)
+        return state
 
     def cond(state):
         i, _, _, _, done = state
@@ -158,7 +168,8 @@ def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window:
         total = jnp.where(ok, jnp.where(new, t, total + t), total)
         return (edge, total), edge
 
-    _, edge_id = lax.scan(walk, (jnp.int32(0), jnp.zeros(2, jnp.float32)), (walk_t, in_contour))
+    _, edge_id = lax.scan(walk, (jnp.int32(0), jnp.zeros(2, jnp.float32)), (walk_t, in_contour),
+                          unroll=8)  # fewer loop iterations: each costs a launch on a GPU
     # The walk is closed: its last run continues the first when their directions agree.
     last = edge_id[n - 1]
     first_dir = jnp.sum(jnp.where((edge_id == 0)[:, None], walk_t, 0.0), 0)

@@ -1,0 +1,105 @@
+"""Where `graspjax detect`'s batched time goes: its stages timed cumulatively on one batch.
+
+    python3 experiments/detect_profile.py [BATCH]
+
+Each line times everything before it plus one stage (working views; support plane; virtual
+view and targets; the whole pipeline; the whole with one target instead of three), then the
+detector and the alignment alone on a 192-pixel window. Images: `synthetic.random_real_scene`
+at 640 x 480, as `graspjax bench detect`. Results: results/benchmarks/README.md.
+"""
+
+import dataclasses
+import statistics
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from graspjax.camera import Camera
+from graspjax.config import Config, SceneConfig
+from graspjax.perception.align import align_tool
+from graspjax.perception.grasp import detect_grasp
+from graspjax.perception.scene import detect_scene
+from graspjax.perception.support import plane_height, support_plane
+from graspjax.perception.target import target_candidates
+from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
+from graspjax.perception.workspace import working_views
+from graspjax.synthetic import random_real_scene
+
+W, H, WINDOW = 640, 480, 192
+CAMERA = Camera(W, H, 525.0, 525.0, (W - 1) / 2, (H - 1) / 2)
+WORKSPACE = np.zeros((H, W), bool)
+WORKSPACE[: int(0.85 * H)] = True
+CONFIG, SCENE = Config(), SceneConfig()
+
+
+def views(depth):
+    return working_views(depth, WORKSPACE, CAMERA, SCENE, CONFIG.detect.surface_tolerance)
+
+
+def with_support(depth):
+    fine, _, work, work_camera = views(depth)
+    return fine, work, work_camera, support_plane(work, work_camera, SCENE)
+
+
+def with_targets(depth):
+    fine, work, work_camera, support = with_support(depth)
+    turned = support.found & (support.tilt > np.deg2rad(SCENE.max_tilt_deg))
+    rotation = view_rotation(support.normal, turned)
+    view = view_camera(work_camera, rotation)
+    view_depth = jnp.where(turned, warp_depth(work, work_camera, view, rotation), work)
+    points = view.unproject(view.pixel_grid(), view_depth)
+    height = jnp.where(support.found, plane_height(points, rotation.T @ support.normal,
+                                                   support.distance), jnp.nan)
+    candidate, score, _ = target_candidates(
+        view_depth, view, height, support.found, window=SCENE.target_window_px,
+        min_pixels=SCENE.min_target_pixels, max_slope_deg=SCENE.max_target_slope_deg,
+        min_height=SCENE.min_height, tolerance=CONFIG.detect.surface_tolerance)
+    return fine.sum() + jnp.sum(jnp.where(candidate, score, 0.0))
+
+
+def timed(name: str, fn, x) -> None:
+    f = jax.jit(jax.vmap(fn))
+    t0 = time.perf_counter()
+    jax.block_until_ready(f(x))
+    compile_s = time.perf_counter() - t0
+    times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        jax.block_until_ready(f(x))
+        times.append(time.perf_counter() - t0)
+    s = statistics.median(times)
+    print(f"{name:<32} {1e3 * s:9.1f} ms per batch {x.shape[0] / s:10,.0f} images/s "
+          f"(compile {compile_s:.1f} s)", flush=True)
+
+
+def main() -> None:
+    batch = int(sys.argv[1]) if len(sys.argv) > 1 else 16
+    rng = np.random.default_rng(0)
+    scenes = np.stack([random_real_scene(rng, CAMERA) for _ in range(64)])
+    depth = jnp.asarray(scenes[np.arange(batch) % 64])
+    one_target = dataclasses.replace(SCENE, max_targets=1)
+    top, left = (H - WINDOW) // 2, (W - WINDOW) // 2
+    window = depth[:, top:top + WINDOW, left:left + WINDOW]
+    window_camera = Camera(WINDOW, WINDOW, 525.0, 525.0, (WINDOW - 1) / 2, (WINDOW - 1) / 2)
+    seed = jnp.zeros((WINDOW, WINDOW), bool).at[WINDOW // 2 - 1:WINDOW // 2 + 2,
+                                                WINDOW // 2 - 1:WINDOW // 2 + 2].set(True)
+    print(f"{jax.devices()[0].device_kind}, batch {batch}")
+    timed("working views", lambda d: sum(v.sum() for v in views(d)[::2]), depth)
+    timed("+ support plane", lambda d: with_support(d)[0].sum() + with_support(d)[3].distance,
+          depth)
+    timed("+ virtual view, targets", with_targets, depth)
+    timed("whole pipeline", lambda d: detect_scene(d, WORKSPACE, CAMERA, CONFIG, SCENE).position,
+          depth)
+    timed("whole pipeline, one target", lambda d: detect_scene(d, WORKSPACE, CAMERA, CONFIG,
+                                                                one_target).position, depth)
+    timed("detector, 192-pixel window", lambda w: detect_grasp(
+        w, window_camera, CONFIG.detect, CONFIG.gripper, seed_mask=seed).position, window)
+    timed("alignment, 192-pixel window", lambda w: align_tool(
+        w, window_camera, CONFIG.align, jax.random.key(0), seed_mask=seed).normal, window)
+
+
+if __name__ == "__main__":
+    main()
