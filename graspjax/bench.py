@@ -276,8 +276,8 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
     """Grasp attempts/s end to end (layout, settle, overview, centre, detect, re-align, execute,
     judge, rows on the host), compile time apart.
 
-    The runner compiles the job's programs, then runs every chunk; the run is
-    timed from its first chunk to its last rows.
+    The runner compiles the job's programs, then runs every chunk (no overlap of compiling
+    and running); the run is timed from its first chunk to its last rows.
     """
     from graspjax import runner
 
@@ -288,7 +288,8 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
              f"batch {size} ...")
     t0 = time.perf_counter()
     compile_s, frames, first = 0.0, [], None
-    for _, frame, _, timings, _ in runner.run(groups, [config], size, log=progress):
+    for _, frame, _, timings, _ in runner.run(groups, [config], size, log=progress,
+                                                  overlap=False):
         compile_s += timings["compile_s"]
         first = first or t0 + compile_s
         frames.append(frame)

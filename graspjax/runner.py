@@ -21,6 +21,10 @@ then `attempt` for k = -1 (the drop settles), 0, 1, ... (one compiled call
 each, all on the device), then one transfer of its records to the host,
 where they become rows. Nothing a world does depends on the other worlds of
 its chunk: same seed, same batch size, same device kind give the same rows.
+
+The groups' programs compile in background threads, all at once; chunks run
+in plan order, each as soon as its own group's program is ready, so the
+device runs the first group while the host still compiles the others.
 """
 
 from __future__ import annotations
@@ -207,27 +211,30 @@ class Program:
         return jax.device_put(jax.tree.map(lambda x: x[device * m:(device + 1) * m], spec),
                               self.devices[device])
 
-    def compile(self, device: int) -> None:
-        """Compile both functions ahead of time for one device (thread-safe: devices and groups
-        compile in parallel)."""
-        if self._attempt[device] is not None:
-            return
-        start = time.perf_counter()
+    def lower(self, device: int) -> tuple[jax.stages.Lowered, jax.stages.Lowered]:
+        """Trace both functions for one device (Python: it holds the GIL)."""
         # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
         example = dataclasses.replace(self.group.worlds[0], point=0)
         spec = self.on_device(self.spec((example,), [self.group.config]), device)
-        self._start[device] = self._start_fn.lower(spec).compile()
         sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
         state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding),
                              jax.eval_shape(self._start_fn, spec))
         k = jax.ShapeDtypeStruct((), jnp.int32, sharding=sharding)
-        self._attempt[device] = self._attempt_fn.lower(state, spec, k).compile()
-        self._compile_s[device] = time.perf_counter() - start
+        return self._start_fn.lower(spec), self._attempt_fn.lower(state, spec, k)
+
+    def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
+                lower_s: float = 0.0) -> None:
+        """Compile the lowered functions for one device (XLA releases the GIL: devices and
+        groups compile in parallel threads). `lower_s`: seconds the lowering took."""
+        start = time.perf_counter()
+        self._start[device] = lowered[0].compile()
+        self._attempt[device] = lowered[1].compile()
+        self._compile_s[device] = lower_s + time.perf_counter() - start
 
     def play(self, worlds: tuple[World, ...], points: list[Config], progress: Callable[[int], None]
-             ) -> tuple[Record, list[Record], list[Views] | None]:
-        """One round in every world: the drop, then each attempt; the drop's record, the
-        attempts' records (and views) on the host.
+             ) -> tuple[Record, list[Record], ChunkViews | None]:
+        """One round in every world: the drop, then each attempt; the drop's record and the
+        attempts' records on the host, and the views (left on the devices) if kept.
 
         Each device's calls run in a thread of their own: a call whose physics loop is a
         `while_loop` holds its caller until the device finishes it (the host reads the loop
@@ -249,16 +256,29 @@ class Program:
                 views.append(view)
                 with lock:
                     progress(real)
-            return jax.device_get((drop, records, views))
+            return jax.device_get((drop, records)), views
 
         with concurrent.futures.ThreadPoolExecutor(max_workers=len(self.devices)) as pool:
             parts = list(pool.map(one_device, range(len(self.devices))))
         joined = functools.partial(jax.tree.map, lambda *xs: np.concatenate(xs))
-        drop = joined(*[p[0] for p in parts])
-        records = [joined(*[p[1][k] for p in parts]) for k in range(self.group.attempts)]
-        if parts[0][2][0] is None:
-            return drop, records, None
-        return drop, records, [joined(*[p[2][k] for p in parts]) for k in range(self.group.attempts)]
+        drop = joined(*[p[0][0] for p in parts])
+        records = [joined(*[p[0][1][k] for p in parts]) for k in range(self.group.attempts)]
+        kept = parts[0][1][0] is not None
+        return drop, records, ChunkViews([p[1] for p in parts], m) if kept else None
+
+
+@dataclasses.dataclass(frozen=True)
+class ChunkViews:
+    """The views of a chunk's attempts, left on the devices: at GPU batch sizes they are
+    gigabytes, and only the few attempts that are saved come to the host."""
+
+    parts: list  # parts[device][k]: `Views` of attempt k in that device's slice of worlds
+    per_device: int  # worlds per device slice
+
+    def get(self, attempt: int, world: int) -> Views:
+        """The views of one world's attempt (world: its index in the chunk), as numpy."""
+        part = self.parts[world // self.per_device][attempt]
+        return jax.tree.map(lambda x: np.asarray(x[world % self.per_device]), part)
 
 
 _PROGRAMS: dict = {}
@@ -274,20 +294,39 @@ def program(group: Group, batch: int, keep_views: bool) -> Program:
     return _PROGRAMS[key]
 
 
-def compile_programs(groups: list[Group], batch: int, keep_views: bool,
-                     log: Callable[[str], None] = lambda m: None) -> list[Program]:
-    """One program per group, compiled for every device in parallel threads (XLA compiles
-    release the GIL)."""
-    programs = [program(g, batch, keep_views) for g in groups]
+def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
+                    ) -> dict[int, list[concurrent.futures.Future]]:
+    """Compile every program not yet compiled, for every device, in the background; the
+    futures per program id.
+
+    One thread lowers the programs in order and hands each to `pool` to compile. Lowering is
+    Python and holds the GIL: lowered in parallel threads, every program would finish lowering
+    only when all do; XLA's compiles release the GIL and run in parallel.
+    """
     todo = list({id(p): p for p in programs if not p.compiled}.values())
+    futures = {id(p): [concurrent.futures.Future() for _ in p.devices] for p in todo}
+
+    def compile_into(future, p: Program, device: int, lowered, lower_s: float) -> None:
+        try:
+            p.compile(device, lowered, lower_s)
+            future.set_result(None)
+        except BaseException as error:  # handed to the thread that waits for it
+            future.set_exception(error)
+
+    def lower_in_order() -> None:
+        for p in todo:
+            for device, future in enumerate(futures[id(p)]):
+                try:
+                    start = time.perf_counter()
+                    lowered = p.lower(device)
+                    pool.submit(compile_into, future, p, device, lowered,
+                                time.perf_counter() - start)
+                except BaseException as error:  # likewise
+                    future.set_exception(error)
+
     if todo:
-        log(f"compiling {len(todo)} program(s) ...")
-        start = time.perf_counter()
-        tasks = [(p, d) for p in todo for d in range(len(p.devices))]
-        with concurrent.futures.ThreadPoolExecutor(max_workers=len(tasks)) as pool:
-            list(pool.map(lambda task: task[0].compile(task[1]), tasks))
-        log(f"compiled in {time.perf_counter() - start:.1f} s")
-    return programs
+        pool.submit(lower_in_order)
+    return futures
 
 
 # ---------------------------------------------------------------------------
@@ -371,35 +410,50 @@ def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFram
 
 def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
         keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
-        log: Callable[[str], None] = lambda m: None
-        ) -> Iterator[tuple[Chunk, pd.DataFrame, pd.DataFrame, dict, list[Views] | None]]:
-    """Run every chunk not in `done`; yield each as it finishes: (chunk, attempt rows, round
-    rows, timings, views)."""
+        log: Callable[[str], None] = lambda m: None, overlap: bool = True
+        ) -> Iterator[tuple[Chunk, pd.DataFrame, pd.DataFrame, dict, ChunkViews | None]]:
+    """Run every chunk not in `done`, in plan order; yield each as it finishes: (chunk,
+    attempt rows, round rows, timings, views).
+
+    Programs compile in background threads; with `overlap`, a group's chunks start as soon as
+    its own program is ready, while the later groups' programs still compile (the device works
+    while the host compiles). Without it, every program is compiled before the first chunk
+    (benchmarks: run time apart from compile time)."""
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
-    needed = sorted({c.group for c in todo})
-    ready = {g for g in needed if program(groups[g], batch, keep_views).compiled}
-    programs = dict(zip(needed, compile_programs([groups[g] for g in needed], batch, keep_views,
-                                                 log), strict=True))
-    compile_s = {g: p.compile_s for g, p in programs.items() if g not in ready}  # this run's
-    for chunk in todo:
-        prog = programs[chunk.group]
-        start = time.perf_counter()
-        drop, records, views = prog.play(chunk.worlds, points, progress)
-        frame = rows(prog, chunk.worlds, records)
-        frame.insert(0, "chunk", chunk.index)
-        layouts = round_rows(chunk.worlds, drop)
-        timings = {"chunk": chunk.index, "group": chunk.group, "scene": "".join(prog.scene.letters),
-                   "worlds": len(chunk.worlds), "batch": prog.batch,
-                   "attempts": int((frame["attempt"] >= 0).sum()),
-                   "compile_s": round(compile_s.pop(chunk.group, 0.0), 3),  # with a group's first
-                   "wall_s": round(time.perf_counter() - start, 3)}
-        yield chunk, frame, layouts, timings, _selected(views, chunk)
+    needed = list(dict.fromkeys(c.group for c in todo))  # in the order their chunks run
+    programs = {g: program(groups[g], batch, keep_views) for g in needed}
+    fresh = {g for g, p in programs.items() if not p.compiled}
+    tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(tasks, 1)) as pool:
+        compiling = _start_compiles(list(programs.values()), pool)
+        if compiling:
+            log(f"compiling {len(compiling)} program(s) ...")
 
+        def ready(prog: Program) -> None:
+            futures = compiling.pop(id(prog), [])
+            for future in futures:
+                future.result()
+            if futures:
+                log(f"compiled the program of {''.join(prog.scene.letters)} "
+                    f"({prog.group.attempts} attempt(s) per world) in {prog.compile_s:.1f} s")
 
-def _selected(views, chunk):
-    """Views of the chunk's real worlds, as numpy (None when not kept)."""
-    if views is None:
-        return None
-    n = len(chunk.worlds)
-    return [jax.tree.map(lambda x: np.asarray(x)[:n], v) for v in views]
+        if not overlap:
+            for prog in programs.values():
+                ready(prog)
+        for chunk in todo:
+            prog = programs[chunk.group]
+            ready(prog)
+            start = time.perf_counter()
+            drop, records, views = prog.play(chunk.worlds, points, progress)
+            frame = rows(prog, chunk.worlds, records)
+            frame.insert(0, "chunk", chunk.index)
+            layouts = round_rows(chunk.worlds, drop)
+            first = chunk.group in fresh  # a group's first chunk carries its compile time
+            fresh.discard(chunk.group)
+            timings = {"chunk": chunk.index, "group": chunk.group,
+                       "scene": "".join(prog.scene.letters), "worlds": len(chunk.worlds),
+                       "batch": prog.batch, "attempts": int((frame["attempt"] >= 0).sum()),
+                       "compile_s": round(prog.compile_s if first else 0.0, 3),
+                       "wall_s": round(time.perf_counter() - start, 3)}
+            yield chunk, frame, layouts, timings, views
