@@ -22,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from graspjax.config import Config, override
+
 TABLE_OBJECTS = {1: tuple("abcdef"), 2: tuple("ghijkl")}
 REQUIRED = ("setup", "object", "trial", "round", "seed", "success", "outcome", "reason")
 
@@ -362,16 +364,24 @@ def write_report(folder: str | Path, debug: int = 0) -> list[Path]:
 
 
 def debug_figures(folder: Path, count: int) -> dict[str, bytes]:
-    """The first `count` saved attempts of a run, drawn (name -> PNG bytes)."""
+    """The first `count` saved attempts of a run, drawn (name -> PNG bytes), each with the
+    configuration of its own grid point."""
     import json
 
-    from graspjax.config import Config, override
-    from graspjax.views import load
+    from graspjax.views import load, point_of
     from graspjax.viz import attempt_figure
 
     saved = sorted((folder / "views").glob("*.npz"))
     if not saved:
         raise FileNotFoundError(f"no saved views in {folder / 'views'} (run with --save-views)")
     meta = json.loads((folder / "config.json").read_text())
-    config = override(Config(), {k: str(v) for k, v in meta.get("overrides", {}).items()})
-    return {f"debug/{path.stem}.png": attempt_figure(load(path), config) for path in saved[:count]}
+    return {f"debug/{path.stem}.png":
+            attempt_figure(load(path), point_config(meta, point_of(path.stem)))
+            for path in saved[:count]}
+
+
+def point_config(meta: dict, point: int) -> Config:
+    """The configuration grid point `point` of a run used, from its config.json: the base
+    configuration's overrides, then the point's grid values."""
+    base = override(Config(), {k: str(v) for k, v in meta.get("overrides", {}).items()})
+    return override(base, {k: str(values[point]) for k, values in meta.get("grid", {}).items()})

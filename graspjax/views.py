@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import jax
 import numpy as np
@@ -22,7 +23,9 @@ from graspjax.config import Config
 from graspjax.perception import Alignment, Grasp
 from graspjax.perception.contour import Contour, Edges
 from graspjax.perception.grasp import TBeams, surface_contour
-from graspjax.procedure import Views
+
+if TYPE_CHECKING:
+    from graspjax.runner import ChunkViews
 
 _NESTED = {"grasp": Grasp, "alignment": Alignment, "grasp.edges": Edges,
            "grasp.candidates": TBeams, "contour": Contour}
@@ -55,6 +58,11 @@ def attempt_name(row) -> str:
             f"_a{int(row.attempt)}_{row.object}")
 
 
+def point_of(stem: str) -> int:
+    """The grid point of an attempt, from its file stem (`attempt_name`)."""
+    return int(stem.split("_")[0][1:])
+
+
 class ViewSaver:
     """Writes the views of the chosen attempts of each finished chunk (module docstring)."""
 
@@ -63,8 +71,8 @@ class ViewSaver:
         self.saved = len(list(self.folder.glob("*.npz"))) if self.folder.is_dir() else 0
         self._contour = jax.jit(jax.vmap(surface_contour, in_axes=(0, None, 0)))
 
-    def save(self, chunk, frame: pd.DataFrame, views: list[Views]) -> None:
-        """Keep the views of `frame`'s chosen attempts; `views[k]` holds attempt k of every world."""
+    def save(self, chunk, frame: pd.DataFrame, views: ChunkViews) -> None:
+        """Keep the views of `frame`'s chosen attempts (left on the devices until chosen)."""
         if self.mode == "none" or self.saved >= self.cap:
             return
         chosen = frame[frame["attempt"] >= 0]
@@ -76,7 +84,7 @@ class ViewSaver:
         self.folder.mkdir(parents=True, exist_ok=True)
         for row in chosen.itertuples():
             w = index[(row.point, row.setup, row.trial, row.objects)]
-            view = jax.tree.map(lambda x, w=w: x[w], views[row.attempt])
+            view = views.get(row.attempt, w)
             config = self.points[row.point]
             camera = config.camera.camera()
             seed, cluster, z_s, contour = self._contour(view.depth[1:], config.detect,

@@ -93,3 +93,23 @@ def test_gzipped_attempts_give_the_same_report(tmp_path):
     assert (packed / "table1.md").read_text() == build(parse_attempts(text))["table1.md"].decode()
     with pytest.raises(FileNotFoundError, match="no attempts.csv"):
         load_attempts(tmp_path)
+
+
+def test_debug_figures_use_each_grid_points_own_configuration():
+    """A sweep's saved attempt is drawn with its grid point's values, over the run's overrides
+    (config.json as the CLI writes it; the file stem names the point)."""
+    from types import SimpleNamespace
+
+    from graspjax.report import point_config
+    from graspjax.views import attempt_name, point_of
+
+    meta = {"overrides": {"camera.sensor": "kinect", "align.window_px": 20},
+            "grid": {"align.window_px": ["5", "10", "30"],
+                     "align.distance_threshold": ["0.1", "0.3", "0.9"]}}
+    third = point_config(meta, 2)
+    assert (third.align.window_px, third.align.distance_threshold) == (30, 0.9)
+    assert third.camera.sensor == "kinect"
+    plain = point_config({"overrides": {"align.window_px": 20}, "grid": {}}, 0)
+    assert plain.align.window_px == 20
+    row = SimpleNamespace(point=12, setup=2, round=3, attempt=1, object="b")
+    assert point_of(attempt_name(row)) == 12
