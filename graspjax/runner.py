@@ -393,19 +393,23 @@ def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFram
     n_real = len(worlds)
     target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
     lifted = np.stack([np.asarray(r.lifted_object)[:n_real] for r in records], 1)
-    out = []
+    index, objects, why = [], [], []
     for w, world in enumerate(worlds):
         for c in world.objects:
             i = scene.letters.index(c)
-            if i in target[w]:
-                continue
-            why = "removed with another object" if i in lifted[w] else "not visible"
-            out.append({"point": world.point, "setup": world.setup, "object": c,
-                        "trial": world.trial, "round": world.trial, "seed": world.seed,
-                        "objects": "".join(world.objects), "attempt": -1, "success": 0,
-                        "outcome": Outcome.NOT_EXECUTED.name, "reason": f"not attempted: {why}",
-                        "reason_code": -1, "reorientations": 0, "grasp_found": 0})
-    return pd.DataFrame(out)
+            if i not in target[w]:
+                index.append(w)
+                objects.append(c)
+                why.append("removed with another object" if i in lifted[w] else "not visible")
+    frame = _world_columns(worlds, index, objects)
+    frame["attempt"] = -1
+    frame["success"] = 0
+    frame["outcome"] = Outcome.NOT_EXECUTED.name
+    frame["reason"] = [f"not attempted: {w}" for w in why]
+    frame["reason_code"] = -1
+    frame["reorientations"] = 0
+    frame["grasp_found"] = 0
+    return frame
 
 
 def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
