@@ -186,7 +186,7 @@ class Program:
 
     @property
     def compile_s(self) -> float:
-        """Seconds to compile (devices compile in parallel: the slowest)."""
+        """Seconds to lower and compile for one device (the slowest of the devices)."""
         return max(self._compile_s)
 
     def spec(self, worlds: tuple[World, ...], points: list[Config]) -> WorldSpec:
