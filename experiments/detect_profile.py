@@ -44,6 +44,11 @@ def with_support(depth):
     return fine, work, work_camera, support_plane(work, work_camera, SCENE)
 
 
+def support_only(depth):
+    fine, _, _, support = with_support(depth)
+    return fine.sum() + support.distance
+
+
 def with_targets(depth):
     fine, work, work_camera, support = with_support(depth)
     turned = support.found & (support.tilt > np.deg2rad(SCENE.max_tilt_deg))
@@ -88,8 +93,7 @@ def main() -> None:
                                                 WINDOW // 2 - 1:WINDOW // 2 + 2].set(True)
     print(f"{jax.devices()[0].device_kind}, batch {batch}")
     timed("working views", lambda d: sum(v.sum() for v in views(d)[::2]), depth)
-    timed("+ support plane", lambda d: with_support(d)[0].sum() + with_support(d)[3].distance,
-          depth)
+    timed("+ support plane", support_only, depth)
     timed("+ virtual view, targets", with_targets, depth)
     timed("whole pipeline", lambda d: detect_scene(d, WORKSPACE, CAMERA, CONFIG, SCENE).position,
           depth)

@@ -22,9 +22,10 @@ each, all on the device), then one transfer of its records to the host,
 where they become rows. Nothing a world does depends on the other worlds of
 its chunk: same seed, same batch size, same device kind give the same rows.
 
-The groups' programs compile in background threads, all at once; chunks run
-in plan order, each as soon as its own group's program is ready, so the
-device runs the first group while the host still compiles the others.
+The groups' programs compile in the background (one thread lowers them in
+turn, XLA compiles them in parallel threads); chunks run in plan order, each
+as soon as its own group's program is ready, so the device runs the first
+group while the host still compiles the others.
 """
 
 from __future__ import annotations
@@ -223,7 +224,7 @@ class Program:
         return self._start_fn.lower(spec), self._attempt_fn.lower(state, spec, k)
 
     def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
-                lower_s: float = 0.0) -> None:
+                lower_s: float) -> None:
         """Compile the lowered functions for one device (XLA releases the GIL: devices and
         groups compile in parallel threads). `lower_s`: seconds the lowering took."""
         start = time.perf_counter()
@@ -428,8 +429,8 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
     needed = list(dict.fromkeys(c.group for c in todo))  # in the order their chunks run
     programs = {g: program(groups[g], batch, keep_views) for g in needed}
     fresh = {g for g, p in programs.items() if not p.compiled}
-    tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)
-    with concurrent.futures.ThreadPoolExecutor(max_workers=max(tasks, 1)) as pool:
+    tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)  # + lowering
+    with concurrent.futures.ThreadPoolExecutor(max_workers=tasks) as pool:
         compiling = _start_compiles(list(programs.values()), pool)
         if compiling:
             log(f"compiling {len(compiling)} program(s) ...")
