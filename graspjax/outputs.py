@@ -7,8 +7,8 @@ While a run is going:
 - `parts/timings-NNNNN.json`, `parts/rounds-NNNNN.parquet` and
   `parts/attempts-NNNNN.parquet`: one set per finished chunk, each written
   atomically; a chunk is done when its attempts part exists;
-- `attempts.csv`: the rows of each finished chunk appended at once (chunk
-  order), to watch a long run with any tool.
+- `attempts.csv`: the rows of each finished chunk appended at once (in the
+  order chunks finish, before its parts), to watch a long run with any tool.
 
 When every chunk is done, `attempts.csv`, `attempts.parquet` and
 `rounds.csv` (one row per Setup 2/3 round: how dense its layout was) are
@@ -17,8 +17,8 @@ uninterrupted one), `timings.csv` joins the chunks' timings, the report
 (`summary.csv`, tables, figures) is computed from the rows alone, and
 `parts/` is removed. `--resume` continues a killed run: it checks that the
 folder holds the same run (same run id and batch), rewrites `attempts.csv`
-from the parts (dropping a half-written append) and runs only the chunks not
-done.
+from the parts (dropping an append whose chunk is not done) and runs only the
+chunks not done.
 
 `attempts.csv` is deterministic: wall-clock times live in `timings.csv`.
 """
@@ -169,25 +169,26 @@ class RunFolder:
         return [pd.read_parquet(self.parts / f"attempts-{c:05d}.parquet") for c in sorted(self.done)]
 
     def _rewrite_csv(self) -> None:
-        """attempts.csv = the rows of the chunks done (drops a half-written append)."""
+        """attempts.csv = the rows of the chunks done (drops an append whose chunk is not done)."""
         frames = self._part_frames()
         text = _csv(pd.concat(frames, ignore_index=True), True) if frames else b""
         write_atomic(self.folder / "attempts.csv", text)
 
     def add(self, chunk: int, frame: pd.DataFrame, layouts: pd.DataFrame, timings: dict) -> None:
-        """Keep one finished chunk: its timings and round rows, its attempt rows (that part file
-        marks it done), the CSV append."""
+        """Keep one finished chunk: the CSV append, its timings and round rows, then its attempt
+        rows, whose part file marks it done (written last: a chunk marked done is all on disk;
+        a kill before that leaves an append that `--resume` drops)."""
         buffer = io.BytesIO()
         frame.to_parquet(buffer, index=False)
         rounds = io.BytesIO()
         layouts.to_parquet(rounds, index=False)
-        write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
-        write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
-        write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
         if not self.shared:
             csv = self.folder / "attempts.csv"
             with open(csv, "ab") as handle:
                 handle.write(_csv(frame, header=csv.stat().st_size == 0))
+        write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
+        write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
+        write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
 
     def finish(self) -> list[Path]:
         """Rebuild the attempts from the parts, sorted; write timings and the report.
