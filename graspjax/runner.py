@@ -168,18 +168,27 @@ class Program:
     """
 
     def __init__(self, group: Group, batch: int, keep_views: bool):
-        self.group, self.batch = group, batch
+        self.group, self.batch, self.keep_views = group, batch, keep_views
         self.devices = jax.local_devices()
         self.per_device = batch // len(self.devices)
-        self.scene: Scene = scene_for(group.letters, group.config, group.collide)
-        scene = self.scene
-        template = mjx.make_data(scene.mj_model)
-        self._start_fn = jax.jit(jax.vmap(lambda spec: start_round(scene, template, spec)))
-        one = functools.partial(attempt, scene, keep_views=keep_views)
-        self._attempt_fn = jax.jit(jax.vmap(one, in_axes=(0, 0, None)), donate_argnums=0)
         self._start: list = [None] * len(self.devices)
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
+
+    @functools.cached_property
+    def scene(self) -> Scene:
+        """The group's MuJoCo scene, built on first use: by the lowering thread, so the first
+        program lowers while the others' scenes are still to be built."""
+        return scene_for(self.group.letters, self.group.config, self.group.collide)
+
+    @functools.cached_property
+    def _functions(self) -> tuple[Callable, Callable]:
+        """`start_round` and `attempt`, vmapped and jitted (not yet lowered)."""
+        scene = self.scene
+        template = mjx.make_data(scene.mj_model)
+        start_fn = jax.jit(jax.vmap(lambda spec: start_round(scene, template, spec)))
+        one = functools.partial(attempt, scene, keep_views=self.keep_views)
+        return start_fn, jax.jit(jax.vmap(one, in_axes=(0, 0, None)), donate_argnums=0)
 
     @property
     def compiled(self) -> bool:
@@ -218,18 +227,23 @@ class Program:
         example = dataclasses.replace(self.group.worlds[0], point=0)
         spec = self.on_device(self.spec((example,), [self.group.config]), device)
         sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
+        start_fn, attempt_fn = self._functions
         state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding),
-                             jax.eval_shape(self._start_fn, spec))
+                             jax.eval_shape(start_fn, spec))
         k = jax.ShapeDtypeStruct((), jnp.int32, sharding=sharding)
-        return self._start_fn.lower(spec), self._attempt_fn.lower(state, spec, k)
+        return start_fn.lower(spec), attempt_fn.lower(state, spec, k)
 
     def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
                 lower_s: float) -> None:
-        """Compile the lowered functions for one device (XLA releases the GIL: devices and
-        groups compile in parallel threads). `lower_s`: seconds the lowering took."""
+        """Compile the lowered functions for one device (XLA releases the GIL: devices, groups
+        and the two functions compile in parallel threads). `lower_s`: seconds the lowering
+        took."""
         start = time.perf_counter()
-        self._start[device] = lowered[0].compile()
-        self._attempt[device] = lowered[1].compile()
+        with concurrent.futures.ThreadPoolExecutor(max_workers=1) as other:
+            start_fn = other.submit(lowered[0].compile)
+            attempt_fn = lowered[1].compile()
+            self._start[device] = start_fn.result()
+            self._attempt[device] = attempt_fn  # last: `compiled` looks at it
         self._compile_s[device] = lower_s + time.perf_counter() - start
 
     def play(self, worlds: tuple[World, ...], points: list[Config], progress: Callable[[int], None]
@@ -423,7 +437,9 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
     Programs compile in background threads; with `overlap`, a group's chunks start as soon as
     its own program is ready, while the later groups' programs still compile (the device works
     while the host compiles). Without it, every program is compiled before the first chunk
-    (benchmarks: run time apart from compile time)."""
+    (benchmarks: run time apart from compile time). A chunk's timings say when it started
+    (`started_s`, seconds since this call began: gaps are the device waiting for a compile)."""
+    began = time.perf_counter()
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
     needed = list(dict.fromkeys(c.group for c in todo))  # in the order their chunks run
@@ -460,5 +476,6 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
                        "scene": "".join(prog.scene.letters), "worlds": len(chunk.worlds),
                        "batch": prog.batch, "attempts": int((frame["attempt"] >= 0).sum()),
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
+                       "started_s": round(start - began, 3),
                        "wall_s": round(time.perf_counter() - start, 3)}
             yield chunk, frame, layouts, timings, views

@@ -55,6 +55,12 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run):
     assert meta["batch"] == 3 and meta["deterministic"] is True and meta["finished"]
     assert meta["preset"] == "paper"
     assert meta["devices"] and meta["devices"][0].startswith("cpu")
+    timings = pd.read_csv(tiny_run / "timings.csv")
+    assert list(timings["chunk"]) == [0, 1]
+    first, second = timings.itertuples()
+    assert second.compile_s == 0  # a group's compile time goes with its first chunk
+    assert first.started_s >= first.compile_s  # the chunk waited for its program
+    assert second.started_s >= first.started_s + first.wall_s  # chunks run one after another
     summary = pd.read_csv(tiny_run / "summary.csv")
     row = summary[summary.object == "a"].iloc[0]
     assert (row.setup, row.n, row.paper_pct) == (1, 3, 90)
