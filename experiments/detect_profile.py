@@ -21,10 +21,8 @@ from graspjax.camera import Camera
 from graspjax.config import Config, SceneConfig
 from graspjax.perception.align import align_tool
 from graspjax.perception.grasp import detect_grasp
-from graspjax.perception.scene import detect_scene
-from graspjax.perception.support import plane_height, support_plane
-from graspjax.perception.target import target_candidates
-from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
+from graspjax.perception.scene import _targets, detect_scene
+from graspjax.perception.support import support_plane
 from graspjax.perception.workspace import working_views
 from graspjax.synthetic import random_real_scene
 
@@ -39,30 +37,14 @@ def views(depth):
     return working_views(depth, WORKSPACE, CAMERA, SCENE, CONFIG.detect.surface_tolerance)
 
 
-def with_support(depth):
-    fine, _, work, work_camera = views(depth)
-    return fine, work, work_camera, support_plane(work, work_camera, SCENE)
-
-
 def support_only(depth):
-    fine, _, _, support = with_support(depth)
-    return fine.sum() + support.distance
+    fine, _, work, work_camera = views(depth)
+    return fine.sum() + support_plane(work, work_camera, SCENE).distance
 
 
 def with_targets(depth):
-    fine, work, work_camera, support = with_support(depth)
-    turned = support.found & (support.tilt > np.deg2rad(SCENE.max_tilt_deg))
-    rotation = view_rotation(support.normal, turned)
-    view = view_camera(work_camera, rotation)
-    view_depth = jnp.where(turned, warp_depth(work, work_camera, view, rotation), work)
-    points = view.unproject(view.pixel_grid(), view_depth)
-    height = jnp.where(support.found, plane_height(points, rotation.T @ support.normal,
-                                                   support.distance), jnp.nan)
-    candidate, score, _ = target_candidates(
-        view_depth, view, height, support.found, window=SCENE.target_window_px,
-        min_pixels=SCENE.min_target_pixels, max_slope_deg=SCENE.max_target_slope_deg,
-        min_height=SCENE.min_height, tolerance=CONFIG.detect.surface_tolerance)
-    return fine.sum() + jnp.sum(jnp.where(candidate, score, 0.0))
+    found = _targets(depth, WORKSPACE, CAMERA, CONFIG, SCENE)
+    return found.fine.sum() + jnp.sum(jnp.where(found.candidate, found.score, 0.0))
 
 
 def timed(name: str, fn, x) -> None:

@@ -114,7 +114,27 @@ def _window(fine: jax.Array, fine_camera: Camera, view: Camera, rotation: jax.Ar
     return depth, camera, centre & (depth > 0)
 
 
-def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConfig):
+@dataclasses.dataclass(frozen=True)
+class _Targets:
+    """Steps 1-4 of `detect_scene` on one image: its views and target candidates."""
+
+    fine: jax.Array  # (H', W') detection-resolution depth (0 = invalid)
+    fine_camera: Camera  # intrinsics of `fine`
+    work: jax.Array  # (h, w) support-resolution depth
+    work_camera: Camera  # intrinsics of `work`
+    support: SupportPlane  # the support plane, camera frame
+    virtual: jax.Array  # () bool: the view is turned to face the support
+    rotation: jax.Array  # (3, 3) view-to-camera rotation
+    view: Camera  # intrinsics of the (virtual) view at the support resolution
+    depth: jax.Array  # (h, w) depth in that view
+    points: jax.Array  # (h, w, 3) its points, view frame
+    height: jax.Array  # (h, w) height above the support (m; nan: no plane)
+    candidate: jax.Array  # (h, w) bool target candidates
+    score: jax.Array  # (h, w) their order of preference
+    reason: jax.Array  # () int32 TargetReason
+
+
+def _targets(depth, workspace, camera: Camera, config: Config, scene: SceneConfig) -> _Targets:
     depth = jnp.asarray(depth, jnp.float32)
     if depth.shape != (camera.height, camera.width) or workspace.shape != depth.shape:
         raise ValueError(f"depth {depth.shape} and workspace {workspace.shape} must match the "
@@ -132,14 +152,23 @@ def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConf
     points = view.unproject(view.pixel_grid(), view_depth)
     height = jnp.where(support.found,
                        plane_height(points, rotation.T @ support.normal, support.distance), jnp.nan)
+    candidate, score, reason = target_candidates(
+        view_depth, view, height, support.found, window=scene.target_window_px,
+        min_pixels=scene.min_target_pixels, max_slope_deg=scene.max_target_slope_deg,
+        min_height=scene.min_height, tolerance=tolerance)
+    return _Targets(fine, fine_camera, work, work_camera, support, virtual, rotation, view,
+                    view_depth, points, height, candidate, score, reason)
+
+
+def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConfig):
+    prep = _targets(depth, workspace, camera, config, scene)
+    fine, fine_camera, rotation, points = prep.fine, prep.fine_camera, prep.rotation, prep.points
+    view_depth, height, candidate, score = prep.depth, prep.height, prep.candidate, prep.score
+    tolerance = config.detect.surface_tolerance
     fine_view = view_camera(fine_camera, rotation)
 
     # Targets in order of height, each outside the surfaces already tried; each detected in
     # its own window of the view at the detection resolution.
-    candidate, score, target_reason = target_candidates(
-        view_depth, view, height, support.found, window=scene.target_window_px,
-        min_pixels=scene.min_target_pixels, max_slope_deg=scene.max_target_slope_deg,
-        min_height=scene.min_height, tolerance=tolerance)
     valid = valid_mask(view_depth)
 
     def attempt(k, tried, reasons, pixels):
@@ -172,11 +201,11 @@ def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConf
     position = rotation @ grasp.position
     result = SceneDetection(
         found=grasp.found & has_target,
-        support=support,
-        virtual=virtual,
+        support=prep.support,
+        virtual=prep.virtual,
         rotation=rotation,
         view=window_camera,
-        target_reason=target_reason,
+        target_reason=prep.reason,
         attempts=jnp.where(has_target, attempts, 0).astype(jnp.int32),
         attempt_reasons=jnp.where(has_target, reasons, -1),
         attempt_pixels=pixels,
@@ -193,8 +222,8 @@ def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConf
         grasp=grasp,
         alignment=alignment,
     )
-    views = SceneViews(work=work, work_camera=work_camera, depth=view_depth, camera=view,
-                       height=height, window=window, window_camera=window_camera)
+    views = SceneViews(work=prep.work, work_camera=prep.work_camera, depth=view_depth,
+                       camera=prep.view, height=height, window=window, window_camera=window_camera)
     return result, views
 
 
