@@ -385,19 +385,17 @@ def round_rows(worlds: tuple[World, ...], drop: Record) -> pd.DataFrame:
     """One row per Setup 2/3 round: how dense its layout was once the drop settled."""
     stats = jax.tree.map(lambda x: np.asarray(x)[:len(worlds)], drop.layout)
     keep = [w for w, world in enumerate(worlds) if world.setup > 1]
-    return pd.DataFrame({
-        "point": [worlds[w].point for w in keep], "seed": [worlds[w].seed for w in keep],
-        "setup": [worlds[w].setup for w in keep], "round": [worlds[w].trial for w in keep],
-        "objects": ["".join(worlds[w].objects) for w in keep],
-        "touching_fraction": stats.touching[keep] / np.maximum(stats.objects[keep], 1),
-        "stacked": stats.stacked[keep], "min_face_gap_m": stats.gap[keep],
-        "spread_m": stats.spread[keep]})
+    frame = _world_columns(worlds, keep)[["point", "seed", "setup", "round", "objects"]]
+    return frame.assign(
+        touching_fraction=stats.touching[keep] / np.maximum(stats.objects[keep], 1),
+        stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep])
 
 
-def _world_columns(worlds, index, objects) -> pd.DataFrame:
+def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
+    """The columns that name row i's world `worlds[index[i]]`, and its `objects[i]` (if given)."""
     return pd.DataFrame({
         "point": [worlds[w].point for w in index], "setup": [worlds[w].setup for w in index],
-        "object": objects, "trial": [worlds[w].trial for w in index],
+        "object": objects if objects is not None else "", "trial": [worlds[w].trial for w in index],
         "round": [worlds[w].trial for w in index], "seed": [worlds[w].seed for w in index],
         "objects": ["".join(worlds[w].objects) for w in index]})
 
