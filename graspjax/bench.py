@@ -186,7 +186,7 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     from graspjax.geometry import look_down
     from graspjax.procedure import WorldSpec, start_round
     from graspjax.sim.scene import mjx, scene_for
-    from graspjax.sim.world import GraspPose, physics_model, play, render
+    from graspjax.sim.world import GraspPose, mjx_internals, physics_model, play, render
 
     start = time.perf_counter()
     scene = scene_for(tuple(letters), config, setup != 1)
@@ -253,7 +253,7 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
         "grasp_success_fraction": float(np.mean(np.asarray(done.outcome) == 0)),
         "render_compile_s": render_compile_s, "render_images_per_s": batch / render_s,
         "render_resolution": [camera.width, camera.height], "sensor": config.camera.sensor,
-        "ncon": int(template._impl.ncon),
+        "ncon": int(mjx_internals(template).ncon),
         **device_info(),
     }
 

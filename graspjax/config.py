@@ -151,6 +151,11 @@ class AlignConfig:
     pixel_scale: Literal["paper", "footprint"] = "paper"  # Eq. 2 as written, or the true footprint
     refit: bool = False  # least-squares refit of the winning plane to its inliers
     min_inliers: int = traced(10)  # fewer inliers means no usable plane
+    min_turn_deg: float = traced(0.0)  # ours, off by default: skip planes whose view turns less
+    # than this from the current one (the paper turns "to detect the object from another angle").
+    # 0 is the paper's rule read literally: the best plane may be the one the camera faces, and
+    # the new view then only re-centres on it. Measured paired, 10 deg rescues fewer attempts
+    # (results/studies/realign_turn)
 
     def __post_init__(self):
         _require(self.hypotheses in ("triangles", "random"),
@@ -162,6 +167,7 @@ class AlignConfig:
         _in_range(self, "window_px", 1, MAX_WINDOW_PX)
         _in_range(self, "triangle_radius_px", 1.0, MAX_WINDOW_PX)
         _positive(self, "distance_threshold", "min_inliers")
+        _in_range(self, "min_turn_deg", 0.0, 89.0)
 
 
 @_config
@@ -212,6 +218,8 @@ class SimConfig:
     timestep: float = 0.004  # integration step (s; MuJoCo Playground's Panda pick tasks use 5 ms)
     iterations: int = 5  # Newton solver iterations (it converges in a few on these small systems)
     ls_iterations: int = 4  # solver line-search iterations
+    cone: Literal["elliptic", "pyramidal"] = "elliptic"  # friction cone: elliptic is Coulomb's,
+    # exact in every direction; pyramidal (4 edges at condim 3) holds down to mu / sqrt(2)
     impratio: float = 10.0  # friction-to-normal impedance ratio: firm grip without creep
     condim: int = 3  # sliding friction; finger pads touch at several points, which resists twisting
     max_contact_points: int = 48  # MJX keeps this many most-penetrating contacts per step (piles)
@@ -246,7 +254,11 @@ class SimConfig:
                   "drop_settle_time", "group_settle_time", "pile_settle_time",
                   "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
                   "min_lift", "approach_tolerance", "approach_force_limit")
+        _require(self.cone in ("elliptic", "pyramidal"),
+                 f"SimConfig.cone must be 'elliptic' or 'pyramidal', got {self.cone!r}")
         _require(self.condim in (1, 3, 4, 6), f"SimConfig.condim must be 1, 3, 4 or 6, got {self.condim}")
+        _require(self.cone == "pyramidal" or self.condim != 1,
+                 "SimConfig.condim=1 (frictionless) needs sim.cone=pyramidal (MJX has no elliptic condim 1)")
         _require(self.pregrasp_distance >= 0, "SimConfig.pregrasp_distance must be >= 0")
         _require(self.min_lift <= self.lift_height, "SimConfig.min_lift must be <= lift_height")
 

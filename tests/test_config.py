@@ -1,6 +1,7 @@
 import dataclasses
 
 import jax
+import mujoco
 import numpy as np
 import pytest
 
@@ -90,3 +91,28 @@ def test_parse_assignments_rejects_missing_equals():
     assert parse_assignments(["a.b=1"]) == {"a.b": "1"}
     with pytest.raises(ConfigError, match="key=value"):
         parse_assignments(["a.b"])
+
+
+@pytest.mark.parametrize("cone", ["elliptic", "pyramidal"])
+@pytest.mark.parametrize("condim", [1, 3, 4, 6])
+def test_every_accepted_contact_model_builds_a_scene(cone, condim):
+    """The config refuses, in one line, what the scene cannot build; the rest builds in MJX."""
+    from graspjax.sim import build_scene
+    from graspjax.sim.scene import mjx
+
+    try:
+        sim = override(Config(), [f"sim.cone={cone}", f"sim.condim={condim}"]).sim
+    except ConfigError as error:
+        assert (cone, condim) == ("elliptic", 1) and "\n" not in str(error)
+        return
+    scene = build_scene("a", sim=sim, objects_collide=False)
+    expected = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+    assert scene.mj_model.opt.cone == expected[cone]
+    assert (scene.mj_model.geom_condim == condim).all()
+    mjx.make_data(scene.mj_model)  # MJX accepts the contact model
+
+
+def test_the_default_friction_cone_is_elliptic():
+    from graspjax.config import SimConfig
+
+    assert SimConfig().cone == "elliptic"

@@ -156,17 +156,49 @@ def park(scene: Scene, data: mjx.Data, which: jax.Array) -> mjx.Data:
     return data.replace(qpos=qpos, qvel=qvel)
 
 
-def hand_contact_force(scene: Scene, data: mjx.Data) -> jax.Array:
-    """Total normal force () of every contact on the hand (palm, housing, fingers) (N).
+def mjx_internals(data: mjx.Data):
+    """The JAX implementation's own fields of `data` (contacts, constraint forces): MJX keeps
+    them private, so this is the one place that reads them."""
+    return data._impl
 
-    Contacts are pyramidal with condim 3: the normal force is the sum of a
-    contact's four pyramid-edge forces (MuJoCo's `mj_contactForce`).
+
+def contact_forces(data: mjx.Data, elliptic: bool) -> jax.Array:
+    """Force (C, 6) of every contact slot in its contact frame (normal, 2 tangential, torsional,
+    2 rolling), as MuJoCo's `mj_contactForce` computes it; zero for slots not in the solver.
+
+    An elliptic cone keeps one constraint row per contact dimension, the normal force first.
+    A pyramidal cone keeps 2 (condim - 1) edge rows (1 row if frictionless): the normal force is
+    their sum and friction i is mu_i times the difference of its two opposing edges. `elliptic`
+    is the model's cone (static).
     """
-    contact = data._impl.contact
+    internals = mjx_internals(data)
+    contact, efc_force = internals.contact, internals.efc_force
+    dims, address = np.asarray(contact.dim), np.asarray(contact.efc_address)
+    columns = []
+    for dim in sorted(set(dims.tolist())):  # MJX groups contact slots by dimension
+        slots = np.flatnonzero(dims == dim)
+        start = np.maximum(address[slots], 0)
+        if elliptic or dim == 1:
+            rows = efc_force[start[:, None] + np.arange(dim)]  # (S, dim)
+        else:
+            edges = efc_force[start[:, None] + np.arange(2 * (dim - 1))]  # (S, 2 (dim - 1))
+            mu = contact.friction[slots, :dim - 1]
+            rows = jnp.concatenate([jnp.sum(edges, -1, keepdims=True),
+                                    (edges[:, 0::2] - edges[:, 1::2]) * mu], -1)
+        rows = jnp.pad(rows, ((0, 0), (0, 6 - dim)))
+        columns.append((slots, jnp.where((address[slots] >= 0)[:, None], rows, 0.0)))
+    force = jnp.zeros((dims.size, 6), efc_force.dtype)
+    for slots, rows in columns:
+        force = force.at[slots].set(rows)
+    return force
+
+
+def hand_contact_force(scene: Scene, data: mjx.Data) -> jax.Array:
+    """Total normal force () of every contact on the hand (palm, housing, fingers) (N)."""
+    contact = mjx_internals(data).contact
     on_hand = jnp.asarray(scene.gripper_geom)[contact.geom].any(-1)
-    rows = np.asarray(contact.efc_address)[:, None] + np.arange(4)
-    normal = jnp.sum(data._impl.efc_force[np.maximum(rows, 0)], -1)
-    return jnp.sum(jnp.where(on_hand & (np.asarray(contact.efc_address) >= 0), normal, 0.0))
+    normal = contact_forces(data, scene.sim.cone == "elliptic")[:, 0]
+    return jnp.sum(jnp.where(on_hand, normal, 0.0))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -404,7 +436,7 @@ def layout_stats(scene: Scene, data: mjx.Data) -> LayoutStats:
     """Contacts and footprint gaps of the objects on the table (state after a step)."""
     n = scene.num_objects
     present = ~parked(scene, data)
-    contact = data._impl.contact
+    contact = mjx_internals(data).contact
     owner = jnp.asarray(scene.geom_object)[contact.geom]  # (C, 2)
     real = (contact.dist < 1e-3) & (owner[:, 0] >= 0) & (owner[:, 1] >= 0) & (
         owner[:, 0] != owner[:, 1])
