@@ -282,9 +282,11 @@ def _experiment(args, grid_items=None) -> int:
     keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
     configs = [c for _, c in points]
     batch = args.batch or runner.default_batch()
-    groups = runner.plan(jobs, configs, args.seed)
+    paired = getattr(args, "paired", False)
+    groups = runner.plan(jobs, configs, args.seed, paired)
     chunks = runner.chunks(groups, batch)
-    meta = {"seed": args.seed, "preset": args.preset, "jobs": [dataclasses.asdict(j) for j in jobs],
+    meta = {"seed": args.seed, "paired": paired, "preset": args.preset,
+            "jobs": [dataclasses.asdict(j) for j in jobs],
             "overrides": differences(config, Config()),
             "grid": {k: [p[0][k] for p in points] for k in keys}, "points": len(points),
             "config": flatten(config),
@@ -299,7 +301,9 @@ def _experiment(args, grid_items=None) -> int:
     bar, log = _progress(sum(per_chunk.values()), args.quiet,
                          sum(n for c, n in per_chunk.items() if c in folder.done))
     if grid_items is not None:
-        log(f"{len(points)} grid points of {', '.join(keys)}; point i has seed {args.seed} + i")
+        log(f"{len(points)} grid points of {', '.join(keys)}; "
+            + (f"every point has seed {args.seed} (paired)" if paired
+               else f"point i has seed {args.seed} + i"))
     saver = ViewSaver(out, args.save_views, args.max_views, configs)
     with bar:
         for chunk, frame, layouts, timings, views in runner.run(
@@ -344,7 +348,8 @@ def cmd_run(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    """Run a full parameter grid; every point has its own seed (seed + point index)."""
+    """Run a full parameter grid; every point has its own seed (seed + point index), or with
+    --paired the same seed (the same worlds)."""
     if not args.grid:
         raise UsageError("sweep needs at least one --grid key=v1,v2,...")
     return _experiment(args, args.grid)
@@ -449,6 +454,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_experiment_arguments(p)
     p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                    help="values of one configuration key; several --grid give the full grid")
+    p.add_argument("--paired", action="store_true",
+                   help="every grid point plays the same worlds (same seed): paired differences")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")

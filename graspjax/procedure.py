@@ -47,7 +47,15 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import MAX_REORIENTATIONS, Config
 from graspjax.geometry import axis_angle, frame_from_axes, look_down, normalize, rotation_between
-from graspjax.perception import Alignment, AlignReason, Grasp, GraspReason, align_tool, detect_grasp
+from graspjax.perception import (
+    Alignment,
+    AlignReason,
+    Grasp,
+    GraspReason,
+    align_tool,
+    detect_grasp,
+    plane_inliers,
+)
 from graspjax.perception.cluster import nearest_pixel
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
@@ -85,6 +93,7 @@ class Reason(IntEnum):
     ALIGN_NO_DEPTH = ALIGN_BASE + AlignReason.NO_DEPTH  # re-alignment: no valid depth
     ALIGN_NO_PLANE = ALIGN_BASE + AlignReason.NO_PLANE  # re-alignment: every hypothesis degenerate
     ALIGN_TOO_FEW_INLIERS = ALIGN_BASE + AlignReason.TOO_FEW_INLIERS  # re-alignment: weak plane
+    ALIGN_NO_NEW_VIEW = ALIGN_BASE + AlignReason.NO_NEW_VIEW  # re-alignment: only the plane faced
     DETECT_NO_DEPTH = DETECT_BASE + GraspReason.NO_DEPTH  # detection failures, as GraspReason
     DETECT_SURFACE_TOO_SMALL = DETECT_BASE + GraspReason.SURFACE_TOO_SMALL
     DETECT_NO_EDGES = DETECT_BASE + GraspReason.NO_EDGES
@@ -106,6 +115,16 @@ class Reason(IntEnum):
         if self.name.startswith("DETECT_"):
             return "detection: " + self.name[len("DETECT_"):]
         return "alignment: " + self.name.removeprefix("ALIGN_")
+
+
+class Surface(IntEnum):
+    """What a pixel of a simulated view shows (ground truth the method never sees)."""
+
+    NONE = -1  # no valid depth
+    TARGET = 0  # the object being attempted
+    OTHER_OBJECT = 1  # another object
+    TABLE = 2
+    BIN = 3  # a wall of the bin
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,6 +150,17 @@ class RoundState:
 
 
 @dataclasses.dataclass(frozen=True)
+class PlaneTruth:
+    """The chosen re-alignment plane of one view against the simulation's ground truth."""
+
+    surface: jax.Array  # () int32 Surface most of the plane's inliers lie on (NONE: no plane)
+    on_target: jax.Array  # () share of the plane's inliers on the target (nan: no plane)
+    normal_error_deg: jax.Array  # () angle from the plane's normal to the nearest true face
+    # normal of the target at its current pose (deg; nan: no plane)
+    view_tilt_deg: jax.Array  # () the re-aligned view's optical axis from straight down (deg)
+
+
+@dataclasses.dataclass(frozen=True)
 class Record:
     """One attempt of one world, fixed-shape (the runner turns it into one CSV row)."""
 
@@ -147,6 +177,7 @@ class Record:
     tcp: jax.Array  # (3,) planned grasp: point between the finger tips (world, m; nan if none)
     approach: jax.Array  # (3,) planned grasp: approach direction
     closing: jax.Array  # (3,) planned grasp: closing axis
+    realign: PlaneTruth  # (R,) the plane of each re-alignment taken, judged by ground truth
     layout: LayoutStats  # the scene's density after this call's settling
 
 
@@ -173,13 +204,18 @@ class _View:
     next_rotation: jax.Array  # (3, 3) camera-to-world rotation of the re-aligned view
     next_position: jax.Array  # (3,) camera centre of the re-aligned view
     can_realign: jax.Array  # () bool: a plane was found and its view is reachable
+    truth: PlaneTruth  # the chosen plane, judged by ground truth
     depth: jax.Array  # (H, W) the image
     target_mask: jax.Array  # (H, W) bool pixels of the target
 
 
-for _cls in (WorldSpec, RoundState, Record, Views, _View):
+for _cls in (WorldSpec, RoundState, PlaneTruth, Record, Views, _View):
     jax.tree_util.register_dataclass(
         _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
+
+
+_NO_PLANE = PlaneTruth(surface=np.int32(Surface.NONE), on_target=np.float32(np.nan),  # numpy: no
+                       normal_error_deg=np.float32(np.nan), view_tilt_deg=np.float32(np.nan))  # backend
 
 
 # ---------------------------------------------------------------------------
@@ -226,11 +262,48 @@ def _settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array
 
 
 def _look(scene: Scene, data, rotation, position, camera: Camera, config: Config, key):
-    """Depth image (H, W) and object index per pixel (H, W) (-1: table or nothing)."""
+    """Depth image (H, W), object index per pixel (H, W) (-1: table, bin or nothing) and whether
+    each pixel shows the table (H, W) bool (rendered piece 0; the bin's walls follow it)."""
     depth, piece = render_depth_and_piece(scene.render, data.geom_xpos, data.geom_xmat, rotation,
                                           position, camera, config.camera, key)
     objects = jnp.asarray(scene.piece_object)
-    return depth, jnp.where(piece >= 0, objects[jnp.maximum(piece, 0)], -1)
+    return depth, jnp.where(piece >= 0, objects[jnp.maximum(piece, 0)], -1), piece == 0
+
+
+def _surfaces(objects: jax.Array, table: jax.Array, depth: jax.Array, target) -> jax.Array:
+    """`Surface` (H, W) int32 of each pixel, from the object index (H, W) and the table (H, W)."""
+    return jnp.select([~(depth > 0), objects == target, objects >= 0, table],
+                      [Surface.NONE, Surface.TARGET, Surface.OTHER_OBJECT, Surface.TABLE],
+                      Surface.BIN).astype(jnp.int32)
+
+
+def target_faces(scene: Scene, data, target) -> tuple[jax.Array, jax.Array]:
+    """Outward unit normals (G * P, 3) of the target's faces in the world (state after
+    kinematics), and which are real faces (G * P,) bool (not padding, not another piece's)."""
+    geometry = scene.render
+    rot = data.geom_xmat[geometry.geom_ids].reshape(-1, 3, 3)
+    normals = jnp.einsum("gij,gpj->gpi", rot, jnp.asarray(geometry.planes[..., :3]))
+    real = (jnp.asarray(scene.piece_object) == target)[:, None] & (
+        jnp.linalg.norm(geometry.planes[..., :3], axis=-1) > 0.5)
+    return normals.reshape(-1, 3), real.reshape(-1)
+
+
+def plane_truth(surface: jax.Array, inliers: jax.Array, normal: jax.Array, faces, found,
+                view_axis: jax.Array) -> PlaneTruth:
+    """Judge a chosen plane: its inliers (H, W) bool against the `Surface` (H, W) of each pixel,
+    its world normal (3,) against the target's faces (`target_faces`), and the tilt of the view
+    whose optical axis (3,) looks along its negative normal."""
+    counts = jnp.stack([jnp.sum(inliers & (surface == c)) for c in range(4)])
+    on_target = counts[Surface.TARGET] / jnp.maximum(jnp.sum(counts), 1)
+    normals, real = faces
+    cosine = jnp.max(jnp.where(real, normals @ normal, -1.0))
+    nan = jnp.float32(jnp.nan)
+    return PlaneTruth(
+        surface=jnp.where(found, jnp.argmax(counts), Surface.NONE).astype(jnp.int32),
+        on_target=jnp.where(found, on_target, nan).astype(jnp.float32),
+        normal_error_deg=jnp.where(found, jnp.rad2deg(jnp.arccos(jnp.clip(cosine, -1.0, 1.0))), nan),
+        view_tilt_deg=jnp.where(found, jnp.rad2deg(jnp.arccos(jnp.clip(-view_axis[2], -1.0, 1.0))),
+                                nan))
 
 
 def overview_pose(config: Config):
@@ -243,7 +316,7 @@ def select_target(scene: Scene, data, eligible: jax.Array, camera: Camera, confi
     `eligible` (n,) objects picks the target. Returns its index () (-1 if none is visible), its
     z_min point (3,) in the world, and the image (H, W) with its object index per pixel (H, W)."""
     rotation, position = overview_pose(config)
-    depth, objects = _look(scene, data, rotation, position, camera, config, key)
+    depth, objects, _ = _look(scene, data, rotation, position, camera, config, key)
     allowed = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
     (u, v), _ = nearest_pixel(depth, allowed)
     point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth[v, u])
@@ -263,7 +336,7 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Came
          config: Config, key) -> _View:
     """Look from a pose: detect a grasp and score re-alignment planes on the target."""
     k_render, k_align = jax.random.split(key)
-    depth, obj = _look(scene, data, rotation, position, camera, config, k_render)
+    depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
     mask = obj == target
     grasp = detect_grasp(depth, camera, config.detect, config.gripper, seed_mask=mask)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
@@ -280,10 +353,14 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Came
     next_rotation = rotation_between(approach, -normal) @ rotation
     next_position = point + jnp.linalg.norm(alignment.point) * normal
     reachable = (next_position[2] >= config.procedure.min_view_height) & (normal[2] > 0)
+    truth = plane_truth(_surfaces(obj, table, depth, target),
+                        plane_inliers(depth, camera, alignment, config.align), normal,
+                        target_faces(scene, data, target), alignment.found, next_rotation[:, 2])
     return _View(grasp=grasp, alignment=alignment, grasp_pose=pose,
                  next_rotation=jnp.where(alignment.found, next_rotation, rotation),
                  next_position=jnp.where(alignment.found, next_position, position),
-                 can_realign=alignment.found & reachable, depth=depth, target_mask=mask)
+                 can_realign=alignment.found & reachable, truth=truth, depth=depth,
+                 target_mask=mask)
 
 
 def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool):
@@ -311,15 +388,17 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
         pos = jnp.where(move, v.next_position, pos)
         carry = (rot, pos, found, blocked, pose, turns + move.astype(jnp.int32), detect_reason,
                  align_reason)
-        return carry, (v, searching) if keep_views else None
+        taken = where_tree(move, v.truth, _NO_PLANE)
+        return carry, ((v, searching) if keep_views else None, taken)
 
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
     no_pose = GraspPose(nan3, nan3, nan3, jnp.array(False))
     carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
              jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1))
-    carry, per_view = jax.lax.scan(look, carry, jnp.arange(MAX_REORIENTATIONS + 1))
+    carry, (per_view, taken) = jax.lax.scan(look, carry, jnp.arange(MAX_REORIENTATIONS + 1))
     _, _, found, blocked, pose, turns, detect_reason, align_reason = carry
     pose = dataclasses.replace(pose, valid=found & (target >= 0))
+    realign = jax.tree.map(lambda x: x[:MAX_REORIENTATIONS], taken)  # the last view never turns
     views = None
     if keep_views:
         v, searched = per_view
@@ -330,7 +409,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
                       position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
                       looked=jnp.concatenate([jnp.array([True]), searched]),
                       grasp=v.grasp, alignment=v.alignment)
-    return target, pose, (blocked, turns, detect_reason, align_reason), views
+    return target, pose, (blocked, turns, detect_reason, align_reason, realign), views
 
 
 def _view_poses(first: jax.Array, following: jax.Array) -> jax.Array:
@@ -376,8 +455,10 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     def idle(_):
         return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), jax.eval_shape(search, None))
 
-    target, pose, reached, clear, (blocked, turns, detect_reason, align_reason), views = (
+    target, pose, reached, clear, (blocked, turns, detect_reason, align_reason, realign), views = (
         jax.lax.cond(k >= 0, search, idle, None))
+    realign = where_tree(k >= 0, realign, jax.tree.map(
+        lambda x: jnp.broadcast_to(x, (MAX_REORIENTATIONS,)), _NO_PLANE))
     target = jnp.where(k >= 0, target, -1)
     valid = pose.valid & finite & (k >= 0)
     pose = dataclasses.replace(pose, valid=valid)
@@ -389,11 +470,11 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     removed = state.removed | ((jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0))
     state = RoundState(data=data, attempted=attempted, removed=removed, key=state.key)
     return state, _record(target, pose, done, finite, blocked, turns, detect_reason,
-                          align_reason, layout_stats(scene, data)), views
+                          align_reason, realign, layout_stats(scene, data)), views
 
 
 def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, detect_reason,
-            align_reason, stats: LayoutStats) -> Record:
+            align_reason, realign: PlaneTruth, stats: LayoutStats) -> Record:
     """The attempt's record, with its one reason (precedence: module docstring)."""
     stopped_by_alignment = blocked & (align_reason >= 0) & (align_reason != AlignReason.FOUND)
     reason = jnp.select(
@@ -409,8 +490,9 @@ def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, de
         align_reason=align_reason, lifted_object=done.lifted_object, rise=done.rise,
         opening=done.opening, tcp=jnp.where(pose.valid, pose.tcp, nan3),
         approach=jnp.where(pose.valid, pose.approach, nan3),
-        closing=jnp.where(pose.valid, pose.closing, nan3), layout=stats)
+        closing=jnp.where(pose.valid, pose.closing, nan3), realign=realign, layout=stats)
 
 
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)
+SURFACE_LABELS = np.array(["", "target", "other object", "table", "bin"], dtype=object)  # Surface + 1

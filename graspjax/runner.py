@@ -42,9 +42,17 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from graspjax.config import Config, stack_configs
+from graspjax.config import MAX_REORIENTATIONS, Config, stack_configs
 from graspjax.perception import AlignReason, GraspReason
-from graspjax.procedure import REASON_LABELS, Record, Views, WorldSpec, attempt, start_round
+from graspjax.procedure import (
+    REASON_LABELS,
+    SURFACE_LABELS,
+    Record,
+    Views,
+    WorldSpec,
+    attempt,
+    start_round,
+)
 from graspjax.sim.objects import parse_letters
 from graspjax.sim.scene import Scene, mjx, scene_for
 from graspjax.sim.world import Outcome
@@ -116,17 +124,19 @@ class Chunk:
     worlds: tuple[World, ...]
 
 
-def plan(jobs: list[Job], points: list[Config], seed: int) -> list[Group]:
-    """Every world of a run, grouped by compiled program; grid point i has seed `seed + i`."""
+def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False) -> list[Group]:
+    """Every world of a run, grouped by compiled program; grid point i has seed `seed + i`, or
+    `seed` for every point when `paired` (the same layouts and keys: differences are paired)."""
     groups: dict = {}
     for i, config in enumerate(points):
+        seed_i = seed if paired else seed + i
         for job in jobs:
             for setup in job.setups:
                 if setup == 1:
-                    worlds = [World(i, seed + i, 1, t, (c,)) for c in job.objects
+                    worlds = [World(i, seed_i, 1, t, (c,)) for c in job.objects
                               for t in range(job.trials)]
                 else:
-                    worlds = [World(i, seed + i, setup, t, job.objects) for t in range(job.trials)]
+                    worlds = [World(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
                 key = (job.letters, setup > 1, len(worlds[0].objects), jax.tree.structure(config))
                 groups.setdefault(key, (config, []))[1].extend(worlds)
     return [Group(letters, collide, attempts, config, tuple(worlds))
@@ -367,6 +377,8 @@ def rows(program: Program, worlds: tuple[World, ...], records: list[Record]) -> 
         frame["reason_code"] = reason
         frame["reorientations"] = r.reorientations[keep]
         frame["grasp_found"] = r.grasp_found[keep].astype(int)
+        frame["first_view_grasp"] = (r.grasp_found[keep] & (r.reorientations[keep] == 0)).astype(int)
+        frame["rescued"] = ((reason == Outcome.SUCCESS) & (r.reorientations[keep] > 0)).astype(int)
         frame["detect_reason"] = [GraspReason(c).name for c in r.detect_reason[keep]]
         frame["align_reason"] = [AlignReason(c).name if c >= 0 else "" for c in r.align_reason[keep]]
         frame["lifted_object"] = letters[r.lifted_object[keep]]
@@ -376,6 +388,12 @@ def rows(program: Program, worlds: tuple[World, ...], records: list[Record]) -> 
             values = getattr(r, name)[keep]
             for i, axis in enumerate("xyz"):
                 frame[f"grasp_{name}_{axis}"] = values[:, i]
+        truth = jax.tree.map(lambda x, rows=keep: x[rows], r.realign)  # (rows, R) per field
+        for turn in range(MAX_REORIENTATIONS):  # ground truth on each re-alignment taken
+            frame[f"realign{turn + 1}_surface"] = SURFACE_LABELS[truth.surface[:, turn] + 1]
+            frame[f"realign{turn + 1}_on_target"] = truth.on_target[:, turn]
+            frame[f"realign{turn + 1}_normal_error_deg"] = truth.normal_error_deg[:, turn]
+            frame[f"realign{turn + 1}_view_tilt_deg"] = truth.view_tilt_deg[:, turn]
         frames.append(frame)
     frames.append(_unattempted(program, worlds, records))
     return pd.concat([f for f in frames if len(f)], ignore_index=True)
@@ -422,6 +440,8 @@ def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFram
     frame["reason_code"] = -1
     frame["reorientations"] = 0
     frame["grasp_found"] = 0
+    frame["first_view_grasp"] = 0
+    frame["rescued"] = 0
     return frame
 
 

@@ -162,3 +162,21 @@ def test_vmap_equals_a_loop(camera, align, render):
                            align(jnp.asarray(depth), camera))
     assert_trees_close(align_tool(jnp.asarray(scenes[0]), camera),
                        align(jnp.asarray(scenes[0]), camera))
+
+
+def test_min_turn_skips_the_plane_the_camera_already_faces(camera, render):
+    """A box seen from above, A on its top's corner: the top faces the camera and wins; with
+    min_turn_deg the winner is the best plane that turns the view at least that far, and an
+    image of one flat face has none (NO_NEW_VIEW)."""
+    depth = jnp.asarray(render([box((0.06, 0.06, 0.05), (0, 0, 0), 0.2)]))
+    literal = align_tool(depth, camera, AlignConfig())
+    np.testing.assert_allclose(np.asarray(literal.normal), [0, 0, -1], atol=1e-5)
+    turned = align_tool(depth, camera, AlignConfig(min_turn_deg=10.0))
+    assert bool(turned.found)
+    assert float(-turned.normal[2]) <= np.cos(np.deg2rad(10.0))  # at least 10 degrees away
+    counts, normals = np.asarray(turned.counts), np.asarray(turned.normals)
+    turning = np.asarray(turned.valid) & (-normals[:, 2] <= np.cos(np.deg2rad(10.0)))
+    assert int(turned.inliers) == counts[turning].max()  # the strongest plane that turns
+    flat = jnp.asarray(render([half_space([0, 0, 1.0], [0, 0, 0.1])], ground=None))
+    none = align_tool(flat, camera, AlignConfig(min_turn_deg=10.0))
+    assert AlignReason(int(none.reason)) == AlignReason.NO_NEW_VIEW and not bool(none.found)

@@ -10,12 +10,15 @@ from graspjax.config import Config, override
 from graspjax.geometry import axis_angle, look_down
 from graspjax.perception import Alignment, AlignReason, GraspReason
 from graspjax.procedure import (
+    _NO_PLANE,
     ALIGN_BASE,
     DETECT_BASE,
     Reason,
+    Surface,
     _record,
     _with_error,
     centred_pose,
+    plane_truth,
     select_target,
     view,
 )
@@ -93,7 +96,7 @@ def _reason(*, executed=False, outcome=Outcome.NOT_EXECUTED, finite=True, target
     done = Execution(jnp.int32(outcome), jnp.int32(-1), jnp.float32(0), jnp.float32(0))
     stats = LayoutStats(*(jnp.int32(0),) * 3, jnp.float32(0), jnp.float32(0))
     record = _record(jnp.int32(target), pose, done, jnp.array(finite), jnp.array(blocked),
-                     jnp.int32(0), jnp.int32(detect), jnp.int32(align), stats)
+                     jnp.int32(0), jnp.int32(detect), jnp.int32(align), _NO_PLANE, stats)
     return Reason(int(record.reason))
 
 
@@ -139,6 +142,43 @@ def test_realigned_view_looks_along_the_negative_normal(basic_sim):
     r = np.asarray(v.next_rotation)
     np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-5)
     assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-5)
+    # Ground truth: the plane lies on the wedge, along its sloped face, and the view tilts by
+    # the slope's angle.
+    truth = v.truth
+    assert Surface(int(truth.surface)) == Surface.TARGET and float(truth.on_target) > 0.9
+    assert float(truth.normal_error_deg) < 2.0
+    assert float(truth.view_tilt_deg) == pytest.approx(np.degrees(slope), abs=2.0)
+
+
+def test_plane_truth_names_the_surface_and_the_nearest_face():
+    """Hand-made views: a plane whose inliers lie mostly on the table, and one on the target
+    tilted 10 degrees from the target's top face, seen by a view tilted 30 degrees."""
+    surface = np.full((10, 10), int(Surface.TABLE))
+    surface[:, 6:] = Surface.TARGET
+    surface[0] = Surface.NONE
+    inliers = np.zeros((10, 10), bool)
+    inliers[2:8, 1:7] = True  # 30 table pixels, 6 target pixels
+    yaw = np.deg2rad(25.0)
+    faces = np.array([[np.cos(yaw), np.sin(yaw), 0], [-np.sin(yaw), np.cos(yaw), 0], [0, 0, 1],
+                      [0, 0, -1], [0.6, 0.8, 0.0]])  # a box's faces, then another piece's
+    real = np.array([True, True, True, True, False])
+    tilted = np.array([np.sin(np.deg2rad(10.0)), 0.0, np.cos(np.deg2rad(10.0))])
+    axis = -np.array([np.sin(np.deg2rad(30.0)), 0.0, np.cos(np.deg2rad(30.0))])
+    truth = plane_truth(jnp.asarray(surface), jnp.asarray(inliers), jnp.asarray(tilted),
+                        (jnp.asarray(faces), jnp.asarray(real)), jnp.array(True), jnp.asarray(axis))
+    assert Surface(int(truth.surface)) == Surface.TABLE
+    assert float(truth.on_target) == pytest.approx(6 / 36)
+    assert float(truth.normal_error_deg) == pytest.approx(10.0, abs=1e-3)
+    assert float(truth.view_tilt_deg) == pytest.approx(30.0, abs=1e-3)
+    inliers[:] = False
+    inliers[3:6, 6:9] = True
+    truth = plane_truth(jnp.asarray(surface), jnp.asarray(inliers), jnp.asarray(faces[0]),
+                        (jnp.asarray(faces), jnp.asarray(real)), jnp.array(True), jnp.asarray(axis))
+    assert Surface(int(truth.surface)) == Surface.TARGET and float(truth.on_target) == 1.0
+    assert float(truth.normal_error_deg) == pytest.approx(0.0, abs=0.1)
+    none = plane_truth(jnp.asarray(surface), jnp.asarray(inliers), jnp.asarray(faces[0]),
+                       (jnp.asarray(faces), jnp.asarray(real)), jnp.array(False), jnp.asarray(axis))
+    assert Surface(int(none.surface)) == Surface.NONE and np.isnan(float(none.normal_error_deg))
 
 
 def test_grasp_pose_in_the_world(basic_sim):
@@ -169,7 +209,7 @@ def test_the_search_stops_at_the_re_alignment_budget(basic_sim, budget):
     data = _world(basic_sim, {2: (0.0, 0.0, 0.0)})
     eligible = jnp.zeros(6, bool).at[2].set(True)
     search = jax.jit(lambda d, c: _search(basic_sim.scene, d, eligible, jax.random.key(3), c, True))
-    target, pose, (blocked, turns, detect_reason, _), views = search(data, config)
+    target, pose, (blocked, turns, detect_reason, _, _), views = search(data, config)
     assert int(target) == 2
     looked = np.asarray(views.looked)
     assert looked[:2].all() and looked.sum() == 2 + int(turns)  # overview, then each view taken

@@ -113,3 +113,21 @@ def test_debug_figures_use_each_grid_points_own_configuration():
     assert plain.align.window_px == 20
     row = SimpleNamespace(point=12, setup=2, round=3, attempt=1, object="b")
     assert point_of(attempt_name(row)) == 12
+
+
+def test_summary_and_tables_split_success_into_first_view_and_rescued():
+    """Cell (1, a): 10 attempts, 4 re-aligned, 3 of them rescued, 5 first-view successes."""
+    rows = []
+    for t in range(10):
+        realigned, success = t < 4, t < 3 or 4 <= t < 9
+        rows.append({"setup": 1, "object": "a", "trial": t, "round": t, "seed": 0,
+                     "success": int(success), "outcome": "SUCCESS" if success else "MISSED",
+                     "reason": "SUCCESS" if success else "MISSED",
+                     "reorientations": int(realigned), "rescued": int(realigned and success)})
+    frame = pd.DataFrame(rows)
+    row = summarize(frame).set_index(["setup", "object"]).loc[(1, "a")]
+    assert (row["successes"], row["rescued"], row["first_view_successes"]) == (8, 3, 5)
+    assert row["rate_rescued"] == pytest.approx(0.3) and row["rate_first_view"] == pytest.approx(0.5)
+    assert row["rescue_rate"] == pytest.approx(0.75)
+    table1 = build(parse_attempts(frame.to_csv(index=False)))["table1.md"].decode()
+    assert "| Setup 1, of which rescued | 30 % |" in table1

@@ -10,7 +10,9 @@ import time
 import pandas as pd
 import pytest
 
+from graspjax import runner
 from graspjax.cli import main
+from graspjax.config import Config, override
 
 # Objects a and c alone (Setup 1), 3 trials each: 6 worlds, in chunks of 3 (c needs a re-alignment).
 TINY = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--seed", "3", "--quiet",
@@ -142,6 +144,17 @@ def test_sweep_points_share_one_program_and_have_their_own_seed(tiny_run, tmp_pa
     assert timings["group"].nunique() == 1  # a traced value: one compiled program for both
     assert len(pd.read_csv(out / "sweep_summary.csv")) == 2
     assert (out / "sweep_align.distance_threshold.png").is_file()
+
+
+def test_a_paired_sweep_plays_the_same_worlds_at_every_point():
+    points = [Config(), override(Config(), ["align.min_turn_deg=10"])]
+    job = runner.Job(("a", "c"), (1, 2), 3)
+    free, paired = runner.plan([job], points, 7), runner.plan([job], points, 7, paired=True)
+    assert {w.seed for g in free for w in g.worlds if w.point == 1} == {8}
+    assert {w.seed for g in paired for w in g.worlds} == {7}
+    for group in paired:  # point 1 repeats point 0's worlds, world by world
+        first = [(w.setup, w.trial, w.objects) for w in group.worlds if w.point == 0]
+        assert first == [(w.setup, w.trial, w.objects) for w in group.worlds if w.point == 1]
 
 
 def test_a_sweep_over_a_static_value_compiles_one_program_per_point(tiny_run, tmp_path):

@@ -6,8 +6,10 @@ phi_k = k * 360deg / N each define a plane. The image becomes a point cloud
 in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at z_min, and a point is
 an inlier of plane k (Eq. 3) when its distance to the plane is below
 `distance_threshold` and it lies within `window_px` of the triangle's centroid
-in u, v and the converted z. The plane with most inliers wins; the tool then
-looks along its negative normal. Normals are reported in the metric camera
+in u, v and the converted z. The plane with most inliers wins, among those whose view turns
+by at least `min_turn_deg` from the current one (ours: the paper turns to see
+the object "from another angle"); the tool then looks along its negative
+normal. Normals are reported in the metric camera
 frame (from the triangle's back-projected corners, or a least-squares fit to
 the inliers when `refit`), pointing from the surface toward the camera.
 
@@ -45,7 +47,7 @@ class Alignment:
     normals: jax.Array  # (N, 3) unit normal of every hypothesis, toward the camera
     counts: jax.Array  # (N,) int32 inliers of every hypothesis (0 if invalid)
     valid: jax.Array  # (N,) bool hypothesis corners in view, valid and not collinear
-    ranking: jax.Array  # (N,) int32 hypotheses by inlier count, most first
+    ranking: jax.Array  # (N,) int32 hypotheses by inlier count, most first (those that turn first)
 
 
 jax.tree_util.register_dataclass(
@@ -152,7 +154,12 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
     toward_camera = jnp.sum(normals * metric[:, 0], -1) < 0
     normals = jnp.where(toward_camera[:, None], normals, -normals)
 
-    ranking = jnp.argsort(-jnp.where(hyp_valid, counts, -1), stable=True).astype(jnp.int32)
+    # A view must turn by at least min_turn_deg: the optical axis is +z, normals face the camera.
+    turns = normals[:, 2] >= -jnp.cos(jnp.deg2rad(config.min_turn_deg))
+    strong = hyp_valid & (counts >= config.min_inliers)
+    eligible = hyp_valid & (turns | ~jnp.any(strong & turns))  # none turns: keep all, to report
+    ranking = jnp.argsort(-jnp.where(hyp_valid, counts + jnp.where(eligible, 1 << 24, 0), -1),
+                          stable=True).astype(jnp.int32)
     best = ranking[0]
     best_count = counts[best]
     point = sums[best] / jnp.maximum(best_count, 1)
@@ -167,8 +174,9 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
         normal = jnp.where(best_count >= 3, fit, normal)
 
     reason = jnp.select(
-        [~any_valid, ~jnp.any(hyp_valid), best_count < config.min_inliers],
-        [AlignReason.NO_DEPTH, AlignReason.NO_PLANE, AlignReason.TOO_FEW_INLIERS],
+        [~any_valid, ~jnp.any(hyp_valid), best_count < config.min_inliers, ~turns[best]],
+        [AlignReason.NO_DEPTH, AlignReason.NO_PLANE, AlignReason.TOO_FEW_INLIERS,
+         AlignReason.NO_NEW_VIEW],
         AlignReason.FOUND).astype(jnp.int32)
     found = reason == AlignReason.FOUND
     nan3 = jnp.full(3, jnp.nan, jnp.float32)

@@ -44,6 +44,7 @@ class AlignReason(IntEnum):
     NO_DEPTH = 1  # no valid depth pixel in the image
     NO_PLANE = 2  # every hypothesis was degenerate or left the image
     TOO_FEW_INLIERS = 3  # the best plane has fewer than `min_inliers` inliers
+    NO_NEW_VIEW = 4  # every plane with enough inliers faces the camera already (`min_turn_deg`)
 
 
 class SupportReason(IntEnum):
