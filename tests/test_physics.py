@@ -127,8 +127,9 @@ def test_grasps_in_the_basic_scene(basic_sim):
     assert [Outcome(o) for o in attempt.outcome] == expected
     lift = basic_sim.scene.sim.lift_height
     np.testing.assert_allclose(attempt.rise[:3], lift, atol=0.01)  # lifted with the hand
-    # The jaws stop on the part: half the opening is half its width (5, 5, 4 cm).
-    np.testing.assert_allclose(attempt.opening[:3], [0.025, 0.025, 0.02], atol=0.002)
+    # The jaws stop on the part: half the opening is half its width (5, 5, 4 cm), less what the
+    # pads sink into it at 40 N under the elliptic cone (up to 2.5 mm).
+    np.testing.assert_allclose(attempt.opening[:3], [0.025, 0.025, 0.02], atol=0.003)
     assert np.asarray(attempt.lifted_object).tolist() == [cube, cube, block, -1, block, -1]
     assert np.isnan(attempt.rise[5])  # not executed
     # What was lifted left the scene (parked); the untouched cube of world 5 did not move.
@@ -161,7 +162,7 @@ def test_grasps_in_the_industrial_scene(industrial_sim):
     # The jaws stop at the part's width: knob, gear section and the cup's wall (flat to flat).
     flat = np.cos(np.pi / 12), np.cos(np.pi / 16)
     np.testing.assert_allclose(attempt.opening[:3], [0.011 * flat[0], 0.022 * flat[1], 0.022],
-                               atol=0.002)
+                               atol=0.003)
 
 
 def test_side_wider_than_the_opening_is_not_grasped():
@@ -213,8 +214,10 @@ def test_a_pre_grasp_inside_the_table_is_refused(basic_sim):
     assert Outcome(int(attempt.outcome[0])) == Outcome.COLLISION
     assert Outcome(int(attempt.outcome[1])) == Outcome.SUCCESS
     a = basic_sim.scene.object_qpos[cube]
+    # Nothing moved but the resting cube's slow sink into the table (elliptic contacts in MJX are
+    # soft: about 1.5 mm over the attempt).
     np.testing.assert_allclose(np.asarray(after.qpos)[0, a:a + 3], np.asarray(data.qpos)[0, a:a + 3],
-                               atol=1e-4)
+                               atol=2e-3)
 
 
 def _squeezed_cube(gripper, sim, lift: float = 0.0):
