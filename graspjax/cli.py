@@ -355,6 +355,53 @@ def cmd_sweep(args) -> int:
     return _experiment(args, args.grid)
 
 
+def cmd_planes(args) -> int:
+    """Perception-only plane study: settle worlds, take each first view, judge the
+    re-alignment's plane for every grid point of traced alignment values."""
+    import dataclasses
+    import json
+
+    import jax
+
+    from graspjax import planes, runner
+    from graspjax.config import Config, differences, flatten, override, preset
+    from graspjax.outputs import check_output_folder, environment
+
+    args.table, args.resume, args.part, args.max_views = None, False, None, 0
+    jobs = _jobs(args)
+    out = check_output_folder(args.out, overwrite=args.overwrite)
+    config = override(preset(args.preset), args.set or [])
+    keys, points = _grid(args.grid or [], config) if args.grid else ([], [({}, config)])
+    bad = [k for k in keys if not k.startswith("align.")]
+    if bad or any(jax.tree.structure(c) != jax.tree.structure(config) for _, c in points):
+        raise UsageError("planes --grid takes traced align.* values that compile once (e.g. "
+                         f"align.window_px, align.distance_threshold), got {', '.join(keys)}")
+    groups = runner.plan(jobs, [config], args.seed)
+    batch = args.batch or runner.default_batch()
+    total = sum(len(g.worlds) for g in groups)
+    bar, _ = _progress(total, args.quiet)
+    bar.unit = "world"
+    with bar:
+        rows, timings = planes.study(groups, [c for _, c in points], batch, bar.update)
+    grid = {k: [p[0][k] for p in points] for k in keys}
+    for k, values in grid.items():
+        rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
+    summary = planes.summarize(rows, grid)
+    out.mkdir(parents=True, exist_ok=True)
+    rows.to_csv(out / "planes.csv.gz", index=False)
+    summary.to_csv(out / "planes_summary.csv", index=False)
+    meta = {"seed": args.seed, "preset": args.preset, "jobs": [dataclasses.asdict(j) for j in jobs],
+            "overrides": differences(config, Config()), "grid": grid, "batch": batch,
+            "config": flatten(config), "timings": timings, **environment()}
+    (out / "config.json").write_text(json.dumps(meta, indent=1, default=_jsonable))
+    print(summary.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
+    print(f"{timings['views_scored']:,} views scored in {timings['score_s']:.2f} s "
+          f"({timings['views_per_s']:,.0f} views/s; compile {timings['score_compile_s']:.1f} s, "
+          f"settle {timings['settle_s']:.1f} s, first views {timings['view_s']:.1f} s); wrote "
+          f"planes.csv.gz, planes_summary.csv, config.json to {out}")
+    return 0
+
+
 def cmd_report(args) -> int:
     from graspjax.report import write_report
 
@@ -457,6 +504,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--paired", action="store_true",
                    help="every grid point plays the same worlds (same seed): paired differences")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("planes", help="perception-only study of the re-alignment's plane: every "
+                       "first view of settled worlds, judged per grid point (no grasping)")
+    p.add_argument("--setup", required=True, help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
+    p.add_argument("--objects", help="objects of the worlds, e.g. a,b,c (default a-f)")
+    p.add_argument("--trials", type=int, default=100,
+                   help="worlds per object (Setup 1) or rounds (Setups 2, 3); a run's first "
+                        "attempts with the same seed")
+    p.add_argument("--seed", type=int, default=0, help="base seed of every layout and key")
+    p.add_argument("--preset", choices=["paper", "realistic"], default="paper")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a configuration value, e.g. procedure.view_tilt_deg=30")
+    p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
+                   help="traced alignment values, e.g. align.window_px=5,15,30 (every "
+                        "combination; one compiled program)")
+    p.add_argument("--batch", type=int, help="worlds per chunk (default: 4096 per GPU, 32 on CPU)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_planes)
 
     p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
     p.add_argument("folder", help="a run or sweep output directory")

@@ -143,7 +143,10 @@ class AlignConfig:
     """End-tool alignment by plane scoring (paper section 3.2, Eq. 2 and 3)."""
 
     hypotheses: Literal["triangles", "random"] = "triangles"  # paper: fixed triangles around A
-    num_triangles: int = 8  # triangles around the z_min point A (paper: 8, 45 degrees apart)
+    num_triangles: int = 8  # triangles around the point A (paper: 8, 45 degrees apart)
+    anchor: Literal["nearest", "centre"] = "nearest"  # A: z_min itself (paper), or the pixel
+    # nearest the centroid of z_min's surface band (ours: docs/realignment.md says why)
+    anchor_band: float = traced(0.005)  # anchor="centre": depth band of z_min's surface (m)
     triangle_radius_px: float = traced(5.0)  # distance of the triangle corners B, C from A (pixels)
     num_random: int = 64  # random-triangle hypotheses when hypotheses == "random"
     window_px: int = traced(15)  # inlier window around the triangle centroid in x, y and z (pixels)
@@ -160,6 +163,9 @@ class AlignConfig:
     def __post_init__(self):
         _require(self.hypotheses in ("triangles", "random"),
                  f"AlignConfig.hypotheses must be 'triangles' or 'random', got {self.hypotheses!r}")
+        _require(self.anchor in ("nearest", "centre"),
+                 f"AlignConfig.anchor must be 'nearest' or 'centre', got {self.anchor!r}")
+        _require(self.anchor_band > 0, f"AlignConfig.anchor_band must be > 0, got {self.anchor_band!r}")
         _require(self.pixel_scale in ("paper", "footprint"),
                  f"AlignConfig.pixel_scale must be 'paper' or 'footprint', got {self.pixel_scale!r}")
         _in_range(self, "num_triangles", 3, 64)
@@ -300,6 +306,9 @@ class ProcedureConfig:
     camera_height: float = traced(0.5)  # overview and centred views: camera height above the table (m)
     min_view_height: float = traced(0.05)  # a re-aligned camera must stay this high above the table (m)
     centre: bool = traced(True)  # move the camera over the target before detecting (paper: yes)
+    view_tilt_deg: float = traced(0.0)  # ours, 0 = the paper: the centred view looks at the
+    # target this far off vertical (azimuth uniform), so every top is sloped to the camera as on
+    # a ramp: the variant that needs re-alignment (docs/realignment.md)
     tcp_error: float = traced(0.0)  # execution error: TCP position sigma per axis (m; 0: exact)
     tilt_error_deg: float = traced(0.0)  # execution error: rotation sigma about a random axis (deg)
 
@@ -309,6 +318,7 @@ class ProcedureConfig:
         _require(self.min_view_height >= 0, "ProcedureConfig.min_view_height must be >= 0")
         _require(self.tcp_error >= 0, f"ProcedureConfig.tcp_error must be >= 0, got {self.tcp_error!r}")
         _in_range(self, "tilt_error_deg", 0.0, 45.0)
+        _in_range(self, "view_tilt_deg", 0.0, 60.0)
 
 
 # ---------------------------------------------------------------------------

@@ -324,12 +324,22 @@ def select_target(scene: Scene, data, eligible: jax.Array, camera: Camera, confi
     return index, rotation @ point_cam + position, depth, objects
 
 
-def centred_pose(point: jax.Array, config: Config):
+_TILT_STREAM = 7  # fold_in tag of the centred view's tilt azimuth (leaves every other draw as it was)
+
+
+def centred_pose(point: jax.Array, config: Config, key: jax.Array):
     """Camera moved parallel to the table so its optical axis passes through `point` (3,)
-    (with `procedure.centre` off: the overview pose, unmoved)."""
+    (with `procedure.centre` off: the overview pose, unmoved). With `procedure.view_tilt_deg`
+    the camera then swings about `point` by that angle about a horizontal axis of azimuth
+    U(-pi, pi) (from `key`): the same distance, the optical axis still through `point`."""
     over = jnp.where(config.procedure.centre, point[:2], 0.0)
-    return look_down(jnp.concatenate([over, jnp.full(1, config.procedure.camera_height,
-                                                     point.dtype)]))
+    rotation, position = look_down(jnp.concatenate(
+        [over, jnp.full(1, config.procedure.camera_height, point.dtype)]))
+    tilt = jnp.deg2rad(config.procedure.view_tilt_deg)
+    azimuth = jax.random.uniform(key, (), minval=-jnp.pi, maxval=jnp.pi)
+    swing = axis_angle(jnp.stack([jnp.cos(azimuth), jnp.sin(azimuth), 0.0]), tilt)
+    tilted = swing @ rotation, point + swing @ (position - point)
+    return jax.tree.map(lambda a, b: jnp.where(tilt > 0, a, b), tilted, (rotation, position))
 
 
 def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Camera,
@@ -363,13 +373,23 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Came
                  target_mask=mask)
 
 
+def first_look(scene: Scene, data, eligible, key, config: Config):
+    """Steps 1-3 on a settled state (after kinematics): the target () among `eligible` (n,), the
+    centred camera pose (rotation (3, 3), position (3,)), the overview image (H, W) with its
+    object index per pixel (H, W), and the key of the views that follow (view r: fold_in r)."""
+    k_overview, k_views = jax.random.split(key)
+    camera = config.camera.camera()
+    target, point, depth, objects = select_target(scene, data, eligible, camera, config, k_overview)
+    return (target, centred_pose(point, config, jax.random.fold_in(key, _TILT_STREAM)),
+            (depth, objects), k_views)
+
+
 def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool):
     """Steps 1-5 on a settled state (after kinematics): target, grasp pose, the search's record
     fields and, if `keep_views`, every image."""
     camera = config.camera.camera()
-    k_overview, k_views = jax.random.split(key)
-    target, point, depth, objects = select_target(scene, data, eligible, camera, config, k_overview)
-    centre_rot, centre_pos = centred_pose(point, config)
+    target, (centre_rot, centre_pos), (depth, objects), k_views = first_look(scene, data, eligible,
+                                                                             key, config)
     budget = config.procedure.max_reorientations  # traced; the loop has MAX_REORIENTATIONS + 1 views
 
     def look(carry, r):
@@ -430,6 +450,23 @@ def _with_error(pose: GraspPose, key, config: Config) -> GraspPose:
                      valid=pose.valid)
 
 
+def settle(scene: Scene, state: RoundState, spec: WorldSpec) -> RoundState:
+    """Call -1 alone, for studies that look without grasping: the freshly placed layout settles
+    exactly as `attempt(..., k=-1)` settles it, without compiling the search."""
+    config = spec.config
+    zero3 = jnp.zeros(3, jnp.float32)
+    data, _ = play(scene, physics_model(scene, config), state.data,
+                   GraspPose(zero3, zero3, zero3, jnp.array(False)), jnp.int32(0),
+                   _settle_segments(spec, jnp.int32(-1), config), jnp.array(False), config,
+                   reachable=jnp.array(False))
+    return dataclasses.replace(state, data=data)
+
+
+def attempt_keys(state: RoundState, k) -> tuple[jax.Array, jax.Array]:
+    """Attempt k's keys: its search (images, planes) and its execution error."""
+    return jax.random.split(jax.random.fold_in(state.key, 1000 + k))
+
+
 def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
             keep_views: bool = False) -> tuple[RoundState, Record, Views | None]:
     """Call k of this world's round: k = -1 settles the freshly placed layout; k >= 0 is the
@@ -439,8 +476,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     n = scene.num_objects
     eligible = spec.members & ~state.attempted & ~state.removed
     finite = jnp.all(jnp.isfinite(state.data.qpos))
-    key = jax.random.fold_in(state.key, 1000 + k)
-    k_search, k_error = jax.random.split(key)
+    k_search, k_error = attempt_keys(state, k)
 
     def search(_):
         kin = mjx.kinematics(model, state.data)

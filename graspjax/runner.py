@@ -48,9 +48,11 @@ from graspjax.procedure import (
     REASON_LABELS,
     SURFACE_LABELS,
     Record,
+    RoundState,
     Views,
     WorldSpec,
     attempt,
+    settle,
     start_round,
 )
 from graspjax.sim.objects import parse_letters
@@ -184,6 +186,7 @@ class Program:
         self._start: list = [None] * len(self.devices)
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
+        self._settle = None
 
     @functools.cached_property
     def scene(self) -> Scene:
@@ -224,6 +227,17 @@ class Program:
                          setup=np.array([w.setup for w in padded], np.int32),
                          trial=np.array([w.trial for w in padded], np.int32),
                          order=order, members=members, config=config)
+
+    def settle(self, worlds: tuple[World, ...], points: list[Config]) -> tuple[RoundState, WorldSpec]:
+        """These worlds placed and settled (no attempt), on the first device: for studies that
+        look at the layouts a run would attempt without grasping (`planes`)."""
+        scene = self.scene
+        template = mjx.make_data(scene.mj_model)
+        if self._settle is None:
+            self._settle = jax.jit(jax.vmap(lambda spec: settle(scene, start_round(scene, template,
+                                                                                   spec), spec)))
+        spec = jax.device_put(self.spec(worlds, points), self.devices[0])
+        return self._settle(spec), spec
 
     def on_device(self, spec: WorldSpec, device: int) -> WorldSpec:
         """The slice of a host batch that `device` runs, on that device."""

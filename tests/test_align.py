@@ -8,7 +8,7 @@ from conftest import assert_trees_close, world_to_camera
 
 from graspjax import AlignConfig, AlignReason, align_tool
 from graspjax.perception.align import plane_inliers
-from graspjax.synthetic import box, half_space, rot_x, rot_y, rot_z
+from graspjax.synthetic import Solid, box, half_space, rot_x, rot_y, rot_z
 
 
 def _camera_normal(normal_world):
@@ -180,3 +180,41 @@ def test_min_turn_skips_the_plane_the_camera_already_faces(camera, render):
     flat = jnp.asarray(render([half_space([0, 0, 1.0], [0, 0, 0.1])], ground=None))
     none = align_tool(flat, camera, AlignConfig(min_turn_deg=10.0))
     assert AlignReason(int(none.reason)) == AlignReason.NO_NEW_VIEW and not bool(none.found)
+
+
+def _band_centre(depth, band):
+    """Reference for anchor='centre': the band pixel nearest the centroid of the pixels within
+    `band` of the minimum depth (the test scenes hold one object, so the band is connected)."""
+    valid = np.isfinite(depth) & (depth > 0)
+    near = valid & (depth <= np.where(valid, depth, np.inf).min() + band)
+    v, u = np.nonzero(near)
+    nearest = np.argmin((u - u.mean()) ** 2 + (v - v.mean()) ** 2)
+    return u[nearest], v[nearest]
+
+
+def test_centre_anchor_on_a_flat_top_puts_every_triangle_on_the_top(camera, render):
+    """A box seen from above: A is the middle of its top, and all eight planes are the top."""
+    depth = render([box((0.06, 0.05, 0.05), (0.01, -0.02, 0.0), 0.3)])
+    found = align_tool(jnp.asarray(depth), camera, AlignConfig(anchor="centre"))
+    assert tuple(np.asarray(found.anchor)) == _band_centre(depth, 0.005)
+    assert np.all(np.asarray(found.valid))
+    np.testing.assert_allclose(np.asarray(found.normals), np.tile([0, 0, -1.0], (8, 1)), atol=1e-4)
+
+
+def test_centre_anchor_on_a_ridge_finds_a_slope(camera, render):
+    """A triangular prism lying on a side (60 degree slopes, ridge along y): A is the middle of
+    the ridge and the winning plane is one slope, its normal within 2 degrees of the true one.
+    z_min alone sits at the ridge's end, where some triangles hang over the table."""
+    side = 0.055
+    height = side * np.sqrt(3) / 2
+    slopes = [np.array([s * np.sin(np.pi / 3), 0.0, np.cos(np.pi / 3)]) for s in (1, -1)]
+    normals = np.array(slopes + [[0, 1.0, 0], [0, -1.0, 0], [0, 0, -1.0]])
+    ridge = Solid(normals, np.array([height / 2, height / 2, 0.04, 0.04, 0.0]))
+    depth = render([ridge])
+    centre = align_tool(jnp.asarray(depth), camera, AlignConfig(anchor="centre"))
+    assert tuple(np.asarray(centre.anchor)) == _band_centre(depth, 0.005)
+    true = [_camera_normal(n) for n in slopes]
+    error = min(np.degrees(np.arccos(np.clip(np.asarray(centre.normal) @ t, -1, 1))) for t in true)
+    assert bool(centre.found) and error < 2.0
+    nearest = align_tool(jnp.asarray(depth), camera, AlignConfig())
+    assert abs(int(nearest.anchor[1]) - int(centre.anchor[1])) > 5  # z_min: an end of the ridge

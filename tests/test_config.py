@@ -28,8 +28,8 @@ def test_traced_values_are_leaves_and_static_values_the_structure():
     a, b = AlignConfig(), AlignConfig(distance_threshold=0.5, window_px=10)
     assert jax.tree.structure(a) == jax.tree.structure(b)  # one compiled program for both
     assert jax.tree.structure(a) != jax.tree.structure(AlignConfig(num_triangles=6))
-    assert jax.tree.leaves(a) == [a.triangle_radius_px, a.window_px, a.distance_threshold,
-                                  a.min_inliers, a.min_turn_deg]
+    assert jax.tree.leaves(a) == [a.anchor_band, a.triangle_radius_px, a.window_px,
+                                  a.distance_threshold, a.min_inliers, a.min_turn_deg]
     assert hash(DetectorConfig()) == hash(DetectorConfig())
     traces = []
 

@@ -58,7 +58,7 @@ def test_target_is_the_nearest_eligible_object(basic_sim):
 
 def test_centring_keeps_the_height_and_aims_at_the_target():
     point = jnp.array([0.05, -0.03, 0.04])
-    rotation, position = centred_pose(point, CONFIG)
+    rotation, position = centred_pose(point, CONFIG, jax.random.key(0))
     np.testing.assert_allclose(position, [0.05, -0.03, CONFIG.procedure.camera_height])
     axis = np.asarray(rotation[:, 2])
     # The optical axis passes through the target point.
@@ -66,7 +66,28 @@ def test_centring_keeps_the_height_and_aims_at_the_target():
     np.testing.assert_allclose(np.cross(axis, along), 0.0, atol=1e-7)
     # Without centring the camera stays over the workspace centre.
     still = override(CONFIG, ["procedure.centre=false"])
-    np.testing.assert_allclose(centred_pose(point, still)[1], [0, 0, CONFIG.procedure.camera_height])
+    np.testing.assert_allclose(centred_pose(point, still, jax.random.key(0))[1],
+                               [0, 0, CONFIG.procedure.camera_height])
+
+
+@pytest.mark.parametrize("tilt", [15.0, 40.0])
+def test_a_tilted_centred_view_swings_about_the_target(tilt):
+    """view_tilt_deg: the optical axis is that far from straight down, still through the target,
+    from the same distance; the azimuth varies with the key."""
+    point = np.array([0.05, -0.03, 0.04])
+    config = override(CONFIG, [f"procedure.view_tilt_deg={tilt}"])
+    axes = []
+    for seed in range(3):
+        rotation, position = (np.asarray(x) for x in centred_pose(jnp.asarray(point), config,
+                                                                  jax.random.key(seed)))
+        np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-6)
+        axis = rotation[:, 2]
+        assert np.degrees(np.arccos(-axis[2])) == pytest.approx(tilt, abs=1e-3)
+        along = point - position
+        np.testing.assert_allclose(np.cross(axis, along), 0.0, atol=1e-6)
+        assert np.linalg.norm(along) == pytest.approx(CONFIG.procedure.camera_height - point[2])
+        axes.append(axis)
+    assert np.linalg.norm(axes[0] - axes[1]) > 1e-3
 
 
 def test_execution_error_has_its_configured_spread():

@@ -1,9 +1,9 @@
 """End-tool alignment by plane scoring (paper section 3.2), for one depth image.
 
-Around the nearest valid point A (z_min), `num_triangles` triangles
+Around the point A (z_min, or the centre of z_min's surface band: `anchor`), `num_triangles` triangles
 (A, A + r(cos phi_k, sin phi_k), A + r(cos phi_k+1, sin phi_k+1)) with
 phi_k = k * 360deg / N each define a plane. The image becomes a point cloud
-in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at z_min, and a point is
+in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at A's depth, and a point is
 an inlier of plane k (Eq. 3) when its distance to the plane is below
 `distance_threshold` and it lies within `window_px` of the triangle's centroid
 in u, v and the converted z. The plane with most inliers wins, among those whose view turns
@@ -28,7 +28,7 @@ from jax import lax
 
 from graspjax.camera import Camera
 from graspjax.config import MAX_WINDOW_PX, AlignConfig
-from graspjax.perception.cluster import nearest_pixel, valid_mask
+from graspjax.perception.cluster import nearest_pixel, surface_cluster, valid_mask
 from graspjax.perception.reasons import AlignReason
 
 
@@ -42,7 +42,7 @@ class Alignment:
     point: jax.Array  # (3,) centroid of the winning plane's inliers
     inliers: jax.Array  # () int32 inliers of the winning plane
     best: jax.Array  # () int32 index of the winning hypothesis (-1 if none)
-    anchor: jax.Array  # (2,) int32 pixel A of z_min (u, v)
+    anchor: jax.Array  # (2,) int32 pixel A (u, v): z_min or the centre of its band (`anchor`)
     corners: jax.Array  # (N, 3, 2) int32 triangle corners in pixels (u, v)
     normals: jax.Array  # (N, 3) unit normal of every hypothesis, toward the camera
     counts: jax.Array  # (N,) int32 inliers of every hypothesis (0 if invalid)
@@ -97,6 +97,32 @@ def _pixel_scale(camera: Camera, z_min, config: AlignConfig):
     return 1.0 / camera.d_p(z_min, footprint=config.pixel_scale == "footprint")
 
 
+def anchor_point(depth: jax.Array, allowed: jax.Array, config: AlignConfig) -> tuple[jax.Array, jax.Array]:
+    """The triangles' common corner A: its pixel `(2,)` int32 (u, v) and depth (inf if none).
+
+    depth: metric depth (H, W); allowed: (H, W) bool. `anchor="nearest"`: z_min itself (on a
+    face seen head-on, sub-millimetre tilt decides: a corner of the face). `anchor="centre"`:
+    the pixel nearest the centroid of z_min's surface band (4-connected, `[z_min, z_min +
+    anchor_band]`); on a ridge or a narrow slope the band is a strip along the nearest edge, on
+    a flat top the whole top.
+    """
+    seed, z_min = nearest_pixel(depth, allowed)
+    if config.anchor == "nearest":
+        return seed, z_min
+    band = surface_cluster(depth, allowed, seed, z_min, z_min + config.anchor_band)
+    height, width = depth.shape
+    v, u = jnp.meshgrid(jnp.arange(height, dtype=jnp.float32), jnp.arange(width, dtype=jnp.float32),
+                        indexing="ij")
+    n = jnp.maximum(jnp.sum(band), 1)
+    centroid_u, centroid_v = jnp.sum(u * band) / n, jnp.sum(v * band) / n
+    far = jnp.where(band, (u - centroid_u) ** 2 + (v - centroid_v) ** 2, jnp.inf)
+    cv, cu = jnp.divmod(jnp.argmin(far), width)
+    centre = jnp.stack([cu, cv]).astype(jnp.int32)
+    found = jnp.any(band)
+    return (jnp.where(found, centre, seed),
+            jnp.where(found, jnp.where(allowed, depth, jnp.inf)[cv, cu], z_min))
+
+
 def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConfig(),
                key: jax.Array | None = None, seed_mask: jax.Array | None = None) -> Alignment:
     """Score candidate planes around z_min and pick the one with most inliers.
@@ -113,9 +139,9 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
                          f"({camera.height}, {camera.width})")
     valid = valid_mask(depth)
     clean = jnp.where(valid, depth, 0.0)
-    anchor, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
-    any_valid = jnp.isfinite(z_min)
-    scale = _pixel_scale(camera, jnp.where(any_valid, z_min, 1.0), config)
+    anchor, z_anchor = anchor_point(depth, valid if seed_mask is None else valid & seed_mask, config)
+    any_valid = jnp.isfinite(z_anchor)
+    scale = _pixel_scale(camera, jnp.where(any_valid, z_anchor, 1.0), config)
 
     corners = _hypothesis_corners(anchor, config, key)  # (N, 3, 2)
     inside = ((corners[..., 0] >= 0) & (corners[..., 0] < width)
