@@ -144,8 +144,9 @@ class AlignConfig:
 
     hypotheses: Literal["triangles", "random"] = "triangles"  # paper: fixed triangles around A
     num_triangles: int = 8  # triangles around the point A (paper: 8, 45 degrees apart)
-    anchor: Literal["nearest", "centre"] = "nearest"  # A: z_min itself (paper), or the pixel
-    # nearest the centroid of z_min's surface band (ours: docs/realignment.md says why)
+    anchor: Literal["nearest", "centre"] = "centre"  # A, "a point in the z_min": the pixel
+    # nearest the centroid of z_min's surface band, or z_min itself ("nearest": on a flat face a
+    # corner decided by sub-millimetre tilt or noise; measured paired in docs/realignment.md)
     anchor_band: float = traced(0.005)  # anchor="centre": depth band of z_min's surface (m)
     triangle_radius_px: float = traced(5.0)  # distance of the triangle corners B, C from A (pixels)
     num_random: int = 64  # random-triangle hypotheses when hypotheses == "random"

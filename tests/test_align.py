@@ -15,14 +15,37 @@ def _camera_normal(normal_world):
     return world_to_camera(normal_world) - world_to_camera([0, 0, 0])
 
 
+def _band_centre(depth, band):
+    """Reference for anchor='centre': the pixel nearest the centroid of the pixels 4-connected
+    to z_min within `band` of its depth (a breadth-first fill)."""
+    valid = np.isfinite(depth) & (depth > 0)
+    masked = np.where(valid, depth, np.inf)
+    seed = np.unravel_index(np.argmin(masked), depth.shape)
+    inside = valid & (masked <= masked[seed] + band)
+    region, frontier = {seed}, [seed]
+    while frontier:
+        v, u = frontier.pop()
+        for nv, nu in ((v + 1, u), (v - 1, u), (v, u + 1), (v, u - 1)):
+            if (0 <= nv < depth.shape[0] and 0 <= nu < depth.shape[1] and inside[nv, nu]
+                    and (nv, nu) not in region):
+                region.add((nv, nu))
+                frontier.append((nv, nu))
+    v, u = np.array(sorted(region)).T
+    nearest = np.argmin((u - u.mean()) ** 2 + (v - v.mean()) ** 2)
+    return u[nearest], v[nearest]
+
+
 def eq3_reference(depth, camera, config: AlignConfig):
     """Eq. 2 and 3 over the whole image, pixel by pixel, straight from the paper.
 
-    Returns the inlier count of each of the 8 (N) triangles around z_min.
+    Returns the inlier count of each of the 8 (N) triangles around A (z_min, or the centre of
+    its surface band).
     """
     valid = np.isfinite(depth) & (depth > 0)
     masked = np.where(valid, depth, np.inf)
     v_a, u_a = np.unravel_index(np.argmin(masked), depth.shape)
+    if config.anchor == "centre":
+        u_a, v_a = _band_centre(depth, config.anchor_band)
     z_a = depth[v_a, u_a]
     tan_half = np.tan(camera.fov_x / 2)
     d_p = z_a * tan_half / camera.width  # Eq. 2 as written
@@ -69,10 +92,11 @@ def test_tilted_plane_normal_is_recovered(camera, align, render, tilt_deg, azimu
     assert int(a.inliers) >= AlignConfig().min_inliers
 
 
-@pytest.mark.parametrize("scale", ["paper", "footprint"])
-def test_inlier_counts_match_the_paper_formula(camera, render, scale):
+@pytest.mark.parametrize("scale, anchor", [("paper", "centre"), ("footprint", "centre"),
+                                           ("paper", "nearest")])
+def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor):
     """Patch-based scoring equals Eq. 3 evaluated pixel by pixel over the image."""
-    cfg = AlignConfig(pixel_scale=scale)
+    cfg = AlignConfig(pixel_scale=scale, anchor=anchor)
     scene = [box((0.05, 0.07, 0.04), (0.01, 0.0, 0.0), 0.4).moved(rot_x(0.3), (0, 0, 0.02)),
              box((0.04, 0.04, 0.06), (-0.05, 0.02, 0.0), 1.0)]
     depth = render(scene)
@@ -169,9 +193,9 @@ def test_min_turn_skips_the_plane_the_camera_already_faces(camera, render):
     min_turn_deg the winner is the best plane that turns the view at least that far, and an
     image of one flat face has none (NO_NEW_VIEW)."""
     depth = jnp.asarray(render([box((0.06, 0.06, 0.05), (0, 0, 0), 0.2)]))
-    literal = align_tool(depth, camera, AlignConfig())
+    literal = align_tool(depth, camera, AlignConfig(anchor="nearest"))
     np.testing.assert_allclose(np.asarray(literal.normal), [0, 0, -1], atol=1e-5)
-    turned = align_tool(depth, camera, AlignConfig(min_turn_deg=10.0))
+    turned = align_tool(depth, camera, AlignConfig(anchor="nearest", min_turn_deg=10.0))
     assert bool(turned.found)
     assert float(-turned.normal[2]) <= np.cos(np.deg2rad(10.0))  # at least 10 degrees away
     counts, normals = np.asarray(turned.counts), np.asarray(turned.normals)
@@ -181,15 +205,6 @@ def test_min_turn_skips_the_plane_the_camera_already_faces(camera, render):
     none = align_tool(flat, camera, AlignConfig(min_turn_deg=10.0))
     assert AlignReason(int(none.reason)) == AlignReason.NO_NEW_VIEW and not bool(none.found)
 
-
-def _band_centre(depth, band):
-    """Reference for anchor='centre': the band pixel nearest the centroid of the pixels within
-    `band` of the minimum depth (the test scenes hold one object, so the band is connected)."""
-    valid = np.isfinite(depth) & (depth > 0)
-    near = valid & (depth <= np.where(valid, depth, np.inf).min() + band)
-    v, u = np.nonzero(near)
-    nearest = np.argmin((u - u.mean()) ** 2 + (v - v.mean()) ** 2)
-    return u[nearest], v[nearest]
 
 
 def test_centre_anchor_on_a_flat_top_puts_every_triangle_on_the_top(camera, render):
@@ -216,5 +231,5 @@ def test_centre_anchor_on_a_ridge_finds_a_slope(camera, render):
     true = [_camera_normal(n) for n in slopes]
     error = min(np.degrees(np.arccos(np.clip(np.asarray(centre.normal) @ t, -1, 1))) for t in true)
     assert bool(centre.found) and error < 2.0
-    nearest = align_tool(jnp.asarray(depth), camera, AlignConfig())
+    nearest = align_tool(jnp.asarray(depth), camera, AlignConfig(anchor="nearest"))
     assert abs(int(nearest.anchor[1]) - int(centre.anchor[1])) > 5  # z_min: an end of the ridge
