@@ -9,7 +9,7 @@
 #   threshold         the same, align.distance_threshold=0.05,0.1,0.3,0.6,1.0
 #   planes-sloped     perception only: first views of 3,000 sloped Setup 1 worlds per object,
 #                     judged for window x threshold (5 x 5 grid points)
-#   planes-bin        the same on the first views of 4,096 Setup 3 rounds
+#   planes-bin        the same on the first views of 16,384 Setup 3 rounds
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 gj() { python3 -m graspjax.cli "$@"; }
@@ -41,7 +41,7 @@ for step in "$@"; do
       echo "== planes sloped: exit $? after $((SECONDS - start)) s"; tail -n 1 "$out/planes_sloped.log"
       keep planes_sloped ;;
     planes-bin)
-      gj planes --setup 3 --objects abcdef --trials 4096 --seed 0 --quiet \
+      gj planes --setup 3 --objects abcdef --trials 16384 --seed 0 --quiet \
         --grid "$windows" --grid "$thresholds" --out "$out/planes_bin" > "$out/planes_bin.log" 2>&1
       echo "== planes bin: exit $? after $((SECONDS - start)) s"; tail -n 1 "$out/planes_bin.log"
       keep planes_bin ;;

@@ -222,10 +222,13 @@ def test_grasp_pose_in_the_world(basic_sim):
 @pytest.mark.parametrize("budget", [0, 1])
 def test_the_search_stops_at_the_re_alignment_budget(basic_sim, budget):
     """The wedge (c) under the wall check: its top band has no wall, so the centred view fails
-    and the procedure re-aligns; with budget 0 it takes that one view and no more."""
+    and the procedure re-aligns; with budget 0 it takes that one view and no more. (With A at
+    z_min, the ramp's corner, the re-aligned camera centres on the ramp's corner and finds a
+    grasp there; A at the band's centre turns to the same ramp plane, but its view of the
+    ramp's middle fails the wall check again.)"""
     from graspjax.procedure import _search
 
-    config = override(CONFIG, ["detect.wall_check=true",
+    config = override(CONFIG, ["detect.wall_check=true", "align.anchor=nearest",
                                f"procedure.max_reorientations={budget}"])
     data = _world(basic_sim, {2: (0.0, 0.0, 0.0)})
     eligible = jnp.zeros(6, bool).at[2].set(True)
