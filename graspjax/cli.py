@@ -210,11 +210,12 @@ def _jobs(args):
         raise UsageError(f"--seed must be >= 0, got {args.seed}")
     if args.batch is not None and args.batch < 1:
         raise UsageError(f"--batch must be >= 1, got {args.batch}")
-    if args.max_views < 0:
+    if getattr(args, "max_views", 0) < 0:
         raise UsageError(f"--max-views must be >= 0, got {args.max_views}")
-    if args.resume and args.overwrite:
+    if getattr(args, "resume", False) and args.overwrite:
         raise UsageError("give --resume or --overwrite, not both")
-    _part(args.part)
+    _part(getattr(args, "part", None))
+    args.table = getattr(args, "table", None)
     if (args.table is None) == (args.setup is None):
         raise UsageError("give either --table 1|2|1,2 or --setup S [--objects ...]")
     if args.table is not None:
@@ -367,7 +368,6 @@ def cmd_planes(args) -> int:
     from graspjax.config import Config, differences, flatten, override, preset
     from graspjax.outputs import check_output_folder, environment
 
-    args.table, args.resume, args.part, args.max_views = None, False, None, 0
     jobs = _jobs(args)
     out = check_output_folder(args.out, overwrite=args.overwrite)
     config = override(preset(args.preset), args.set or [])

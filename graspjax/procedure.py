@@ -66,10 +66,12 @@ from graspjax.sim.world import (
     GraspPose,
     LayoutStats,
     Outcome,
+    PhysicsState,
     hand_clear,
     hand_waypoints,
     layout_stats,
     physics_model,
+    physics_state,
     play,
     reset,
     where_tree,
@@ -192,6 +194,7 @@ class Views:
     looked: jax.Array  # (1 + V,) bool the procedure took this image
     grasp: Grasp  # detection of each view (leading axis V)
     alignment: Alignment  # alignment of each view (leading axis V)
+    state: PhysicsState  # the world before the attempt (a replay starts here: sim/replay.py)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -428,7 +431,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
                       rotation=jnp.concatenate([rotation[None], _view_poses(centre_rot, v.next_rotation)]),
                       position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
                       looked=jnp.concatenate([jnp.array([True]), searched]),
-                      grasp=v.grasp, alignment=v.alignment)
+                      grasp=v.grasp, alignment=v.alignment, state=physics_state(data))
     return target, pose, (blocked, turns, detect_reason, align_reason, realign), views
 
 

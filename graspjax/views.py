@@ -94,7 +94,7 @@ class ViewSaver:
                       "seed": np.asarray(seed), "cluster": np.asarray(cluster),
                       "surface_depth": np.asarray(z_s),
                       **_flat("grasp", view.grasp), **_flat("alignment", view.alignment),
-                      **_flat("contour", contour),
+                      **_flat("contour", contour), **_flat("state", view.state),
                       "camera": np.array([camera.fx, camera.fy, camera.cx, camera.cy]),
                       "label": np.array([f"Setup {row.setup}, round {row.round}, attempt "
                                          f"{row.attempt}, object {row.object}: {row.reason}"])}

@@ -296,3 +296,32 @@ def test_the_jaws_squeeze_with_grip_force(force):
     assert pressed == pytest.approx(force, rel=0.05)
     # On the cube's side: the stiff pads (0.01 s time constant) sink about 1 mm under 20-40 N.
     assert data.joint("finger_1").qpos[0] == pytest.approx(0.025, abs=0.002)
+
+
+def test_c_mujoco_replays_end_as_the_physics_says(basic_sim):
+    """The same states and grasps executed in C MuJoCo (sim/replay.py) give the outcomes a
+    person expects, as MJX does: a cube lifted, a grasp in the air, the wrong object lifted, an
+    approach stopped by the cylinder under the palm, a pre-grasp inside the table refused."""
+    from graspjax.config import Config
+    from graspjax.sim.replay import replay
+    from graspjax.sim.world import physics_state
+
+    cube, cylinder, block = 0, 4, 5
+    worlds = [{cube: (0.0, 0.0, 0.0)}, {cube: (0.0, 0.0, 0.0)},
+              {cube: (0.0, 0.0, 0.0), block: (0.1, 0.0, 0.0)},
+              {block: (0.0, 0.0, 0.0), cylinder: (0.0, 0.08, 0.0)},
+              {cube: (0.0, 0.0, 0.0)}, {block: (0.0, 0.0, 0.0)}]
+    rows = [((0, 0, 0.03), (1, 0, 0), True), ((0.2, 0.0, 0.03), (1, 0, 0), True),
+            ((0.1, 0, 0.01), (0, 1, 0), True), ((0, 0, 0.01), (0, 1, 0), True),
+            ((0, 0, -0.08), (1, 0, 0), True), ((0, 0, 0.01), (0, 1, 0), True)]
+    target = [cube, cube, cube, block, cube, block]
+    expected = [Outcome.SUCCESS, Outcome.MISSED, Outcome.WRONG_OBJECT, Outcome.COLLISION,
+                Outcome.COLLISION, Outcome.SUCCESS]
+    data = _place(basic_sim, worlds)
+    grasps = _grasps(rows)
+    _, attempt = basic_sim.execute(data, grasps, jnp.asarray(target))
+    assert [Outcome(o) for o in attempt.outcome] == expected
+    for w in range(SIM_BATCH):
+        state = jax.tree.map(lambda x, w=w: np.asarray(x[w]), physics_state(data))
+        grasp = jax.tree.map(lambda x, w=w: np.asarray(x[w]), grasps)
+        assert replay(basic_sim.scene, Config(), state, grasp, target[w]) == expected[w], w

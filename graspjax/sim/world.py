@@ -87,6 +87,27 @@ for _cls in (GraspPose, Snapshot, Execution):
         _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
 
 
+@dataclasses.dataclass(frozen=True)
+class PhysicsState:
+    """One world's physics state, enough to continue it elsewhere (C MuJoCo: `sim/replay.py`)."""
+
+    qpos: jax.Array  # (nq,)
+    qvel: jax.Array  # (nv,)
+    act: jax.Array  # (na,) actuator states (the jaw servo's filter)
+    ctrl: jax.Array  # (nu,)
+    mocap_pos: jax.Array  # (nmocap, 3) the hand's target, the bin
+    mocap_quat: jax.Array  # (nmocap, 4)
+
+
+jax.tree_util.register_dataclass(
+    PhysicsState, data_fields=[f.name for f in dataclasses.fields(PhysicsState)], meta_fields=[])
+
+
+def physics_state(data: mjx.Data) -> PhysicsState:
+    """The state of `data` (`PhysicsState`)."""
+    return PhysicsState(**{f.name: getattr(data, f.name) for f in dataclasses.fields(PhysicsState)})
+
+
 def physics_model(scene: Scene, config: Config) -> mjx.Model:
     """The scene's model with this world's traced physics values (frictions, grip force)."""
     model = scene.model
