@@ -10,7 +10,8 @@ Every attempt whose views were saved carries the world's physics state before th
 (`views/*.npz`, `state.*`). Each one whose grasp was found is executed again by
 `graspjax.sim.replay.replay` in C MuJoCo from that state, with the recorded grasp pose, and
 its outcome is compared with the MJX outcome in `attempts.csv`. Needs a run without execution
-error (the paper preset): the recorded pose is then exactly the executed one. Prints markdown:
+error (the paper preset): the recorded pose is then the executed one, to the 7 significant
+digits `attempts.csv` keeps. Prints markdown:
 agreement per setup and object with Wilson 95 % intervals, and the outcomes side by side.
 """
 
@@ -26,6 +27,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from graspjax.report import load_attempts, point_config, wilson
+from graspjax.runner import Job
 from graspjax.sim import scene_for
 from graspjax.sim.replay import replay
 from graspjax.sim.world import GraspPose, Outcome, PhysicsState
@@ -45,8 +47,9 @@ def replays(folder: Path, iterations: int | None, quiet: bool = False) -> pd.Dat
         if config.procedure.tcp_error > 0 or config.procedure.tilt_error_deg > 0:
             raise SystemExit(f"{folder}: point {row.point} has execution error; replay a run "
                              "of the paper preset (the recorded pose must be the executed one)")
-        letters = next(tuple(j["objects"]) for j in meta["jobs"] if row.setup in j["setups"]
-                       and row.object in j["objects"])
+        letters = next(Job(tuple(j["objects"]), tuple(j["setups"]), j["trials"]).letters
+                       for j in meta["jobs"] if row.setup in j["setups"]
+                       and row.object in j["objects"])  # the scene's order, as the run built it
         key = (letters, row.setup > 1, int(row.point))
         if key not in scenes:
             scenes[key] = scene_for(letters, config, row.setup > 1)

@@ -2,7 +2,9 @@
 
     python3 experiments/realign_studies.py SWEEP... [--planes PLANES...] > study.md
 
-SWEEP: a folder of `graspjax sweep --paired` (every grid point plays the same worlds). Per
+SWEEP: a folder of `graspjax sweep --paired` (every grid point plays the same worlds; in
+Setups 2 and 3 an attempt pairs only where both points attempted the same object at the same
+attempt number, since earlier outcomes change the pile). Per
 grid point and setup: attempts, success with its Wilson 95 % interval, attempts that
 re-aligned, rescued, and the rescue rate among the re-aligned (Wilson). Against the reference
 point (the one whose values equal the default configuration, else point 0): the discordant
@@ -46,6 +48,14 @@ def paired_detectable(discordant: int, pairs: int) -> float:
     return (1.96 + 0.84) * math.sqrt(share / max(pairs, 1))
 
 
+def _same(a, b) -> bool:
+    """Grid value `a` equals config value `b` (numbers compared as numbers)."""
+    try:
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return str(a) == str(b)
+
+
 def _pct(x: float) -> str:
     return f"{100 * x:.1f}"
 
@@ -63,7 +73,7 @@ def sweep_table(folder: str) -> str:
     default = flatten(Config())
     points = sorted(frame["point"].unique())
     reference = next((p for p in points if all(
-        str(grid[k][p]) == str(default[k]) for k in keys)), points[0])
+        _same(grid[k][p], default[k]) for k in keys)), points[0])
     lines = [f"### {folder}: {', '.join(keys)} (paired; reference: point {reference}, "
              f"{', '.join(f'{k}={grid[k][reference]}' for k in keys)})", "",
              "| " + " | ".join([*keys, "setup", "attempts", "success % [95 %]", "re-aligned",
@@ -78,7 +88,7 @@ def sweep_table(folder: str) -> str:
             realigned = here[here["reorientations"] > 0]
             rescued = int(here["rescued"].sum())
             paired = pd.concat([here.set_index(PAIR)["success"].astype(bool), ref], axis=1,
-                               keys=["here", "ref"]).dropna()
+                               keys=["here", "ref"]).dropna().astype(bool)
             only_here = int((paired["here"] & ~paired["ref"]).sum())
             only_ref = int((~paired["here"] & paired["ref"]).sum())
             compare = (("", "", "") if p == reference else (
@@ -103,7 +113,7 @@ def across_table(before: str, after: str) -> str:
              "|" + "---|" * (len(keys) + 6)]
     for p in sorted(b["point"].unique()):
         pair = pd.concat([f[(f["point"] == p) & (f["attempt"] >= 0)].set_index(PAIR)["success"]
-                          .astype(bool) for f in (a, b)], axis=1, keys=["a", "b"]).dropna()
+                          .astype(bool) for f in (a, b)], axis=1, keys=["a", "b"]).dropna().astype(bool)
         only_a = int((pair["a"] & ~pair["b"]).sum())
         only_b = int((~pair["a"] & pair["b"]).sum())
         lines.append("| " + " | ".join([

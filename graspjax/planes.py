@@ -98,7 +98,7 @@ def study(groups, points: list[Config], batch: int, progress: Callable[[int], No
     Returns one row per (grid point, world) (`COLUMNS`) and the timings: settle and view
     seconds, the scoring call's compile seconds, and the scoring's views per second.
     """
-    from graspjax.runner import Program, chunks
+    from graspjax.runner import chunks, program
 
     timings = {"settle_s": 0.0, "view_s": 0.0, "score_compile_s": 0.0, "score_s": 0.0,
                "views_scored": 0}
@@ -106,13 +106,13 @@ def study(groups, points: list[Config], batch: int, progress: Callable[[int], No
     for chunk in chunks(groups, batch):
         group = groups[chunk.group]
         if chunk.group not in compiled:
-            program = Program(group, batch, keep_views=False)
-            scene = program.scene
+            shared = program(group, batch, keep_views=False)  # padded to the chunks' size
+            scene = shared.scene
             look = jax.jit(jax.vmap(lambda s, w, scene=scene: first_view(scene, s, w)))
-            compiled[chunk.group] = program, look, None
-        program, look, score = compiled[chunk.group]
+            compiled[chunk.group] = shared, look, None
+        shared, look, score = compiled[chunk.group]
         start = time.perf_counter()
-        state, spec = program.settle(chunk.worlds, [group.config])
+        state, spec = shared.settle(chunk.worlds, [group.config])
         jax.block_until_ready(state)
         timings["settle_s"] += time.perf_counter() - start
 
@@ -124,11 +124,11 @@ def study(groups, points: list[Config], batch: int, progress: Callable[[int], No
             score = jax.jit(jax.vmap(judge, in_axes=(0, None, None))).lower(
                 views, points[0].align, group.config).compile()
             timings["score_compile_s"] += time.perf_counter() - start
-            compiled[chunk.group] = program, look, score
+            compiled[chunk.group] = shared, look, score
 
         n = len(chunk.worlds)
         target = np.asarray(views.target)[:n]
-        letters = np.array(program.scene.letters + ("",))
+        letters = np.array(shared.scene.letters + ("",))
         world_columns = {
             "setup": [w.setup for w in chunk.worlds],
             "trial": [w.trial for w in chunk.worlds],
@@ -163,7 +163,8 @@ def detectable_difference(rate: float, n: int) -> float:
 def summarize(rows: pd.DataFrame, grid: dict[str, list]) -> pd.DataFrame:
     """Per grid point, over the views whose first view has no grasp (those that re-align): how
     often a plane is found, lies on the target (Wilson 95 % interval), its normal's error and the
-    view's tilt, and the smallest on-target difference this many views can detect."""
+    view's tilt, and the smallest on-target difference this many views can detect (computed as
+    for independent samples: conservative, since every point scores the same views)."""
     from graspjax.report import wilson
 
     out = []

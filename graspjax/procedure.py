@@ -333,15 +333,17 @@ _TILT_STREAM = 7  # fold_in tag of the centred view's tilt azimuth (leaves every
 def centred_pose(point: jax.Array, config: Config, key: jax.Array):
     """Camera moved parallel to the table so its optical axis passes through `point` (3,)
     (with `procedure.centre` off: the overview pose, unmoved). With `procedure.view_tilt_deg`
-    the camera then swings about `point` by that angle about a horizontal axis of azimuth
-    U(-pi, pi) (from `key`): the same distance, the optical axis still through `point`."""
+    the camera then swings by that angle about a horizontal axis of azimuth U(-pi, pi) (from
+    `key`) through the point where its optical axis meets the target's height (`point` itself
+    when centred): the same distance, the optical axis still through that point."""
     over = jnp.where(config.procedure.centre, point[:2], 0.0)
     rotation, position = look_down(jnp.concatenate(
         [over, jnp.full(1, config.procedure.camera_height, point.dtype)]))
     tilt = jnp.deg2rad(config.procedure.view_tilt_deg)
     azimuth = jax.random.uniform(key, (), minval=-jnp.pi, maxval=jnp.pi)
     swing = axis_angle(jnp.stack([jnp.cos(azimuth), jnp.sin(azimuth), 0.0]), tilt)
-    tilted = swing @ rotation, point + swing @ (position - point)
+    pivot = jnp.concatenate([over, point[2:]])
+    tilted = swing @ rotation, pivot + swing @ (position - pivot)
     return jax.tree.map(lambda a, b: jnp.where(tilt > 0, a, b), tilted, (rotation, position))
 
 

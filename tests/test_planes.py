@@ -93,6 +93,6 @@ def test_planes_end_to_end(tmp_path, capsys):
     assert len(rows) == 4 and sorted(rows["align.window_px"].unique()) == [5, 15]
     assert set(rows.target) == {"a"}
     found = rows[rows.plane_found]
-    assert (found.surface == "target").all() and (found.normal_error_deg < 2.0).all()
+    assert len(found) > 0 and (found.surface == "target").all() and (found.normal_error_deg < 2.0).all()
     summary = pd.read_csv(out / "planes_summary.csv")
     assert list(summary.point) == [0, 1]

@@ -88,6 +88,14 @@ def test_a_tilted_centred_view_swings_about_the_target(tilt):
         assert np.linalg.norm(along) == pytest.approx(CONFIG.procedure.camera_height - point[2])
         axes.append(axis)
     assert np.linalg.norm(axes[0] - axes[1]) > 1e-3
+    # Not centred: the camera stays over the workspace centre and swings about the point where
+    # its axis meets the target's height.
+    still = override(config, ["procedure.centre=false"])
+    rotation, position = (np.asarray(x) for x in centred_pose(jnp.asarray(point), still,
+                                                              jax.random.key(0)))
+    pivot = np.array([0.0, 0.0, point[2]])
+    np.testing.assert_allclose(np.cross(rotation[:, 2], pivot - position), 0.0, atol=1e-6)
+    assert np.linalg.norm(pivot - position) == pytest.approx(CONFIG.procedure.camera_height - point[2])
 
 
 def test_execution_error_has_its_configured_spread():

@@ -3,9 +3,10 @@
 `world.play` executes a grasp in MJX. `replay` runs the same execution from the same state
 in C MuJoCo (`mujoco.mj_step`): the same model with the world's physics values
 (`world.physics_model`, `world.with_parking`), the same refusal of a pre-grasp pose inside a
-part (`world.hand_clear`), the same waypoints, schedule, collision reflex and judge. Only the
-integrator differs, so a disagreement measures MJX against the reference implementation
-(`experiments/crosscheck.py`).
+part (`world.hand_clear`), the same waypoints, schedule, collision reflex and judge. What
+differs is the implementation: C's collision code and solver in float64, started cold (the
+state carries no solver warm start), so a disagreement measures MJX against the reference
+implementation (`experiments/crosscheck.py`).
 """
 
 from __future__ import annotations
