@@ -146,8 +146,12 @@ def cmd_bench(args) -> int:
 
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
+    if args.what == "detect" and args.preset is not None:
+        raise UsageError("bench detect runs the real-image pipeline, which has no preset: give "
+                         "its settings with --set (e.g. --set detect.wall_check=true)")
     progress = lambda m: print(m, file=sys.stderr)  # noqa: E731
-    config = None if args.what == "detect" else override(preset(args.preset), args.set or [])
+    config = (None if args.what == "detect"
+              else override(preset(args.preset or "paper"), args.set or []))
     if args.what == "detect":
         result, text = _bench_detect(args, progress)
     elif args.what == "perception":
@@ -547,8 +551,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=10, help="timed calls (median is reported)")
     p.add_argument("--out", help="write the full record to this JSON file")
     p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")
-    p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
-                   help="configuration preset (see graspjax run --help)")
+    p.add_argument("--preset", choices=["paper", "realistic"],
+                   help="perception, physics, pipeline: configuration preset (default paper; "
+                        "see graspjax run --help); detect takes --set only")
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
     p.set_defaults(func=cmd_bench)
     return parser

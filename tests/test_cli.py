@@ -188,3 +188,11 @@ print(os.environ["XLA_FLAGS"])
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "--xla_gpu_deterministic_ops=true"
+
+
+def test_bench_detect_refuses_a_preset(tmp_path, capsys):
+    """The real-image pipeline has no preset: asking for one is a one-line error, not ignored."""
+    out = tmp_path / "bench.json"
+    assert main(["bench", "detect", "--preset", "realistic", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "has no preset" in err and err.count("\n") == 1 and not out.exists()

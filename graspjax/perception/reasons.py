@@ -58,7 +58,7 @@ class SupportReason(IntEnum):
 
 
 class TargetReason(IntEnum):
-    """Why `select_target` found (0) or did not find a target point on a real depth image."""
+    """Why `target.target_candidates` found (0) or did not find a target on a real depth image."""
 
     FOUND = 0  # a target pixel was chosen
     EMPTY_WORKSPACE = 1  # no valid depth inside the workspace and depth range
