@@ -14,7 +14,7 @@ import sys
 
 import pandas as pd
 
-from graspjax.report import load_attempts, wilson
+from graspjax.report import load_attempts, markdown, wilson
 
 FOOTPRINT = 0.0167  # total footprint of a-f (m^2): the 0.18 m bin's floor is 1.94 times it
 
@@ -43,8 +43,4 @@ def rows(folder: str) -> list[dict]:
 
 
 if __name__ == "__main__":
-    table = pd.DataFrame([r for folder in sys.argv[1:] for r in rows(folder)])
-    print("| " + " | ".join(table.columns) + " |")
-    print("|" + "---|" * len(table.columns))
-    for values in table.itertuples(index=False):
-        print("| " + " | ".join(map(str, values)) + " |")
+    print(markdown(pd.DataFrame([r for folder in sys.argv[1:] for r in rows(folder)]), index=False))

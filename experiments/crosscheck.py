@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from graspjax.report import load_attempts, point_config, wilson
+from graspjax.report import load_attempts, markdown, point_config, wilson
 from graspjax.runner import Job
 from graspjax.sim import scene_for
 from graspjax.sim.replay import replay
@@ -73,28 +73,25 @@ def _rate(k: int, n: int) -> str:
     return f"{100 * k / max(n, 1):.0f} % [{100 * float(low):.0f}-{100 * float(high):.0f}] of {n}"
 
 
-def markdown(table: pd.DataFrame) -> str:
-    """Agreement per setup and object, then the outcomes side by side."""
+def agreement(table: pd.DataFrame) -> str:
+    """Agreement per setup and object, then the outcomes side by side (markdown)."""
     table = table.assign(agree=table["mjx"] == table["c_mujoco"],
                          success_mjx=table["mjx"] == Outcome.SUCCESS.name,
                          success_c=table["c_mujoco"] == Outcome.SUCCESS.name)
-    objects = sorted(table["object"].unique())
-    lines = ["Outcome agreement, MJX against C MuJoCo (share [Wilson 95 %] of the replayed "
-             "attempts):", "", "| setup | " + " | ".join(objects) + " | all | success MJX / C |",
-             "|" + "---|" * (len(objects) + 3)]
+    rows = {}
     for setup, part in table.groupby("setup"):
-        cells = [_rate(int(p["agree"].sum()), len(p)) if len(p := part[part["object"] == o]) else ""
-                 for o in objects]
-        lines.append(f"| {setup} | " + " | ".join(cells) + " | "
-                     + _rate(int(part["agree"].sum()), len(part))
-                     + f" | {100 * part['success_mjx'].mean():.0f} / "
-                       f"{100 * part['success_c'].mean():.0f} % |")
+        rows[setup] = {o: _rate(int(p["agree"].sum()), len(p))
+                       for o, p in part.groupby("object")}
+        rows[setup]["all"] = _rate(int(part["agree"].sum()), len(part))
+        rows[setup]["success MJX / C"] = (f"{100 * part['success_mjx'].mean():.0f} / "
+                                          f"{100 * part['success_c'].mean():.0f} %")
+    per_setup = pd.DataFrame.from_dict(rows, orient="index").fillna("")
+    per_setup = per_setup[sorted(table["object"].unique()) + ["all", "success MJX / C"]]
+    lines = ["Outcome agreement per setup, MJX against C MuJoCo (share [Wilson 95 %] of the "
+             "replayed attempts):", "", markdown(per_setup)]
     confusion = pd.crosstab(table["mjx"], table["c_mujoco"], margins=True, margins_name="all")
-    lines += ["", "Outcomes, MJX (rows) against C MuJoCo (columns):", "",
-              "| MJX \\ C | " + " | ".join(map(str, confusion.columns)) + " |",
-              "|" + "---|" * (len(confusion.columns) + 1)]
-    lines += [f"| {i} | " + " | ".join(map(str, r)) + " |"
-              for i, r in zip(confusion.index, confusion.to_numpy(), strict=True)]
+    confusion.index.name = confusion.columns.name = None
+    lines += ["", "Outcomes, MJX (rows) against C MuJoCo (columns):", "", markdown(confusion)]
     return "\n".join(lines)
 
 
@@ -113,4 +110,4 @@ if __name__ == "__main__":
     if args.csv:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         result.to_csv(args.csv, index=False)
-    print(markdown(result))
+    print(agreement(result))

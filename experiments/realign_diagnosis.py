@@ -15,7 +15,7 @@ import sys
 
 import pandas as pd
 
-from graspjax.report import load_attempts, varying_config
+from graspjax.report import load_attempts, markdown, varying_config
 
 
 def cause(frame: pd.DataFrame) -> pd.Series:
@@ -25,13 +25,6 @@ def cause(frame: pd.DataFrame) -> pd.Series:
     executed = "executed: " + frame["outcome"].astype(str)
     return wrong.where(frame["realign1_surface"] != "target",
                        no_grasp.where(frame["grasp_found"] == 0, executed))
-
-
-def markdown(table: pd.DataFrame) -> str:
-    """A DataFrame as a markdown table (index first)."""
-    header = ["", *map(str, table.columns)]
-    rows = [[str(i), *map(str, row)] for i, row in zip(table.index, table.to_numpy(), strict=True)]
-    return "\n".join("| " + " | ".join(r) + " |" for r in [header, ["---"] * len(header), *rows])
 
 
 def diagnose(folder: str) -> str:

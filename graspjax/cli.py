@@ -259,10 +259,10 @@ def _grid(items: list[str], base):
     return keys, points
 
 
-def _progress(total: int, quiet: bool, initial: int = 0):
+def _progress(total: int, quiet: bool, initial: int = 0, unit: str = "attempt"):
     from tqdm import tqdm
 
-    bar = tqdm(total=total, initial=initial, unit="attempt", disable=quiet, dynamic_ncols=True,
+    bar = tqdm(total=total, initial=initial, unit=unit, disable=quiet, dynamic_ncols=True,
                file=sys.stderr, smoothing=0.05)
 
     def log(message):
@@ -383,8 +383,7 @@ def cmd_planes(args) -> int:
     groups = runner.plan(jobs, [config], args.seed)
     batch = args.batch or runner.default_batch()
     total = sum(len(g.worlds) for g in groups)
-    bar, _ = _progress(total, args.quiet)
-    bar.unit = "world"
+    bar, _ = _progress(total, args.quiet, unit="world")
     with bar:
         rows, timings = planes.study(groups, [c for _, c in points], batch, bar.update)
     grid = {k: [p[0][k] for p in points] for k in keys}

@@ -22,7 +22,7 @@ import pandas as pd
 from mujoco import mjx
 
 from graspjax.config import AlignConfig, Config
-from graspjax.perception import align_tool, detect_grasp
+from graspjax.perception import align_tool
 from graspjax.perception.align import plane_inliers
 from graspjax.procedure import (
     SURFACE_LABELS,
@@ -30,12 +30,12 @@ from graspjax.procedure import (
     RoundState,
     Surface,
     WorldSpec,
-    _look,
-    _surfaces,
     attempt_keys,
     first_look,
     plane_truth,
     target_faces,
+    view,
+    view_keys,
 )
 from graspjax.sim.world import physics_model
 
@@ -66,13 +66,12 @@ def first_view(scene, state: RoundState, spec: WorldSpec) -> FirstView:
     eligible = spec.members & ~state.attempted & ~state.removed
     k_search, _ = attempt_keys(state, 0)
     target, (rotation, position), _, k_views = first_look(scene, data, eligible, k_search, config)
-    k_render, k_align = jax.random.split(jax.random.fold_in(k_views, 0))
-    depth, objects, table = _look(scene, data, rotation, position, camera, config, k_render)
-    grasp = detect_grasp(depth, camera, config.detect, config.gripper, seed_mask=objects == target)
+    key = jax.random.fold_in(k_views, 0)
+    first = view(scene, data, rotation, position, target, camera, config, key)
     normals, real = target_faces(scene, data, target)
-    return FirstView(depth=depth, surface=_surfaces(objects, table, depth, target),
-                     rotation=rotation, face_normals=normals, face_real=real, key=k_align,
-                     target=target, grasp_found=grasp.found & (target >= 0))
+    return FirstView(depth=first.depth, surface=first.surface, rotation=rotation,
+                     face_normals=normals, face_real=real, key=view_keys(key)[1], target=target,
+                     grasp_found=first.grasp.found & (target >= 0))
 
 
 def judge(view: FirstView, align: AlignConfig, config: Config) -> PlaneTruth:

@@ -59,7 +59,7 @@ from graspjax.perception import (
 from graspjax.perception.cluster import nearest_pixel
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
-from graspjax.sim.render import render_depth_and_piece
+from graspjax.sim.render import render_depth_and_piece, world_planes
 from graspjax.sim.scene import Scene, mjx
 from graspjax.sim.world import (
     Execution,
@@ -209,7 +209,7 @@ class _View:
     can_realign: jax.Array  # () bool: a plane was found and its view is reachable
     truth: PlaneTruth  # the chosen plane, judged by ground truth
     depth: jax.Array  # (H, W) the image
-    target_mask: jax.Array  # (H, W) bool pixels of the target
+    surface: jax.Array  # (H, W) int32 `Surface` of each pixel (ground truth)
 
 
 for _cls in (WorldSpec, RoundState, PlaneTruth, Record, Views, _View):
@@ -283,11 +283,9 @@ def _surfaces(objects: jax.Array, table: jax.Array, depth: jax.Array, target) ->
 def target_faces(scene: Scene, data, target) -> tuple[jax.Array, jax.Array]:
     """Outward unit normals (G * P, 3) of the target's faces in the world (state after
     kinematics), and which are real faces (G * P,) bool (not padding, not another piece's)."""
-    geometry = scene.render
-    rot = data.geom_xmat[geometry.geom_ids].reshape(-1, 3, 3)
-    normals = jnp.einsum("gij,gpj->gpi", rot, jnp.asarray(geometry.planes[..., :3]))
+    normals, _ = world_planes(scene.render, data.geom_xpos, data.geom_xmat)
     real = (jnp.asarray(scene.piece_object) == target)[:, None] & (
-        jnp.linalg.norm(geometry.planes[..., :3], axis=-1) > 0.5)
+        jnp.linalg.norm(scene.render.planes[..., :3], axis=-1) > 0.5)
     return normals.reshape(-1, 3), real.reshape(-1)
 
 
@@ -347,12 +345,18 @@ def centred_pose(point: jax.Array, config: Config, key: jax.Array):
     return jax.tree.map(lambda a, b: jnp.where(tilt > 0, a, b), tilted, (rotation, position))
 
 
+def view_keys(key: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """A view's keys: its image (the sensor's noise) and its alignment (random hypotheses)."""
+    return jax.random.split(key)
+
+
 def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Camera,
          config: Config, key) -> _View:
     """Look from a pose: detect a grasp and score re-alignment planes on the target."""
-    k_render, k_align = jax.random.split(key)
+    k_render, k_align = view_keys(key)
     depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
-    mask = obj == target
+    surface = _surfaces(obj, table, depth, target)
+    mask = surface == Surface.TARGET
     grasp = detect_grasp(depth, camera, config.detect, config.gripper, seed_mask=mask)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
@@ -368,14 +372,13 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Came
     next_rotation = rotation_between(approach, -normal) @ rotation
     next_position = point + jnp.linalg.norm(alignment.point) * normal
     reachable = (next_position[2] >= config.procedure.min_view_height) & (normal[2] > 0)
-    truth = plane_truth(_surfaces(obj, table, depth, target),
-                        plane_inliers(depth, camera, alignment, config.align), normal,
+    truth = plane_truth(surface, plane_inliers(depth, camera, alignment, config.align), normal,
                         target_faces(scene, data, target), alignment.found, next_rotation[:, 2])
     return _View(grasp=grasp, alignment=alignment, grasp_pose=pose,
                  next_rotation=jnp.where(alignment.found, next_rotation, rotation),
                  next_position=jnp.where(alignment.found, next_position, position),
                  can_realign=alignment.found & reachable, truth=truth, depth=depth,
-                 target_mask=mask)
+                 surface=surface)
 
 
 def first_look(scene: Scene, data, eligible, key, config: Config):
@@ -429,7 +432,8 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
         v, searched = per_view
         rotation, position = overview_pose(config)
         views = Views(depth=jnp.concatenate([depth[None], v.depth]),
-                      target_mask=jnp.concatenate([(objects == target)[None], v.target_mask]),
+                      target_mask=jnp.concatenate([(objects == target)[None],
+                                                   v.surface == Surface.TARGET]),
                       rotation=jnp.concatenate([rotation[None], _view_poses(centre_rot, v.next_rotation)]),
                       position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
                       looked=jnp.concatenate([jnp.array([True]), searched]),

@@ -148,6 +148,14 @@ def _table_rows(summary: pd.DataFrame, table: int):
     return rows
 
 
+def markdown(frame: pd.DataFrame, index: bool = True) -> str:
+    """A DataFrame as a markdown table (its index as the first column unless `index` is off)."""
+    header = ([""] if index else []) + [str(c) for c in frame.columns]
+    rows = [([str(i)] if index else []) + [str(v) for v in row]
+            for i, row in zip(frame.index, frame.to_numpy(), strict=True)]
+    return "\n".join("| " + " | ".join(r) + " |" for r in [header, ["---"] * len(header), *rows])
+
+
 def table_markdown(summary: pd.DataFrame, table: int) -> str:
     objects = TABLE_OBJECTS[table]
     title = {1: "Table 1: grasp success in Setups 1-3, objects a-f",

@@ -231,9 +231,8 @@ class Program:
     def settle(self, worlds: tuple[World, ...], points: list[Config]) -> tuple[RoundState, WorldSpec]:
         """These worlds placed and settled (no attempt), on the first device: for studies that
         look at the layouts a run would attempt without grasping (`planes`)."""
-        scene = self.scene
-        template = mjx.make_data(scene.mj_model)
         if self._settle is None:
+            scene, template = self.scene, mjx.make_data(self.scene.mj_model)
             self._settle = jax.jit(jax.vmap(lambda spec: settle(scene, start_round(scene, template,
                                                                                    spec), spec)))
         spec = jax.device_put(self.spec(worlds, points), self.devices[0])

@@ -75,6 +75,16 @@ def render_geometry(mj_model: mujoco.MjModel, geom_ids) -> RenderGeometry:
     return RenderGeometry(np.asarray(geom_ids, np.int32), padded.astype(np.float32))
 
 
+def world_planes(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.Array
+                 ) -> tuple[jax.Array, jax.Array]:
+    """Every piece's half-spaces in the world, `normals @ x <= offsets`: normals (G, P, 3) and
+    offsets (G, P), from the geoms' world poses (ngeom, 3) and (ngeom, 3, 3) or (ngeom, 9)."""
+    ids = geometry.geom_ids
+    normals = jnp.einsum("gij,gpj->gpi", geom_xmat[ids].reshape(-1, 3, 3),
+                         jnp.asarray(geometry.planes[..., :3]))
+    return normals, geometry.planes[..., 3] + jnp.einsum("gpi,gi->gp", normals, geom_xpos[ids])
+
+
 def render_depth(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.Array,
                  rotation: jax.Array, position: jax.Array, camera: Camera,
                  config: CameraConfig = CameraConfig(), key: jax.Array | None = None) -> jax.Array:
@@ -141,11 +151,7 @@ def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_
     point), axial noise growing with depth, and disparity quantized in
     `disparity_step`s of a native pixel. key: PRNG key of the Kinect's noise.
     """
-    ids = geometry.geom_ids
-    rot_g = geom_xmat[ids].reshape(-1, 3, 3)  # (G, 3, 3)
-    normal_local = jnp.asarray(geometry.planes[..., :3])
-    normal_world = jnp.einsum("gij,gpj->gpi", rot_g, normal_local)
-    offset_world = geometry.planes[..., 3] + jnp.einsum("gpi,gi->gp", normal_world, geom_xpos[ids])
+    normal_world, offset_world = world_planes(geometry, geom_xpos, geom_xmat)
     normal_cam = jnp.einsum("ij,gpi->gpj", rotation, normal_world)  # R^T n
     offset_cam = offset_world - normal_world @ position  # (G, P)
 

@@ -25,11 +25,11 @@ from graspjax.sim.world import (
     Outcome,
     PhysicsState,
     Schedule,
-    Snapshot,
     hand_clear,
     hand_waypoints,
     judge,
     parked,
+    snapshot,
 )
 
 
@@ -61,28 +61,6 @@ def _hand_force(scene: Scene, model: mujoco.MjModel, data: mujoco.MjData) -> flo
     return total
 
 
-def _snapshot(scene: Scene, data: mujoco.MjData) -> Snapshot:
-    """`world.snapshot` of a C state."""
-    qpos = data.qpos
-    pos = np.stack([qpos[a:a + 3] for a in scene.object_qpos])
-    rot = np.stack([_matrix(qpos[a + 3:a + 7]) for a in scene.object_qpos])
-    h = scene.hand_qpos
-    return Snapshot(
-        object_pos=jnp.asarray(pos, jnp.float32),
-        object_com=jnp.asarray(pos + np.einsum("nij,nj->ni", rot, scene.object_com), jnp.float32),
-        hand_pos=jnp.asarray(qpos[h:h + 3], jnp.float32),
-        hand_rot=jnp.asarray(_matrix(qpos[h + 3:h + 7]), jnp.float32),
-        target_pos=jnp.asarray(data.mocap_pos[scene.hand_mocap], jnp.float32),
-        opening=jnp.float32(qpos[scene.finger_qpos[0]]),
-        finite=jnp.asarray(np.all(np.isfinite(data.qpos)) & np.all(np.isfinite(data.qvel))))
-
-
-def _matrix(quat) -> np.ndarray:
-    out = np.empty(9)
-    mujoco.mju_quat2Mat(out, np.asarray(quat, np.float64) / np.linalg.norm(quat))
-    return out.reshape(3, 3)
-
-
 def replay(scene: Scene, config: Config, state: PhysicsState, grasp: GraspPose,
            target: int, iterations: int | None = None) -> Outcome:
     """Execute `grasp` (numpy fields) on object `target` from `state` (numpy fields, the world
@@ -108,7 +86,7 @@ def replay(scene: Scene, config: Config, state: PhysicsState, grasp: GraspPose,
     data.ctrl[:] = opened
     data.mocap_pos[m], data.mocap_quat[m] = waypoints[0], quat
     mujoco.mj_forward(model, data)
-    start = _snapshot(scene, data)
+    start = snapshot(scene, data)
 
     plan = Schedule.of(config)
     travel = CLOSED_TARGET - opened
@@ -130,9 +108,9 @@ def replay(scene: Scene, config: Config, state: PhysicsState, grasp: GraspPose,
                     config.sim.approach_force_limit:
                 tripped, stop = True, data.qpos[h:h + 3].copy()
         if i == plan.approach - 1:
-            approached = _snapshot(scene, data)
+            approached = snapshot(scene, data)
         if i == plan.closed_at:
-            closed = _snapshot(scene, data)
-    outcome, _ = judge(scene, config, start, approached, closed, _snapshot(scene, data),
+            closed = snapshot(scene, data)
+    outcome, _ = judge(scene, config, start, approached, closed, snapshot(scene, data),
                        jnp.int32(target), jnp.array(tripped))
     return Outcome(int(outcome))

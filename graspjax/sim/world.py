@@ -29,7 +29,7 @@ from graspjax.camera import Camera
 from graspjax.config import CameraConfig, Config
 from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
 from graspjax.sim.layout import footprints, gaps
-from graspjax.sim.render import render_depth
+from graspjax.sim.render import render_depth, world_planes
 from graspjax.sim.scene import BIN_PARK, CLOSED_TARGET, GRIPPER_HOME, Scene, mjx
 
 HOME_QUAT = np.array([0.0, 1.0, 0.0, 0.0])  # hand z (approach) pointing down
@@ -267,11 +267,7 @@ def hand_clear(scene: Scene, data: mjx.Data, position: jax.Array, rotation: jax.
     the bin and the table: sample points of its boxes (`Scene.hand_points`) against the
     half-spaces of every rendered piece (state after kinematics). () bool."""
     points = jnp.asarray(scene.hand_points) @ rotation.T + position  # (P, 3)
-    geometry = scene.render
-    ids = geometry.geom_ids
-    rot = data.geom_xmat[ids].reshape(-1, 3, 3)
-    normals = jnp.einsum("gij,gpj->gpi", rot, jnp.asarray(geometry.planes[..., :3]))
-    offsets = geometry.planes[..., 3] + jnp.einsum("gpi,gi->gp", normals, data.geom_xpos[ids])
+    normals, offsets = world_planes(scene.render, data.geom_xpos, data.geom_xmat)
     depth = offsets[None] - jnp.einsum("gpi,ki->kgp", normals, points)  # inside where all > 0
     return ~jnp.any(jnp.min(depth, -1) > margin)
 
