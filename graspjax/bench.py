@@ -287,18 +287,20 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
     progress(f"{sum(len(g.worlds) for g in groups)} worlds, {job.attempts} attempts, "
              f"batch {size} ...")
     t0 = time.perf_counter()
-    compile_s, frames, first = 0.0, [], None
+    trace_s, compile_s, frames, first = 0.0, 0.0, [], None
     for _, frame, _, timings, _ in runner.run(groups, [config], size, log=progress,
                                                   overlap=False):
+        trace_s += timings["trace_s"]
         compile_s += timings["compile_s"]
-        first = first or t0 + compile_s
+        first = first or t0 + trace_s + compile_s
         frames.append(frame)
     wall_s = time.perf_counter() - first
     attempts = sum(int((f["attempt"] >= 0).sum()) for f in frames)
     success = float(np.mean(np.concatenate([f["success"].to_numpy() for f in frames])))
     return {
         "objects": objects, "setups": list(setups), "trials": trials, "batch": size,
-        "attempts": attempts, "success_rate": success, "compile_s": compile_s,
+        "attempts": attempts, "success_rate": success, "trace_s": trace_s,
+        "compile_s": compile_s,
         "run_s": wall_s, "attempts_per_s": attempts / wall_s,
         "deterministic": "xla_gpu_deterministic_ops=true" in __import__("os").environ.get(
             "XLA_FLAGS", ""),
@@ -311,5 +313,6 @@ def format_pipeline(r: dict) -> str:
             f"deterministic ops {'on' if r['deterministic'] else 'off'}\n"
             f"objects {r['objects']}, setups {r['setups']}, {r['trials']} trials, batch {r['batch']}"
             f": {r['attempts']} attempts ({100 * r['success_rate']:.0f}% success)\n"
-            f"compile {r['compile_s']:.1f} s, run {r['run_s']:.1f} s = "
+            f"trace {r['trace_s']:.1f} s, compile {r['compile_s']:.1f} s, "
+            f"run {r['run_s']:.1f} s = "
             f"{r['attempts_per_s']:,.1f} attempts/s")

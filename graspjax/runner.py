@@ -42,6 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
+from graspjax import exported
 from graspjax.config import MAX_REORIENTATIONS, Config, stack_configs
 from graspjax.perception import AlignReason, GraspReason
 from graspjax.procedure import (
@@ -195,13 +196,39 @@ class Program:
         return scene_for(self.group.letters, self.group.config, self.group.collide)
 
     @functools.cached_property
-    def _functions(self) -> tuple[Callable, Callable]:
-        """`start_round` and `attempt`, vmapped and jitted (not yet lowered)."""
-        scene = self.scene
-        template = mjx.make_data(scene.mj_model)
-        start_fn = jax.jit(jax.vmap(lambda spec: start_round(scene, template, spec)))
-        one = functools.partial(attempt, scene, keep_views=self.keep_views)
-        return start_fn, jax.jit(jax.vmap(one, in_axes=(0, 0, None)), donate_argnums=0)
+    def portable(self) -> tuple[exported.Portable, exported.Portable]:
+        """`start_round(arrays, spec)` and `attempt(model, state, spec, k)` for one device's
+        slice, vmapped: traced, or loaded from the store of exported programs (the lowering
+        thread builds them, once for all devices). The scene's device arrays are arguments, not
+        constants: an exported program cannot hold them."""
+        # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
+        example = dataclasses.replace(self.group.worlds[0], point=0)
+        spec = jax.tree.map(lambda x: jax.ShapeDtypeStruct((self.per_device,) + x.shape[1:],
+                                                           x.dtype),
+                            self.spec((example,), [self.group.config]))
+        arrays = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), self.arrays)
+        group, keep_views = self.group, self.keep_views
+        description = (group.letters, group.collide, group.attempts, keep_views)
+
+        def start_fn(arrays, spec):
+            scene = dataclasses.replace(self.scene, model=arrays[0])
+            return jax.vmap(lambda one: start_round(scene, arrays[1], one))(spec)
+
+        def attempt_fn(model, state, spec, k):
+            scene = dataclasses.replace(self.scene, model=model)
+            one = functools.partial(attempt, scene, keep_views=keep_views)
+            return jax.vmap(one, in_axes=(0, 0, None))(state, spec, k)
+
+        start = exported.export(start_fn, (arrays, spec), ("start_round",) + description)
+        attempt_ = exported.export(
+            attempt_fn, (arrays[0], start.out_shapes(), spec, jax.ShapeDtypeStruct((), jnp.int32)),
+            ("attempt",) + description)
+        return start, attempt_
+
+    @functools.cached_property
+    def arrays(self) -> tuple[mjx.Model, mjx.Data]:
+        """The scene's device arrays: its MJX model, and a fresh data for `start_round` to fill."""
+        return self.scene.model, mjx.make_data(self.scene.mj_model)
 
     @property
     def compiled(self) -> bool:
@@ -209,15 +236,16 @@ class Program:
 
     @property
     def compile_s(self) -> float:
-        """Seconds to lower and compile for one device (the slowest of the devices)."""
+        """Seconds to lower the exported modules and compile them for one device (the slowest
+        of the devices); tracing apart (`trace_s`)."""
         return max(self._compile_s)
 
     def spec(self, worlds: tuple[World, ...], points: list[Config]) -> WorldSpec:
         """These worlds' batch on the host (grid point i: `points[i]`), padded with copies of the
         first world."""
-        scene, n = self.scene, self.scene.num_objects
+        letters, n = self.group.letters, len(self.group.letters)
         padded = list(worlds) + [worlds[0]] * (self.batch - len(worlds))
-        order = np.array([[scene.letters.index(c) for c in w.objects] for w in padded], np.int32)
+        order = np.array([[letters.index(c) for c in w.objects] for w in padded], np.int32)
         members = np.zeros((self.batch, n), bool)
         np.put_along_axis(members, order, True, axis=1)
         used = sorted({w.point for w in padded})  # a chunk's points share their static values
@@ -232,7 +260,7 @@ class Program:
         """These worlds placed and settled (no attempt), on the first device: for studies that
         look at the layouts a run would attempt without grasping (`planes`)."""
         if self._settle is None:
-            scene, template = self.scene, mjx.make_data(self.scene.mj_model)
+            scene, template = self.scene, self.arrays[1]
             self._settle = jax.jit(jax.vmap(lambda spec: settle(scene, start_round(scene, template,
                                                                                    spec), spec)))
         spec = jax.device_put(self.spec(worlds, points), self.devices[0])
@@ -245,22 +273,28 @@ class Program:
                               self.devices[device])
 
     def lower(self, device: int) -> tuple[jax.stages.Lowered, jax.stages.Lowered]:
-        """Trace both functions for one device (Python: it holds the GIL)."""
-        # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
-        example = dataclasses.replace(self.group.worlds[0], point=0)
-        spec = self.on_device(self.spec((example,), [self.group.config]), device)
+        """Lower both functions for one device (Python: it holds the GIL): every device lowers
+        the same exported modules (`portable`, traced or loaded first)."""
         sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
-        start_fn, attempt_fn = self._functions
-        state = jax.tree.map(lambda s: jax.ShapeDtypeStruct(s.shape, s.dtype, sharding=sharding),
-                             jax.eval_shape(start_fn, spec))
-        k = jax.ShapeDtypeStruct((), jnp.int32, sharding=sharding)
-        return start_fn.lower(spec), attempt_fn.lower(state, spec, k)
+        start, attempt_ = self.portable
+        return (start.jit().lower(*start.in_shapes(sharding)),
+                attempt_.jit(donate_argnums=(1,)).lower(*attempt_.in_shapes(sharding)))
+
+    @property
+    def loaded(self) -> bool:
+        """Whether both functions came from the store of exported programs (not traced)."""
+        return all(p.loaded for p in self.portable)
+
+    @property
+    def trace_s(self) -> float:
+        """Seconds to trace and export both functions, or to read them from the store."""
+        return sum(p.seconds for p in self.portable)
 
     def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
                 lower_s: float) -> None:
         """Compile the lowered functions for one device (XLA releases the GIL: devices, groups
         and the two functions compile in parallel threads). `lower_s`: seconds the lowering
-        took."""
+        took (tracing apart: `trace_s`)."""
         start = time.perf_counter()
         with concurrent.futures.ThreadPoolExecutor(max_workers=1) as other:
             start_fn = other.submit(lowered[0].compile)
@@ -284,11 +318,13 @@ class Program:
             real = min(max(len(worlds) - i * m, 0), m)  # worlds of the slice that are not padding
             spec = self.on_device(batch, i)
             k_on = functools.partial(jax.device_put, device=self.devices[i])  # numpy in: one copy
-            state = self._start[i](spec)
-            state, drop, _ = self._attempt[i](state, spec, k_on(np.int32(-1)))
+            arrays = jax.device_put(self.arrays, self.devices[i])
+            state = self._start[i](arrays, spec)
+            state, drop, _ = self._attempt[i](arrays[0], state, spec, k_on(np.int32(-1)))
             records, views = [], []
             for k in range(self.group.attempts):
-                state, record, view = self._attempt[i](state, spec, k_on(np.int32(k)))
+                state, record, view = self._attempt[i](arrays[0], state, spec,
+                                                       k_on(np.int32(k)))
                 jax.block_until_ready(record.reason)
                 records.append(record)
                 views.append(view)
@@ -351,9 +387,19 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
         except BaseException as error:  # handed to the thread that waits for it
             future.set_exception(error)
 
+    # The lowering thread keeps its own references: the caller pops programs off the dict it
+    # gets back as it reaches them, possibly before this thread does.
+    work = [(p, futures[id(p)]) for p in todo]
+
     def lower_in_order() -> None:
-        for p in todo:
-            for device, future in enumerate(futures[id(p)]):
+        for p, program_futures in work:
+            try:
+                _ = p.portable  # traced or loaded once, then lowered for each device
+            except BaseException as error:  # handed to the threads that wait for it
+                for future in program_futures:
+                    future.set_exception(error)
+                continue
+            for device, future in enumerate(program_futures):
                 try:
                     start = time.perf_counter()
                     lowered = p.lower(device)
@@ -373,8 +419,8 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
 
 def rows(program: Program, worlds: tuple[World, ...], records: list[Record]) -> pd.DataFrame:
     """One row per attempt (and per object of a round that never got one), in world order."""
-    scene, n_real = program.scene, len(worlds)
-    letters = np.array(scene.letters + ("",))  # index -1 -> ""
+    n_real = len(worlds)
+    letters = np.array(program.group.letters + ("",))  # index -1 -> ""
     frames = []
     for k, record in enumerate(records):
         r = jax.tree.map(lambda x: np.asarray(x)[:n_real], record)
@@ -433,14 +479,13 @@ def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
 
 def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFrame:
     """Objects of a Setup 2/3 round that never got their attempt: removed with another, or unseen."""
-    scene = program.scene
     n_real = len(worlds)
     target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
     lifted = np.stack([np.asarray(r.lifted_object)[:n_real] for r in records], 1)
     index, objects, why = [], [], []
     for w, world in enumerate(worlds):
         for c in world.objects:
-            i = scene.letters.index(c)
+            i = program.group.letters.index(c)
             if i not in target[w]:
                 index.append(w)
                 objects.append(c)
@@ -468,8 +513,11 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
     Programs compile in background threads; with `overlap`, a group's chunks start as soon as
     its own program is ready, while the later groups' programs still compile (the device works
     while the host compiles). Without it, every program is compiled before the first chunk
-    (benchmarks: run time apart from compile time). A chunk's timings say when it started
-    (`started_s`, seconds since this call began: gaps are the device waiting for a compile)."""
+    (benchmarks: run time apart from compile time). A chunk's timings say whether its program
+    was traced or loaded from the store of exported programs (`program`), what tracing or
+    loading and compiling took (`trace_s`, `compile_s`, on a group's first chunk) and when it
+    started (`started_s`, seconds since this call began: gaps are the device waiting for a
+    compile)."""
     began = time.perf_counter()
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
@@ -487,8 +535,10 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
             for future in futures:
                 future.result()
             if futures:
-                log(f"compiled the program of {''.join(prog.scene.letters)} "
-                    f"({prog.group.attempts} attempt(s) per world) in {prog.compile_s:.1f} s")
+                log(f"compiled the program of {''.join(prog.group.letters)} "
+                    f"({prog.group.attempts} attempt(s) per world): "
+                    f"{'loaded' if prog.loaded else 'traced'} in {prog.trace_s:.1f} s, "
+                    f"compiled in {prog.compile_s:.1f} s")
 
         if not overlap:
             for prog in programs.values():
@@ -504,8 +554,10 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
             first = chunk.group in fresh  # a group's first chunk carries its compile time
             fresh.discard(chunk.group)
             timings = {"chunk": chunk.index, "group": chunk.group,
-                       "scene": "".join(prog.scene.letters), "worlds": len(chunk.worlds),
+                       "scene": "".join(prog.group.letters), "worlds": len(chunk.worlds),
                        "batch": prog.batch, "attempts": int((frame["attempt"] >= 0).sum()),
+                       "program": "loaded" if prog.loaded else "traced",
+                       "trace_s": round(prog.trace_s if first else 0.0, 3),
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
                        "started_s": round(start - began, 3),
                        "wall_s": round(time.perf_counter() - start, 3)}

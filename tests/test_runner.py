@@ -1,5 +1,6 @@
 """Runs end to end through the CLI: files, reproducibility, resume, parts, devices, views."""
 
+import concurrent.futures
 import json
 import os
 import signal
@@ -10,7 +11,7 @@ import time
 import pandas as pd
 import pytest
 
-from graspjax import runner
+from graspjax import exported, runner
 from graspjax.cli import main
 from graspjax.config import Config, override
 
@@ -73,6 +74,52 @@ def test_same_seed_same_attempts(tiny_run, tmp_path):
     again = tmp_path / "again"
     assert main(["run", *TINY, "--out", str(again)]) == 0
     assert (again / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+
+
+def test_a_second_process_loads_the_programs_instead_of_tracing(tiny_run, tmp_path):
+    """The run above left its programs' exported forms in the store; another process loads
+    them, says so in timings.csv, and gives the same rows."""
+    assert any(exported.store().glob("*.jaxexport"))
+    out = tmp_path / "second"
+    proc = _cli("run", *TINY, "--out", str(out))
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err[-2000:]
+    assert (out / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+    timings = pd.read_csv(out / "timings.csv")
+    assert list(timings["program"]) == ["loaded", "loaded"]
+    assert timings["trace_s"].iloc[0] > 0 and timings["trace_s"].iloc[1] == 0
+
+
+class _Deferred(concurrent.futures.Executor):
+    """An executor that runs nothing until told: the order of two threads, made explicit."""
+
+    def __init__(self):
+        self.calls = []
+
+    def submit(self, fn, *args):
+        self.calls.append((fn, args))
+        return concurrent.futures.Future()
+
+
+class _Untraceable:
+    """A program whose tracing fails."""
+
+    compiled, devices = False, ("cpu",)
+
+    @property
+    def portable(self):
+        raise ValueError("cannot trace")
+
+
+def test_a_program_that_fails_to_trace_fails_the_run_instead_of_hanging_it():
+    """The run may take a program's futures before the lowering thread reaches it (a race that
+    once hung runs): the failure still reaches the futures it waits on."""
+    pool, broken = _Deferred(), _Untraceable()
+    waiting = runner._start_compiles([broken], pool).pop(id(broken))
+    (lower_in_order, args), = pool.calls
+    lower_in_order(*args)  # the lowering thread, after the run took its futures
+    with pytest.raises(ValueError, match="cannot trace"):
+        waiting[0].result(timeout=0)
 
 
 def test_a_folder_holding_a_run_needs_resume_or_overwrite(tiny_run, tmp_path, capsys):

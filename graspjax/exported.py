@@ -1,0 +1,145 @@
+"""Traced programs kept across processes: each batch program's exported form (`jax.export`),
+keyed by everything that shapes it, so that a warm start loads it instead of tracing.
+
+Tracing and lowering the attempt program is Python work of tens of seconds; XLA's own
+persistent cache only helps after it. Every program goes through the exported form, traced
+or loaded alike (`Portable.jit`), so both give XLA one and the same module: the second
+process's compile is a compilation-cache hit and its rows are those of the first.
+
+The store is `<compilation cache folder>/exported/`, switched on and off with the compilation
+cache (`GRASPJAX_CACHE`, set by the CLI). A key is a digest of the program's own description
+(scene, static configuration, shapes), graspjax's source files, the versions of the packages
+that trace it and the device kind, so that a change to any of them traces afresh.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import importlib.metadata
+import os
+import pathlib
+import pickle
+import re
+import tempfile
+import time
+from collections.abc import Callable
+
+import jax
+
+FORMAT = 1  # bump when the file layout below changes
+_PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
+
+
+@dataclasses.dataclass(frozen=True)
+class Portable:
+    """A function traced for one set of argument shapes, in portable form."""
+
+    program: jax.export.Exported  # flat: the argument leaves in, the result leaves out
+    in_tree: jax.tree_util.PyTreeDef  # the arguments' tree (a tuple of the positional ones)
+    out_tree: jax.tree_util.PyTreeDef  # the result's tree
+    loaded: bool  # read from the store (True) or traced by this process (False)
+    seconds: float  # what tracing and exporting, or reading, took
+
+    def in_shapes(self, sharding: jax.sharding.Sharding | None = None) -> tuple:
+        """The positional arguments' shapes (placed by `sharding`, if given)."""
+        return jax.tree.unflatten(self.in_tree, [
+            jax.ShapeDtypeStruct(a.shape, a.dtype, sharding=sharding)
+            for a in self.program.in_avals])
+
+    def out_shapes(self):
+        """The result's shapes."""
+        return jax.tree.unflatten(self.out_tree, [
+            jax.ShapeDtypeStruct(a.shape, a.dtype) for a in self.program.out_avals])
+
+    def jit(self, donate_argnums: tuple[int, ...] = ()) -> Callable:
+        """The function again, jitted: pytrees in and out, the exported module inside."""
+        def call(*args):
+            leaves, tree = jax.tree.flatten(args)
+            if tree != self.in_tree:
+                raise TypeError(f"arguments {tree} do not match the exported {self.in_tree}")
+            return jax.tree.unflatten(self.out_tree, self.program.call(*leaves))
+        return jax.jit(call, donate_argnums=donate_argnums)
+
+
+def store() -> pathlib.Path | None:
+    """The folder of exported programs: beside the compilation cache, None when that is off."""
+    folder = jax.config.jax_compilation_cache_dir
+    return pathlib.Path(folder) / "exported" if folder else None
+
+
+def export(fn: Callable, args: tuple, description: tuple) -> Portable:
+    """`fn` (jittable) for arguments shaped like `args` (pytrees of ShapeDtypeStruct, no
+    shardings): loaded from the store when a program of the same key is there, else traced,
+    exported and saved. `description`: what shapes the program besides the arguments' shapes
+    (scene, static configuration, modes), as values with a stable repr."""
+    start = time.perf_counter()
+    in_leaves, in_tree = jax.tree.flatten(args)
+    path = _path(description, args)
+    if path is not None and path.exists():
+        try:
+            with path.open("rb") as f:
+                fmt, in_tree_saved, out_tree, blob = pickle.load(f)
+            if fmt == FORMAT and in_tree_saved == in_tree:
+                program = jax.export.deserialize(blob)
+                return Portable(program, in_tree, out_tree, True, time.perf_counter() - start)
+        except Exception:  # an unreadable or foreign file: trace afresh and overwrite it
+            pass
+    out_tree = []
+
+    def flat(*leaves):
+        out = fn(*jax.tree.unflatten(in_tree, leaves))
+        out_leaves, tree = jax.tree.flatten(out)
+        out_tree.append(tree)
+        return out_leaves
+
+    program = jax.export.export(jax.jit(flat))(*in_leaves)
+    if path is not None:
+        _write(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
+    return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
+
+
+def _path(description: tuple, args: tuple) -> pathlib.Path | None:
+    """The program's file in the store (None when the store is off)."""
+    folder = store()
+    if folder is None:
+        return None
+    shapes = [(a.shape, str(a.dtype)) for a in jax.tree.leaves(args)]
+    device = jax.devices()[0]
+    key = repr((FORMAT, description, shapes, jax.tree.structure(args), _versions(),
+                _source_digest(), device.platform, device.device_kind,
+                jax.config.jax_enable_x64, jax.config.jax_default_matmul_precision))
+    # Static fields' reprs may name memory addresses (MJX wraps its static numpy arrays): they
+    # differ between processes. What those fields hold is fixed by the description and sources.
+    key = re.sub(r" at 0x[0-9a-f]+", "", key)
+    return folder / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.jaxexport"
+
+
+@functools.cache
+def _versions() -> tuple[str, ...]:
+    """The versions of the packages that trace a program."""
+    return tuple(f"{name}=={importlib.metadata.version(name)}" for name in _PACKAGES)
+
+
+@functools.cache
+def _source_digest() -> str:
+    """A digest of graspjax's Python sources: any edit traces afresh."""
+    root = pathlib.Path(__file__).parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _write(path: pathlib.Path, data: bytes) -> None:
+    """Write atomically (processes may share the store); a store that cannot be written is
+    skipped: it only saves time."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, delete=False) as tmp:
+            tmp.write(data)
+        os.replace(tmp.name, path)
+    except OSError:
+        pass

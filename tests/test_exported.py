@@ -1,0 +1,81 @@
+"""The store of exported programs: traced once, loaded after, the same results either way."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from graspjax import exported
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass
+class Pair:
+    a: jax.Array
+    b: jax.Array
+
+
+def _fn(pair: Pair, k):
+    """A pytree in, a pytree with a None and a PRNG key out."""
+    key = jax.random.fold_in(jax.random.key(0), k)
+    return {"sum": pair.a + pair.b, "noise": jax.random.uniform(key, pair.a.shape),
+            "nothing": None}, Pair(pair.a * k, pair.b)
+
+
+ARGS = (Pair(jax.ShapeDtypeStruct((3,), jnp.float32), jax.ShapeDtypeStruct((3,), jnp.float32)),
+        jax.ShapeDtypeStruct((), jnp.int32))
+VALUES = (Pair(jnp.arange(3.0), jnp.ones(3)), jnp.int32(2))
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    monkeypatch.setattr(exported, "store", lambda: tmp_path)
+    return tmp_path
+
+
+def test_traced_once_then_loaded_with_the_same_results(store):
+    first = exported.export(_fn, ARGS, ("pair", 1))
+    assert not first.loaded and len(list(store.glob("*.jaxexport"))) == 1
+    second = exported.export(_fn, ARGS, ("pair", 1))
+    assert second.loaded
+    expected = jax.jit(_fn)(*VALUES)
+    for portable in (first, second):
+        got = portable.jit()(*VALUES)
+        assert jax.tree.structure(got) == jax.tree.structure(expected)
+        for x, y in zip(jax.tree.leaves(got), jax.tree.leaves(expected), strict=True):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    assert second.out_shapes()[0]["sum"].shape == (3,)
+    assert second.in_shapes()[1].dtype == jnp.int32
+
+
+def test_what_shapes_a_program_is_in_its_key(store):
+    exported.export(_fn, ARGS, ("pair", 1))
+    assert not exported.export(_fn, ARGS, ("pair", 2)).loaded  # another description
+    longer = (Pair(jax.ShapeDtypeStruct((4,), jnp.float32),
+                   jax.ShapeDtypeStruct((4,), jnp.float32)), ARGS[1])
+    assert not exported.export(_fn, longer, ("pair", 1)).loaded  # other shapes
+    assert len(list(store.glob("*.jaxexport"))) == 3
+
+
+def test_an_unreadable_file_is_traced_again_and_replaced(store):
+    exported.export(_fn, ARGS, ("pair", 1))
+    (path,) = store.glob("*.jaxexport")
+    path.write_bytes(b"not a program")
+    again = exported.export(_fn, ARGS, ("pair", 1))
+    assert not again.loaded
+    assert exported.export(_fn, ARGS, ("pair", 1)).loaded
+
+
+def test_without_a_store_nothing_is_written(tmp_path, monkeypatch):
+    monkeypatch.setattr(exported, "store", lambda: None)
+    portable = exported.export(_fn, ARGS, ("pair", 1))
+    assert not portable.loaded and not list(tmp_path.iterdir())
+    np.testing.assert_array_equal(portable.jit()(*VALUES)[0]["sum"], [1.0, 2.0, 3.0])
+
+
+def test_arguments_of_another_tree_are_refused(store):
+    portable = exported.export(_fn, ARGS, ("pair", 1))
+    with pytest.raises(TypeError, match="do not match"):
+        portable.jit()({"a": VALUES[0].a, "b": VALUES[0].b}, VALUES[1])
