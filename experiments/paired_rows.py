@@ -25,8 +25,8 @@ def main(before_csv: str, after_csv: str) -> None:
         n = len(g)
         b, a = g["success_before"].sum(), g["success_after"].sum()
         rows.append({"setup": setup, "object": obj, "n": n, "outcome_agreement": g["same"].mean(),
-                     "before": b / n, "before_ci": "%.2f-%.2f" % wilson(b, n),
-                     "after": a / n, "after_ci": "%.2f-%.2f" % wilson(a, n)})
+                     "before": b / n, "before_ci": "{:.2f}-{:.2f}".format(*wilson(b, n)),
+                     "after": a / n, "after_ci": "{:.2f}-{:.2f}".format(*wilson(a, n))})
     table = pd.DataFrame(rows)
     print(table.to_string(index=False, float_format="%.3f"))
     print(f"all: {len(joined)} attempts, outcome agreement {joined['same'].mean():.3f}, success "
