@@ -14,7 +14,8 @@ import sys
 
 import pandas as pd
 
-from graspjax.report import load_attempts, markdown, wilson
+from graspjax.report import load_attempts, markdown
+from graspjax.stats import wilson
 
 FOOTPRINT = 0.0167  # total footprint of a-f (m^2): the 0.18 m bin's floor is 1.94 times it
 

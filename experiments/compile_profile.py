@@ -16,13 +16,13 @@ import time
 
 import jax
 
-from graspjax import runner
+from graspjax.batch import plan, program
 from graspjax.config import Config
 
 
-def profile(group: runner.Group, batch: int) -> None:
+def profile(group: plan.Group, batch: int) -> None:
     """Lower one group's program (both functions) and compile each, timed apart."""
-    p = runner.program(group, batch, False)
+    p = program.program(group, batch, False)
     t0 = time.perf_counter()
     start, attempt = p.lower(0)
     t1 = time.perf_counter()
@@ -38,7 +38,7 @@ def profile(group: runner.Group, batch: int) -> None:
 def main() -> None:
     batch = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
     mode = sys.argv[2] if len(sys.argv) > 2 else "serial"
-    groups = runner.plan([runner.table_job(1, 1000), runner.table_job(2, 1000)], [Config()], 0)
+    groups = plan.plan([plan.table_job(1, 1000), plan.table_job(2, 1000)], [Config()], 0)
     if len(sys.argv) > 3:
         groups = [groups[int(i)] for i in sys.argv[3].split(",")]
     start = time.perf_counter()

@@ -24,13 +24,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from graspjax.batch.plan import Job
 from tqdm import tqdm
 
-from graspjax.report import load_attempts, markdown, point_config, wilson
-from graspjax.runner import Job
+from graspjax.report import load_attempts, markdown, point_config
 from graspjax.sim import scene_for
 from graspjax.sim.replay import replay
 from graspjax.sim.world import GraspPose, Outcome, PhysicsState
+from graspjax.stats import wilson
 from graspjax.views import attempt_name
 
 

@@ -18,10 +18,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.config import Config, SceneConfig
+from graspjax.config import Config, RealImageConfig
 from graspjax.perception.align import align_tool
 from graspjax.perception.grasp import detect_grasp
-from graspjax.perception.scene import _targets, detect_scene
+from graspjax.perception.real_image import _targets, detect_real_image
 from graspjax.perception.support import support_plane
 from graspjax.perception.workspace import working_views
 from graspjax.synthetic import random_real_scene
@@ -30,7 +30,7 @@ W, H, WINDOW = 640, 480, 192
 CAMERA = Camera(W, H, 525.0, 525.0, (W - 1) / 2, (H - 1) / 2)
 WORKSPACE = np.zeros((H, W), bool)
 WORKSPACE[: int(0.85 * H)] = True
-CONFIG, SCENE = Config(), SceneConfig()
+CONFIG, SCENE = Config(), RealImageConfig()
 
 
 def views(depth):
@@ -77,9 +77,9 @@ def main() -> None:
     timed("working views", lambda d: sum(v.sum() for v in views(d)[::2]), depth)
     timed("+ support plane", support_only, depth)
     timed("+ virtual view, targets", with_targets, depth)
-    timed("whole pipeline", lambda d: detect_scene(d, WORKSPACE, CAMERA, CONFIG, SCENE).position,
+    timed("whole pipeline", lambda d: detect_real_image(d, WORKSPACE, CAMERA, CONFIG, SCENE).position,
           depth)
-    timed("whole pipeline, one target", lambda d: detect_scene(d, WORKSPACE, CAMERA, CONFIG,
+    timed("whole pipeline, one target", lambda d: detect_real_image(d, WORKSPACE, CAMERA, CONFIG,
                                                                 one_target).position, depth)
     timed("detector, 192-pixel window", lambda w: detect_grasp(
         w, window_camera, CONFIG.detect, CONFIG.gripper, seed_mask=seed).position, window)

@@ -9,7 +9,7 @@ import sys
 
 import pandas as pd
 
-from graspjax.report import wilson
+from graspjax.stats import wilson
 
 KEY = ["setup", "object", "trial", "attempt"]
 

@@ -22,30 +22,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
 import pandas as pd
 
-from graspjax.config import Config, flatten
-from graspjax.report import load_attempts, wilson
+from graspjax.config import Config
+from graspjax.report import load_attempts
+from graspjax.stats import mcnemar_p, paired_detectable, wilson
+from graspjax.tree import named_fields
 
 PAIR = ["setup", "object", "trial", "attempt"]
-
-
-def mcnemar_p(only_here: int, only_reference: int) -> float:
-    """Exact two-sided McNemar p: the discordant pairs split as a fair coin would split them."""
-    n, k = only_here + only_reference, min(only_here, only_reference)
-    if n == 0:
-        return 1.0
-    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2 ** n
-    return min(1.0, 2 * tail)
-
-
-def paired_detectable(discordant: int, pairs: int) -> float:
-    """Smallest paired difference of success rates detectable at 5 % (two-sided), 80 % power."""
-    share = max(discordant, 1) / max(pairs, 1)
-    return (1.96 + 0.84) * math.sqrt(share / max(pairs, 1))
 
 
 def _same(a, b) -> bool:
@@ -70,7 +56,7 @@ def sweep_table(folder: str) -> str:
     frame = frame[frame["attempt"] >= 0]
     grid = json.loads((Path(folder) / "config.json").read_text())["grid"]
     keys = list(grid)
-    default = flatten(Config())
+    default = named_fields(Config())
     points = sorted(frame["point"].unique())
     reference = next((p for p in points if all(
         _same(grid[k][p], default[k]) for k in keys)), points[0])

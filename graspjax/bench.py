@@ -5,9 +5,7 @@ Compile time is reported apart from run time; every result names the device.
 
 from __future__ import annotations
 
-import platform
 import statistics
-import sys
 import time
 
 import jax
@@ -15,23 +13,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.config import Config, SceneConfig
+from graspjax.config import Config, RealImageConfig
 from graspjax.perception import align_tool, detect_grasp
 from graspjax.perception.workspace import block_factors
-
-
-def device_info() -> dict:
-    """The JAX device and software versions, for every benchmark record."""
-    device = jax.devices()[0]
-    return {
-        "platform": device.platform,
-        "device": getattr(device, "device_kind", str(device)),
-        "device_count": jax.device_count(),
-        "jax": jax.__version__,
-        "python": platform.python_version(),
-        "host": platform.node(),
-        "command": " ".join(["graspjax", *sys.argv[1:]]) if sys.argv else "",
-    }
+from graspjax.provenance import device_line, provenance
 
 
 def _median_seconds(fn, repeats: int) -> float:
@@ -67,7 +52,7 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
                 align_tool(d, camera, config.align))
 
     results = {"batch": batch, "width": width, "height": height, "unique_scenes": unique,
-               "repeats": repeats, **device_info()}
+               "repeats": repeats, **provenance()}
     for name, fn in (("detect+align", both),
                      ("detect", lambda d: detect_grasp(d, camera, config.detect, config.gripper)),
                      ("align", lambda d: align_tool(d, camera, config.align))):
@@ -92,7 +77,7 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
 def format_perception(r: dict) -> str:
     """A short table of a perception benchmark record."""
     lines = [
-        f"device: {r['device']} ({r['platform']}), jax {r['jax']}",
+        device_line(r),
         f"images {r['width']}x{r['height']}, batch {r['batch']}, "
         f"{r['unique_scenes']} distinct random scenes ({100 * r['grasp_found_fraction']:.0f}% graspable)",
         f"{'kernel':<14}{'compile s':>11}{'batch ms':>11}{'images/s':>12}",
@@ -107,7 +92,7 @@ def format_perception(r: dict) -> str:
 
 def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, repeats: int = 10,
                      unique: int = 64, seed: int = 0, config: Config = Config(),
-                     scene: SceneConfig = SceneConfig(), progress=print) -> dict:
+                     image: RealImageConfig = RealImageConfig(), progress=print) -> dict:
     """`graspjax detect` end to end on real-looking images (workspace, support plane, virtual
     view, detect, align): single-image latency and batched images/s, compile time apart.
 
@@ -116,8 +101,8 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     The single image goes in as a NumPy array (the transfer is timed); the batch is on the
     device already.
     """
-    from graspjax.perception.scene import detect_scene
-    from graspjax.realdepth import detect_images, stack_cameras
+    from graspjax.perception.real_image import detect_real_image
+    from graspjax.realimage.detect import detect_batch, stack_cameras
     from graspjax.synthetic import random_real_scene
 
     camera = Camera(width, height, 525.0 * width / 640, 525.0 * width / 640, (width - 1) / 2,
@@ -130,41 +115,41 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     depth = jnp.asarray(scenes[np.arange(batch) % unique])
     cameras = stack_cameras([camera] * batch)
     results = {"batch": batch, "width": width, "height": height, "unique_scenes": unique,
-               "repeats": repeats, "detect_width": width // block_factors(width, scene)[0],
-               "support_width": width // block_factors(width, scene)[1],
-               **device_info()}
+               "repeats": repeats, "detect_width": width // block_factors(width, image)[0],
+               "support_width": width // block_factors(width, image)[1],
+               **provenance()}
 
     progress(f"compiling the batch of {batch} ...")
     t0 = time.perf_counter()
-    jax.block_until_ready(detect_images(depth, workspace, cameras, config, scene))
+    jax.block_until_ready(detect_batch(depth, workspace, cameras, config, image))
     results["batch_compile_s"] = time.perf_counter() - t0
-    seconds = _median_seconds(lambda: detect_images(depth, workspace, cameras, config, scene),
+    seconds = _median_seconds(lambda: detect_batch(depth, workspace, cameras, config, image),
                               repeats)
     results["batch_s"] = seconds
     results["images_per_s"] = batch / seconds
 
     progress("single-image latency ...")
-    single = jax.jit(detect_scene)
+    single = jax.jit(detect_real_image)
     t0 = time.perf_counter()
-    jax.block_until_ready(single(scenes[0], workspace, camera, config, scene))
+    jax.block_until_ready(single(scenes[0], workspace, camera, config, image))
     results["single_compile_s"] = time.perf_counter() - t0
     latencies = []
     for i in range(max(repeats * 5, 20)):  # a different scene each time, NumPy in
         image = scenes[i % unique]
         start = time.perf_counter()
-        jax.block_until_ready(single(image, workspace, camera, config, scene))
+        jax.block_until_ready(single(image, workspace, camera, config, image))
         latencies.append(time.perf_counter() - start)
     results["single_latency_ms"] = 1e3 * statistics.median(latencies)
     results["single_latency_p90_ms"] = 1e3 * float(np.percentile(latencies, 90))
-    found = detect_images(jnp.asarray(scenes), workspace, stack_cameras([camera] * unique),
-                          config, scene).found
+    found = detect_batch(jnp.asarray(scenes), workspace, stack_cameras([camera] * unique),
+                          config, image).found
     results["grasp_found_fraction"] = float(jnp.mean(found))
     return results
 
 
 def format_detect(r: dict) -> str:
     """A short summary of a `detect_benchmark` record."""
-    return (f"device: {r['device']} ({r['platform']}), jax {r['jax']}\n"
+    return (f"{device_line(r)}\n"
             f"real-looking images {r['width']}x{r['height']} (detection width {r['detect_width']}, "
             f"support width {r['support_width']}), "
             f"{r['unique_scenes']} distinct scenes ({100 * r['grasp_found_fraction']:.0f}% with a "
@@ -179,14 +164,14 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
                       seconds: float = 1.0, config: Config = Config(), progress=print) -> dict:
     """World-steps/s of a scene (settling and grasp execution) and depth images/s.
 
-    The per-world functions of the runner (`procedure.start_round`,
+    The per-world functions of a run (`procedure.start_round`,
     `world.play`) vmapped over `batch` worlds of `setup`; compile time apart.
     """
     from graspjax.config import stack_configs
     from graspjax.geometry import look_down
     from graspjax.procedure import WorldSpec, start_round
     from graspjax.sim.scene import mjx, scene_for
-    from graspjax.sim.world import GraspPose, mjx_internals, physics_model, play, render
+    from graspjax.sim.world import GraspPose, depth_image, mjx_internals, physics_model, play
 
     start = time.perf_counter()
     scene = scene_for(tuple(letters), config, setup != 1)
@@ -239,7 +224,7 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     camera = config.camera.camera()
     rot, eye = look_down(jnp.array([0.0, 0.0, 0.55]))
     keys = jax.random.split(jax.random.key(0), batch)  # the sensor model's noise
-    draw = jax.jit(jax.vmap(lambda d, k: render(scene, d, rot, eye, camera, config.camera, k)))
+    draw = jax.jit(jax.vmap(lambda d, k: depth_image(scene, d, rot, eye, camera, config.camera, k)))
     t0 = time.perf_counter()
     jax.block_until_ready(draw(kin, keys))
     render_compile_s = time.perf_counter() - t0
@@ -254,12 +239,12 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
         "render_compile_s": render_compile_s, "render_images_per_s": batch / render_s,
         "render_resolution": [camera.width, camera.height], "sensor": config.camera.sensor,
         "ncon": int(mjx_internals(template).ncon),
-        **device_info(),
+        **provenance(),
     }
 
 
 def format_physics(r: dict) -> str:
-    return (f"device: {r['device']} ({r['platform']}), jax {r['jax']}\n"
+    return (f"{device_line(r)}\n"
             f"scene {r['scene']}, setup {r['setup']}, batch {r['batch']} worlds, "
             f"{r['ncon']} contact slots; physics compile {r['compile_s']:.1f} s\n"
             f"settling:  {r['settle_world_steps_per_s']:>12,.0f} world-steps/s\n"
@@ -276,24 +261,28 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
     """Grasp attempts/s end to end (layout, settle, overview, centre, detect, re-align, execute,
     judge, rows on the host), compile time apart.
 
-    The runner compiles the job's programs, then runs every chunk (no overlap of compiling
-    and running); the run is timed from its first chunk to its last rows.
+    The job's programs compile first, then every chunk runs (no overlap of compiling and
+    running); the run is timed from its first chunk to its last rows.
     """
-    from graspjax import runner
+    import os
 
-    job = runner.Job(tuple(objects), tuple(setups), trials)
-    size = batch or runner.default_batch()
-    groups = runner.plan([job], [config], 0)
+    from graspjax.batch.plan import Job, default_batch, plan
+    from graspjax.batch.program import run_chunks
+    from graspjax.batch.rows import RunColumns, attempt_rows
+
+    job = Job(tuple(objects), tuple(setups), trials)
+    size = batch or default_batch()
+    groups = plan([job], [config], 0)
+    columns = RunColumns(run_id="", points=[config], keys=[], base=config)
     progress(f"{sum(len(g.worlds) for g in groups)} worlds, {job.attempts} attempts, "
              f"batch {size} ...")
     t0 = time.perf_counter()
     trace_s, compile_s, frames, first = 0.0, 0.0, [], None
-    for _, frame, _, timings, _ in runner.run(groups, [config], size, log=progress,
-                                                  overlap=False):
-        trace_s += timings["trace_s"]
-        compile_s += timings["compile_s"]
+    for result in run_chunks(groups, [config], size, log=progress, overlap=False):
+        trace_s += result.timings["trace_s"]
+        compile_s += result.timings["compile_s"]
         first = first or t0 + trace_s + compile_s
-        frames.append(frame)
+        frames.append(attempt_rows(result, columns))
     wall_s = time.perf_counter() - first
     attempts = sum(int((f["attempt"] >= 0).sum()) for f in frames)
     success = float(np.mean(np.concatenate([f["success"].to_numpy() for f in frames])))
@@ -302,17 +291,40 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
         "attempts": attempts, "success_rate": success, "trace_s": trace_s,
         "compile_s": compile_s,
         "run_s": wall_s, "attempts_per_s": attempts / wall_s,
-        "deterministic": "xla_gpu_deterministic_ops=true" in __import__("os").environ.get(
-            "XLA_FLAGS", ""),
-        **device_info(),
+        "deterministic": "xla_gpu_deterministic_ops=true" in os.environ.get("XLA_FLAGS", ""),
+        **provenance(),
     }
 
 
 def format_pipeline(r: dict) -> str:
-    return (f"device: {r['device']} ({r['platform']}) x{r['device_count']}, jax {r['jax']}, "
-            f"deterministic ops {'on' if r['deterministic'] else 'off'}\n"
+    return (f"{device_line(r)}, deterministic ops {'on' if r['deterministic'] else 'off'}\n"
             f"objects {r['objects']}, setups {r['setups']}, {r['trials']} trials, batch {r['batch']}"
             f": {r['attempts']} attempts ({100 * r['success_rate']:.0f}% success)\n"
             f"trace {r['trace_s']:.1f} s, compile {r['compile_s']:.1f} s, "
             f"run {r['run_s']:.1f} s = "
             f"{r['attempts_per_s']:,.1f} attempts/s")
+
+
+def measure(what: str, *, config: Config, image: RealImageConfig, objects: str, setups: tuple[int, ...],
+            trials: int, seconds: float, batch: int | None, width: int | None, height: int | None,
+            repeats: int, progress=print) -> tuple[dict, str]:
+    """One benchmark (`perception`, `detect`, `physics` or `pipeline`) with the device-sized
+    defaults: its record and its printed summary."""
+    gpu = jax.default_backend() == "gpu"
+    if what == "perception":
+        result = perception_benchmark(batch=batch or 4096, width=width or 160, height=height or 120,
+                                      repeats=repeats, config=config, progress=progress)
+        return result, format_perception(result)
+    if what == "detect":
+        result = detect_benchmark(batch=batch or (1024 if gpu else 32), width=width or 640,
+                                  height=height or 480, repeats=repeats, config=config,
+                                  image=image, progress=progress)
+        return result, format_detect(result)
+    if what == "pipeline":
+        result = pipeline_benchmark(objects, setups, trials, batch, config, progress)
+        return result, format_pipeline(result)
+    if what == "physics":
+        result = physics_benchmark(objects, setups[0], batch or (4096 if gpu else 16), seconds,
+                                   config, progress)
+        return result, format_physics(result)
+    raise ValueError(f"unknown benchmark {what!r}")

@@ -8,18 +8,19 @@ in the camera frame (not the ray length).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import jax
 import jax.numpy as jnp
+
+from graspjax.tree import pytree_dataclass
 
 KINECT_FOV_X_DEG = 57.0  # Microsoft Kinect (v1) horizontal field of view, as in the paper
 KINECT_FOV_Y_DEG = 43.0  # Kinect vertical field of view
 KINECT_WIDTH, KINECT_HEIGHT = 640, 480  # Kinect native depth resolution
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass(meta=("width", "height"))
 class Camera:
     """Pinhole intrinsics; `width`/`height` are static, the focal lengths and principal point are data."""
 
@@ -108,6 +109,3 @@ class Camera:
         return z / self.fx if footprint else z / (2.0 * self.fx)
 
 
-jax.tree_util.register_dataclass(
-    Camera, data_fields=["fx", "fy", "cx", "cy"], meta_fields=["width", "height"]
-)

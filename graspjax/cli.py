@@ -1,4 +1,5 @@
-"""The `graspjax` command line.
+"""The `graspjax` command line: arguments parsed and checked, the work handed to
+`experiment` (run, sweep, planes, detect), `report` or `bench`, what they return printed.
 
 User mistakes (missing files, bad values, unknown keys) print one line to
 stderr and exit with status 2; nothing is written unless everything worked.
@@ -10,184 +11,147 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 from pathlib import Path
 
 from graspjax.config import ConfigError
-from graspjax.io import InputError
+from graspjax.io import InputError, check_writable
 
 
 class UsageError(Exception):
     """A bad combination of command-line arguments (one line)."""
 
 
-def _jsonable(value):
-    """Convert arrays and numpy scalars to JSON values (nan -> null)."""
+def _numbers(text: str, count: int, name: str) -> list[float]:
+    """`count` finite numbers separated by commas or spaces, or a one-line error naming `name`."""
+    parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise UsageError(f"{name} takes {count} comma-separated numbers, got {text!r}")
+    return values
+
+
+def _roi(text: str | None) -> tuple[int, int, int, int] | None:
+    """--roi X0,Y0,X1,Y1 in whole pixels (its fit in the image is checked with the images)."""
+    if text is None:
+        return None
+    values = _numbers(text, 4, "--roi")
+    if any(v != int(v) for v in values):
+        raise UsageError(f"--roi takes whole pixels, got {text!r}")
+    return tuple(int(v) for v in values)
+
+
+def _range(text: str | None) -> tuple[float, float] | None:
+    """--range MIN,MAX in metres, 0 <= MIN < MAX."""
+    if text is None:
+        return None
+    lo, hi = _numbers(text, 2, "--range")
+    if not 0 <= lo < hi:
+        raise UsageError(f"--range needs 0 <= MIN < MAX (metres), got {text!r}")
+    return lo, hi
+
+
+def _intrinsics(args):
+    """The one way the user gave intrinsics (`IntrinsicsRequest`); two ways at once is an error."""
     import numpy as np
 
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    array = np.asarray(value)
-    if array.ndim > 0:
-        return [_jsonable(v) for v in array.tolist()]
-    item = array.item()
-    if isinstance(item, float) and not math.isfinite(item):
-        return None
-    return item
+    from graspjax.io import check_matrix
+    from graspjax.realimage.inputs import IntrinsicsRequest
 
-
-def _check_writable(path: str | None) -> None:
-    """Fail early, before any work, if an output file cannot be written."""
-    if path is None:
-        return
-    parent = Path(path).resolve().parent
-    if not parent.is_dir():
-        raise InputError(f"cannot write {path}: directory {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise InputError(f"cannot write {path}: directory {parent} is not writable")
-
-
-def _detect_line(rec: dict) -> str:
-    """One line of the table `graspjax detect` prints for several images."""
-    text = f"{rec['image']}: {rec['reason']}"
-    if rec["found"]:
-        x, y, z = rec["grasp"]["position"]
-        text += (f", width {100 * rec['grasp']['width']:.1f} cm at ({x:+.3f}, {y:+.3f}, {z:.3f}) m"
-                 f", pixel ({rec['grasp']['pixel'][0]:.0f}, {rec['grasp']['pixel'][1]:.0f})")
-    support = rec["support_plane"]
-    if support["found"]:
-        text += f"; {rec['view']} view, support tilt {support['tilt_deg']:.1f} deg"
-    return text
+    given = {"--fx/--fy/--cx/--cy": any(v is not None for v in (args.fx, args.fy, args.cx, args.cy)),
+             "--K": args.K is not None, "--intrinsics": args.intrinsics is not None,
+             "--fov-x/--fov-y": args.fov_x is not None or args.fov_y is not None}
+    chosen = [name for name, used in given.items() if used]
+    if len(chosen) > 1:
+        raise UsageError(f"give the intrinsics one way, not {' and '.join(chosen)}")
+    if given["--fx/--fy/--cx/--cy"]:
+        if args.fx is None:
+            raise UsageError("--fy, --cx and --cy need --fx")
+        fy = args.fx if args.fy is None else args.fy
+        if args.fx <= 0 or fy <= 0:
+            raise UsageError("focal lengths must be > 0")
+        return IntrinsicsRequest(focal=(args.fx, fy), centre=(args.cx, args.cy),
+                                 source="--fx {fx:g} --fy {fy:g} --cx {cx:g} --cy {cy:g}")
+    if given["--K"]:
+        k = check_matrix(np.reshape(_numbers(args.K, 9, "--K"), (3, 3)), "--K")
+        return IntrinsicsRequest(focal=(k[0, 0], k[1, 1]), centre=(k[0, 2], k[1, 2]), source="--K")
+    if given["--intrinsics"]:
+        return IntrinsicsRequest(file=args.intrinsics, source=args.intrinsics)
+    if given["--fov-x/--fov-y"]:
+        return IntrinsicsRequest(fov_deg=(args.fov_x, args.fov_y), source="--fov-x/--fov-y")
+    return IntrinsicsRequest()
 
 
 def cmd_detect(args) -> int:
     """Detect grasps on depth images from disk: one JSON record each, or a table of many."""
-    from graspjax import realdepth
-    from graspjax.io import write_atomic
+    from graspjax.experiment import DetectOutputs, detect
+    from graspjax.realimage.inputs import expand_images, prepare
+    from graspjax.realimage.records import line
 
-    images = realdepth.expand_images(args.images)
-    many = len(images) > 1
+    many = len(expand_images(args.images)) > 1
     if args.figure and many:
         raise UsageError("--figure takes one image; give --figures DIR for several")
     if args.batch is not None and args.batch < 1:
         raise UsageError(f"--batch must be >= 1, got {args.batch}")
-    out_csv = args.out if args.out and args.out.lower().endswith(".csv") else None
-    out_dir = args.out if args.out and out_csv is None else None
-    _check_writable(args.json)
-    _check_writable(args.figure)
-    realdepth.check_output(out_csv, "--out")
-    realdepth.check_output(out_dir, "--out", directory=True)
-    realdepth.check_output(args.figures, "--figures", directory=True)
-    intrinsics = {"fx": args.fx, "fy": args.fy, "cx": args.cx, "cy": args.cy, "k": args.K,
-                  "intrinsics": args.intrinsics, "fov_x": args.fov_x, "fov_y": args.fov_y}
-    inputs = realdepth.prepare(images, depth_scale=args.depth_scale, intrinsics=intrinsics,
-                               roi=args.roi, mask=args.mask, depth_range=args.range,
-                               downsample=args.downsample, overrides=args.set or [])
-
-    names = realdepth.figure_names(inputs.paths)
-    figures: dict[int, bytes] = {}
-    if args.figures:
-        Path(args.figures).mkdir(exist_ok=True)
-
-    def each(i, depth, camera, result):
-        png = realdepth.figure(inputs, depth, camera, result, title=str(inputs.paths[i]))
-        if args.figures:
-            write_atomic(Path(args.figures) / names[i], png)
-        else:
-            figures[i] = png
-
-    from tqdm import tqdm
-
-    with tqdm(total=len(inputs.paths), unit="image", disable=args.quiet or not many,
-              dynamic_ncols=True, file=sys.stderr) as bar:
-        log = (lambda m: None) if args.quiet else (lambda m: bar.write(m, file=sys.stderr))
-        records = realdepth.run(inputs, args.batch or 16, bar.update, log,
-                                each if (args.figure or args.figures) else None)
-    records = _jsonable(records)
-    if args.json:
-        write_atomic(args.json, (json.dumps(records if many else records[0], indent=2) + "\n").encode())
-    if args.figure:
-        write_atomic(args.figure, figures[0])
-    if out_csv:
-        write_atomic(out_csv, realdepth.csv_bytes(records))
-    if out_dir:
-        Path(out_dir).mkdir(exist_ok=True)
-        write_atomic(Path(out_dir) / "results.csv", realdepth.csv_bytes(records))
-        write_atomic(Path(out_dir) / "results.json", (json.dumps(records, indent=2) + "\n").encode())
+    if args.downsample is not None and args.downsample < 1:
+        raise UsageError(f"--downsample must be >= 1, got {args.downsample}")
+    if not (args.depth_scale > 0 and math.isfinite(args.depth_scale)):
+        raise UsageError(f"--depth-scale must be > 0, got {args.depth_scale!r}")
+    to_csv = args.out is not None and args.out.lower().endswith(".csv")
+    outputs = DetectOutputs(json=args.json, figure=args.figure, figures=args.figures,
+                            csv=args.out if to_csv else None,
+                            folder=args.out if args.out and not to_csv else None)
+    for path, what, folder in ((outputs.json, "--json", False), (outputs.figure, "--figure", False),
+                               (outputs.csv, "--out", False), (outputs.folder, "--out", True),
+                               (outputs.figures, "--figures", True)):
+        check_writable(path, what, directory=folder)
+    inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=_intrinsics(args),
+                     roi=_roi(args.roi), mask=args.mask, depth_range=_range(args.range),
+                     downsample=args.downsample, overrides=args.set or [])
+    records = detect(inputs, outputs, args.batch or 16, args.quiet)
     if many:
         for rec in records:
-            print(_detect_line(rec))
+            print(line(rec))
         print(f"{sum(r['found'] for r in records)} of {len(records)} images with a grasp")
     else:
         print(json.dumps(records[0], indent=2))
     return 0
 
 
-def _bench_detect(args, progress):
-    """`graspjax bench detect`: the real-image pipeline, single-image latency and images/s."""
-    import jax
-
-    from graspjax.bench import detect_benchmark, format_detect
-    from graspjax.realdepth import split_overrides
-
-    config, scene = split_overrides(args.set or [])
-    batch = args.batch or (1024 if jax.default_backend() == "gpu" else 32)
-    result = detect_benchmark(batch=batch, width=args.width or 640, height=args.height or 480,
-                              repeats=args.repeats, config=config, scene=scene, progress=progress)
-    return result, format_detect(result)
-
-
 def cmd_bench(args) -> int:
-    _check_writable(args.out)
-    from graspjax.bench import format_perception, perception_benchmark
+    """A benchmark: print its summary, and write its record with --out."""
+    from graspjax.bench import measure
     from graspjax.config import override, preset
+    from graspjax.realimage.inputs import split_overrides
+    from graspjax.sim.objects import parse_letters
 
+    check_writable(args.out, "--out")
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
     if args.what == "detect" and args.preset is not None:
         raise UsageError("bench detect runs the real-image pipeline, which has no preset: give "
                          "its settings with --set (e.g. --set detect.wall_check=true)")
-    progress = lambda m: print(m, file=sys.stderr)  # noqa: E731
-    config = (None if args.what == "detect"
-              else override(preset(args.preset or "paper"), args.set or []))
     if args.what == "detect":
-        result, text = _bench_detect(args, progress)
-    elif args.what == "perception":
-        result = perception_benchmark(batch=args.batch or 4096, width=args.width or 160,
-                                      height=args.height or 120, repeats=args.repeats,
-                                      config=config, progress=progress)
-        text = format_perception(result)
-    elif args.what == "pipeline":
-        from graspjax.bench import format_pipeline, pipeline_benchmark
-        from graspjax.sim.objects import parse_letters
-
-        try:
-            letters = "".join(parse_letters(args.objects))
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
-        setups = _ints(str(args.setup), "--setup", (1, 2, 3))
-        result = pipeline_benchmark(letters, setups, args.trials, args.batch, config, progress)
-        text = format_pipeline(result)
+        config, image = split_overrides(args.set or [])
     else:
-        from graspjax.bench import format_physics, physics_benchmark
-        from graspjax.sim.objects import parse_letters
-
-        try:
-            letters = "".join(parse_letters(args.objects))
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
-        setup = _ints(str(args.setup), "--setup", (1, 2, 3))[0]
-        import jax
-
-        batch = args.batch or (4096 if jax.default_backend() == "gpu" else 16)
-        result = physics_benchmark(letters, setup, batch, args.seconds, config, progress)
-        text = format_physics(result)
+        config, image = override(preset(args.preset or "paper"), args.set or []), None
+    try:
+        letters = "".join(parse_letters(args.objects))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    setups = _ints(str(args.setup), "--setup", (1, 2, 3))
+    result, text = measure(args.what, config=config, image=image, objects=letters, setups=setups,
+                           trials=args.trials, seconds=args.seconds, batch=args.batch,
+                           width=args.width, height=args.height, repeats=args.repeats,
+                           progress=lambda m: print(m, file=sys.stderr))
     if args.out:
-        from graspjax.io import write_atomic
+        from graspjax.io import jsonable, write_atomic
 
-        write_atomic(args.out, (json.dumps(_jsonable(result), indent=2) + "\n").encode())
+        write_atomic(args.out, (json.dumps(jsonable(result), indent=2) + "\n").encode())
     print(text)
     return 0
 
@@ -205,7 +169,7 @@ def _ints(text: str, name: str, allowed) -> tuple[int, ...]:
 
 def _jobs(args):
     """Jobs from --table or --setup/--objects, validated (no compilation yet)."""
-    from graspjax.runner import Job, table_job
+    from graspjax.batch.plan import Job, table_job
     from graspjax.sim.objects import parse_letters
 
     if args.trials < 1:
@@ -259,81 +223,6 @@ def _grid(items: list[str], base):
     return keys, points
 
 
-def _progress(total: int, quiet: bool, initial: int = 0, unit: str = "attempt"):
-    from tqdm import tqdm
-
-    bar = tqdm(total=total, initial=initial, unit=unit, disable=quiet, dynamic_ncols=True,
-               file=sys.stderr, smoothing=0.05)
-
-    def log(message):
-        if not quiet:
-            bar.write(message, file=sys.stderr)
-
-    return bar, log
-
-
-def _experiment(args, grid_items=None) -> int:
-    import dataclasses
-
-    from graspjax import runner
-    from graspjax.config import Config, differences, flatten, override, preset
-    from graspjax.outputs import RunFolder, check_output_folder, environment, finish_frame, run_id
-    from graspjax.views import ViewSaver
-
-    jobs = _jobs(args)
-    part, parts = _part(args.part)
-    out = check_output_folder(args.out, args.resume or parts > 1, args.overwrite)
-    config = override(preset(args.preset), args.set or [])
-    keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
-    configs = [c for _, c in points]
-    batch = args.batch or runner.default_batch()
-    paired = getattr(args, "paired", False)
-    groups = runner.plan(jobs, configs, args.seed, paired)
-    chunks = runner.chunks(groups, batch)
-    meta = {"seed": args.seed, "paired": paired, "preset": args.preset,
-            "jobs": [dataclasses.asdict(j) for j in jobs],
-            "overrides": differences(config, Config()),
-            "grid": {k: [p[0][k] for p in points] for k in keys}, "points": len(points),
-            "config": flatten(config),
-            "batch": batch, "deterministic": not args.fast,
-            "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": args.save_views,
-            **environment()}
-    meta = {"run_id": run_id(meta), **meta}
-    folder = RunFolder(out, meta, len(chunks), args.resume, shared=parts > 1)
-    skip = folder.done | {c.index for c in chunks if c.index % parts != part}
-    per_chunk = {c.index: sum(len(w.objects) for w in c.worlds) for c in chunks
-                 if c.index % parts == part}
-    bar, log = _progress(sum(per_chunk.values()), args.quiet,
-                         sum(n for c, n in per_chunk.items() if c in folder.done))
-    if grid_items is not None:
-        log(f"{len(points)} grid points of {', '.join(keys)}; "
-            + (f"every point has seed {args.seed} (paired)" if paired
-               else f"point i has seed {args.seed} + i"))
-    saver = ViewSaver(out, args.save_views, args.max_views, configs)
-    with bar:
-        for chunk, frame, layouts, timings, views in runner.run(
-                groups, configs, batch, skip, keep_views=args.save_views != "none",
-                progress=bar.update, log=log):
-            frame = finish_frame(frame, configs, keys, meta["run_id"], config)
-            folder.add(chunk.index, frame, layouts, timings)
-            if views is not None:
-                saver.save(chunk, frame, views)
-    files = folder.finish()
-    if not files:
-        print(f"part {part}/{parts} done; {len(folder.done)} of {len(chunks)} chunks of the run are "
-              f"done in {out} (the part that completes the last chunk writes the results)")
-        return 0
-    import pandas as pd
-
-    success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
-    print(f"{len(success)} attempts, success {success.mean():.1%}; wrote "
-          + ", ".join(p.name for p in files) + f" to {out}")
-    for name in ("table1.md", "table2.md"):
-        if (out / name).exists() and grid_items is None:
-            print((out / name).read_text())
-    return 0
-
-
 def _part(text: str | None) -> tuple[int, int]:
     """--part I/N -> (I, N); no --part is (0, 1)."""
     if text is None:
@@ -347,9 +236,43 @@ def _part(text: str | None) -> tuple[int, int]:
     return part, parts
 
 
+def _experiment_request(args, grid_items):
+    """The checked `Experiment` of a run (no grid) or sweep, before anything compiles."""
+    from graspjax.config import override, preset
+    from graspjax.experiment import Experiment
+
+    jobs = _jobs(args)
+    config = override(preset(args.preset), args.set or [])
+    keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
+    return Experiment(jobs=jobs, base=config, points=points, keys=keys, seed=args.seed,
+                      batch=args.batch, paired=getattr(args, "paired", False), preset=args.preset,
+                      save_views=args.save_views, max_views=args.max_views,
+                      deterministic=not args.fast)
+
+
+def _run_experiment(args, grid_items=None) -> int:
+    from graspjax import experiment
+
+    request = _experiment_request(args, grid_items)
+    part, parts = _part(args.part)
+    result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
+                            args.quiet)
+    if not result.files:
+        print(f"part {part}/{parts} done; {result.chunks_done} of {result.chunks} chunks of the "
+              f"run are done in {result.folder} (the part that completes the last chunk writes "
+              "the results)")
+        return 0
+    print(f"{result.attempts} attempts, success {result.success_rate:.1%}; wrote "
+          + ", ".join(p.name for p in result.files) + f" to {result.folder}")
+    for name in ("table1.md", "table2.md"):
+        if (result.folder / name).exists() and grid_items is None:
+            print((result.folder / name).read_text())
+    return 0
+
+
 def cmd_run(args) -> int:
     """Run grasp attempts and write attempts, tables and figures."""
-    return _experiment(args)
+    return _run_experiment(args)
 
 
 def cmd_sweep(args) -> int:
@@ -357,51 +280,41 @@ def cmd_sweep(args) -> int:
     --paired the same seed (the same worlds)."""
     if not args.grid:
         raise UsageError("sweep needs at least one --grid key=v1,v2,...")
-    return _experiment(args, args.grid)
+    return _run_experiment(args, args.grid)
 
 
 def cmd_planes(args) -> int:
     """Perception-only plane study: settle worlds, take each first view, judge the
     re-alignment's plane for every grid point of traced alignment values."""
-    import dataclasses
-    import json
-
     import jax
 
-    from graspjax import planes, runner
-    from graspjax.config import Config, differences, flatten, override, preset
-    from graspjax.outputs import check_output_folder, environment
+    from graspjax.config import override, preset
+    from graspjax.experiment import plane_study
 
     jobs = _jobs(args)
-    out = check_output_folder(args.out, overwrite=args.overwrite)
     config = override(preset(args.preset), args.set or [])
-    keys, points = _grid(args.grid or [], config) if args.grid else ([], [({}, config)])
+    keys, points = _grid(args.grid, config) if args.grid else ([], [({}, config)])
     bad = [k for k in keys if not k.startswith("align.")]
     if bad or any(jax.tree.structure(c) != jax.tree.structure(config) for _, c in points):
         raise UsageError("planes --grid takes traced align.* values that compile once (e.g. "
                          f"align.window_px, align.distance_threshold), got {', '.join(keys)}")
-    groups = runner.plan(jobs, [config], args.seed)
-    batch = args.batch or runner.default_batch()
-    total = sum(len(g.worlds) for g in groups)
-    bar, _ = _progress(total, args.quiet, unit="world")
-    with bar:
-        rows, timings = planes.study(groups, [c for _, c in points], batch, bar.update)
-    grid = {k: [p[0][k] for p in points] for k in keys}
-    for k, values in grid.items():
-        rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
-    summary = planes.summarize(rows, grid)
-    out.mkdir(parents=True, exist_ok=True)
-    rows.to_csv(out / "planes.csv.gz", index=False)
-    summary.to_csv(out / "planes_summary.csv", index=False)
-    meta = {"seed": args.seed, "preset": args.preset, "jobs": [dataclasses.asdict(j) for j in jobs],
-            "overrides": differences(config, Config()), "grid": grid, "batch": batch,
-            "config": flatten(config), "timings": timings, **environment()}
-    (out / "config.json").write_text(json.dumps(meta, indent=1, default=_jsonable))
+    summary, timings, out = plane_study(jobs, config, points, keys, args.seed, args.batch,
+                                        args.preset, args.out, args.overwrite, args.quiet)
     print(summary.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
     print(f"{timings['views_scored']:,} views scored in {timings['score_s']:.2f} s "
           f"({timings['views_per_s']:,.0f} views/s; compile {timings['score_compile_s']:.1f} s, "
           f"settle {timings['settle_s']:.1f} s, first views {timings['view_s']:.1f} s); wrote "
           f"planes.csv.gz, planes_summary.csv, config.json to {out}")
+    return 0
+
+
+def cmd_assets(args) -> int:
+    """Write the objects' meshes, MJCF files and catalogue (the committed `assets/objects/`)."""
+    from graspjax.sim.objects import write_assets
+
+    check_writable(args.folder, "folder", directory=True)
+    for path in write_assets(args.folder):
+        print(path)
     return 0
 
 
@@ -533,6 +446,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--debug", type=int, default=0, metavar="N",
                    help="also draw the first N saved attempts (views/) into DIR/debug/")
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("assets", help="write the objects' meshes and MJCF files (assets/objects)")
+    p.add_argument("folder", nargs="?", default="assets/objects", help="output folder")
+    p.set_defaults(func=cmd_assets)
 
     p = sub.add_parser("bench", help="benchmarks (print numbers; compile time apart)")
     p.add_argument("what", choices=["perception", "detect", "physics", "pipeline"],

@@ -28,6 +28,8 @@ from typing import Any, Literal
 import jax
 import numpy as np
 
+from graspjax.tree import named_fields
+
 MAX_WINDOW_PX = 32  # largest Eq. 3 window (and triangle radius): the static size of the scored patch
 
 
@@ -347,18 +349,6 @@ def _parse(text: str, kind: Any, key: str) -> Any:
         raise ConfigError(f"{key} must be {kind.__name__}, got {text!r}") from None
 
 
-def field_names(config: Any, prefix: str = "") -> list[str]:
-    """All dotted leaf names of a (nested) config."""
-    names = []
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if dataclasses.is_dataclass(value):
-            names += field_names(value, prefix + f.name + ".")
-        else:
-            names.append(prefix + f.name)
-    return names
-
-
 def _replace(config: Any, path: list[str], text: str, key: str) -> Any:
     hints = typing.get_type_hints(type(config))
     name = path[0]
@@ -395,35 +385,17 @@ def override(config: Any, assignments: Mapping[str, str] | Iterable[str]) -> Any
         try:
             config = _replace(config, key.split("."), str(text), key)
         except KeyError:
-            known = field_names(config)
+            known = list(named_fields(config))
             close = difflib.get_close_matches(key, known, n=1)
             hint = f" (did you mean {close[0]}?)" if close else ""
             raise ConfigError(f"unknown configuration key {key!r}{hint}") from None
     return config
 
 
-def differences(config: Any, reference: Any, prefix: str = "") -> dict[str, Any]:
+def differences(config: Any, reference: Any) -> dict[str, Any]:
     """Dotted names and values where `config` differs from `reference`."""
-    out = {}
-    for f in dataclasses.fields(config):
-        mine, theirs = getattr(config, f.name), getattr(reference, f.name)
-        if dataclasses.is_dataclass(mine):
-            out.update(differences(mine, theirs, prefix + f.name + "."))
-        elif mine != theirs:
-            out[prefix + f.name] = mine
-    return out
-
-
-def flatten(config: Any, prefix: str = "") -> dict[str, Any]:
-    """All dotted names and values of a (nested) config."""
-    out = {}
-    for f in dataclasses.fields(config):
-        value = getattr(config, f.name)
-        if dataclasses.is_dataclass(value):
-            out.update(flatten(value, prefix + f.name + "."))
-        else:
-            out[prefix + f.name] = value
-    return out
+    theirs = named_fields(reference)
+    return {name: value for name, value in named_fields(config).items() if value != theirs[name]}
 
 
 PRESETS: dict[str, dict[str, str]] = {
@@ -474,11 +446,11 @@ class Config:
 
 
 @_config
-class SceneConfig:
+class RealImageConfig:
     """Real depth images (`graspjax detect`): working views, support plane, robust targets.
 
     Not part of `Config`: a simulated camera looks straight down at a clean
-    table. `graspjax detect` addresses these fields as `--set scene.NAME=VALUE`.
+    table. `graspjax detect` addresses these fields as `--set image.NAME=VALUE`.
     The depth band of the hole filling and of the speck test is the
     detector's `surface_tolerance`.
     """
@@ -511,7 +483,7 @@ class SceneConfig:
         _in_range(self, "downsample", 0, 64)
         _in_range(self, "crop_px", 32, 1024)
         _require(0 <= self.min_depth < self.max_depth,
-                 "SceneConfig needs 0 <= min_depth < max_depth")
+                 "RealImageConfig needs 0 <= min_depth < max_depth")
         _in_range(self, "fill_gap_px", 0, 16)
         _in_range(self, "plane_hypotheses", 1, 4096)
         _in_range(self, "plane_pixels", 100, 1_000_000)
@@ -522,9 +494,9 @@ class SceneConfig:
         _in_range(self, "max_target_slope_deg", 1.0, 90.0)
         _in_range(self, "max_targets", 1, 32)
         _positive(self, "plane_threshold", "min_target_pixels")
-        _require(self.min_height >= 0, f"SceneConfig.min_height must be >= 0, got {self.min_height!r}")
+        _require(self.min_height >= 0, f"RealImageConfig.min_height must be >= 0, got {self.min_height!r}")
         _require(self.target_window_px % 2 == 1 and 1 <= self.target_window_px <= 15,
-                 f"SceneConfig.target_window_px must be odd, 1 to 15, got {self.target_window_px!r}")
+                 f"RealImageConfig.target_window_px must be odd, 1 to 15, got {self.target_window_px!r}")
         _require(self.min_target_pixels <= self.target_window_px ** 2,
-                 "SceneConfig.min_target_pixels must be <= target_window_px ** 2")
-        _require(self.seed >= 0, f"SceneConfig.seed must be >= 0, got {self.seed!r}")
+                 "RealImageConfig.min_target_pixels must be <= target_window_px ** 2")
+        _require(self.seed >= 0, f"RealImageConfig.seed must be >= 0, got {self.seed!r}")

@@ -11,6 +11,7 @@ problem raises `InputError` with a one-line message.
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -228,3 +229,35 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def check_writable(path: str | os.PathLike | None, what: str, directory: bool = False) -> None:
+    """Fail before any work if `path` (a file, or with `directory` a folder created if missing)
+    cannot be written: its parent must exist and be writable. `what` names it in the message."""
+    if path is None:
+        return
+    target = Path(path)
+    if directory and target.exists() and not target.is_dir():
+        raise InputError(f"{what} {path} exists and is not a directory")
+    if not directory and target.is_dir():
+        raise InputError(f"{what} {path} is a directory")
+    parent = target.resolve() if directory and target.is_dir() else target.resolve().parent
+    if not parent.is_dir():
+        raise InputError(f"cannot write {path}: directory {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise InputError(f"cannot write {path}: directory {parent} is not writable")
+
+
+def jsonable(value):
+    """Arrays, numpy scalars and nested containers as JSON values (nan and inf -> null)."""
+    if isinstance(value, dict):
+        return {k: jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    array = np.asarray(value)
+    if array.ndim > 0:
+        return [jsonable(v) for v in array.tolist()]
+    item = array.item()
+    if isinstance(item, float) and not math.isfinite(item):
+        return None
+    return item

@@ -13,9 +13,9 @@ While a run is going:
 When every chunk is done, `attempts.csv`, `attempts.parquet` and
 `rounds.csv` (one row per Setup 2/3 round: how dense its layout was) are
 rebuilt from the parts, sorted (so a resumed or split run ends byte-identical to an
-uninterrupted one), `timings.csv` joins the chunks' timings, the report
-(`summary.csv`, tables, figures) is computed from the rows alone, and
-`parts/` is removed. `--resume` continues a killed run: it checks that the
+uninterrupted one), `timings.csv` joins the chunks' timings, and `parts/` is
+removed; the report (`summary.csv`, tables, figures) is then computed from
+those files alone (`report.write_report`). `--resume` continues a killed run: it checks that the
 folder holds the same run (same run id and batch), rewrites `attempts.csv`
 from the parts (dropping an append whose chunk is not done) and runs only the
 chunks not done.
@@ -28,21 +28,14 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import platform
 import shutil
-import sys
 from datetime import UTC, datetime
-from importlib import metadata
 from pathlib import Path
 
 import pandas as pd
 
-from graspjax.config import Config, differences, flatten
+from graspjax.batch.rows import sort_attempts
 from graspjax.io import InputError, write_atomic
-
-FIRST_COLUMNS = ["run_id", "point", "setup", "object", "trial", "round", "attempt", "seed",
-                 "success", "outcome", "reason", "reorientations", "lifted_object"]
-SORT = ["point", "setup", "round", "attempt_order", "object"]
 
 
 def check_output_folder(folder: str | Path, resume: bool = False, overwrite: bool = False) -> Path:
@@ -79,45 +72,6 @@ def run_id(meta: dict) -> str:
     key = json.dumps({k: meta[k] for k in ("seed", "jobs", "overrides", "grid")}, sort_keys=True,
                      default=str)
     return hashlib.sha1(key.encode()).hexdigest()[:10]
-
-
-def environment() -> dict:
-    """Package versions, devices and command line, for config.json."""
-    import jax
-
-    versions = {}
-    for name in ("graspjax", "jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy", "pandas"):
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = None
-    devices = jax.local_devices()
-    return {"versions": versions, "python": platform.python_version(),
-            "devices": [f"{d.platform}:{getattr(d, 'device_kind', d)}:{d.id}" for d in devices],
-            "device": {"platform": devices[0].platform,
-                       "kind": getattr(devices[0], "device_kind", str(devices[0])),
-                       "count": len(devices)},
-            "command": " ".join(["graspjax", *sys.argv[1:]])}
-
-
-def finish_frame(frame: pd.DataFrame, points: list[Config], keys: list[str], rid: str,
-                 base: Config) -> pd.DataFrame:
-    """Chunk rows -> attempt rows: run id, `cfg.<key>` columns (grid keys, then every value the
-    base configuration changes), the first columns first."""
-    frame = frame.copy()
-    frame.insert(0, "run_id", rid)
-    values = [flatten(p) for p in points]
-    for key in [*keys, *sorted(set(differences(base, Config())) - set(keys))]:
-        frame[f"cfg.{key}"] = [values[p][key] for p in frame["point"]]
-    rest = [c for c in frame.columns if c not in FIRST_COLUMNS]
-    return frame[FIRST_COLUMNS + rest]
-
-
-def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
-    """Rows in the canonical order: point, setup, round, attempt (unattempted last), object."""
-    order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
-    order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
-    return order.reset_index(drop=True)
 
 
 def _csv(frame: pd.DataFrame, header: bool) -> bytes:
@@ -191,12 +145,11 @@ class RunFolder:
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
 
     def finish(self) -> list[Path]:
-        """Rebuild the attempts from the parts, sorted; write timings and the report.
+        """Rebuild the attempts and rounds from the parts, sorted, and write the timings.
 
-        Returns the files written, or an empty list while chunks are missing.
+        Returns the files written, or an empty list while chunks are missing. The report
+        (tables, figures) is computed from these files afterwards (`report.write_report`).
         """
-        from graspjax.report import build, load_rounds, parse_attempts
-
         if not self.finished:
             if len(self.done) < self.chunks:
                 return []
@@ -218,9 +171,5 @@ class RunFolder:
             if not self.shared:  # another process may still be reading them
                 shutil.rmtree(self.parts)
             self.finished = True
-        report = build(parse_attempts((self.folder / "attempts.csv").read_text()),
-                       load_rounds(self.folder))
-        for name, data in report.items():
-            write_atomic(self.folder / name, data)
         data_files = ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "config.json")
-        return [self.folder / name for name in (*data_files, *report)]
+        return [self.folder / name for name in data_files]

@@ -12,7 +12,6 @@ holds no grasp: the attempts that re-align. One compiled scoring call serves eve
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 
@@ -21,11 +20,13 @@ import numpy as np
 import pandas as pd
 from mujoco import mjx
 
+from graspjax.batch.plan import chunks
+from graspjax.batch.program import program
+from graspjax.batch.rows import SURFACE_LABELS
 from graspjax.config import AlignConfig, Config
 from graspjax.perception import align_tool
 from graspjax.perception.align import plane_inliers
 from graspjax.procedure import (
-    SURFACE_LABELS,
     PlaneTruth,
     RoundState,
     Surface,
@@ -38,9 +39,11 @@ from graspjax.procedure import (
     view_keys,
 )
 from graspjax.sim.world import physics_model
+from graspjax.stats import detectable_difference, wilson
+from graspjax.tree import pytree_dataclass
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class FirstView:
     """A world's first view of its first attempt, with the ground truth to judge planes."""
 
@@ -52,10 +55,6 @@ class FirstView:
     key: jax.Array  # () PRNG key of the view's alignment (random hypotheses)
     target: jax.Array  # () int32 object index of the target (-1: none)
     grasp_found: jax.Array  # () bool the T-beam found a grasp (the attempt would not re-align)
-
-
-jax.tree_util.register_dataclass(
-    FirstView, data_fields=[f.name for f in dataclasses.fields(FirstView)], meta_fields=[])
 
 
 def first_view(scene, state: RoundState, spec: WorldSpec) -> FirstView:
@@ -91,14 +90,12 @@ COLUMNS = ["point", "setup", "trial", "object", "target", "first_view_grasp", "p
 
 def study(groups, points: list[Config], batch: int, progress: Callable[[int], None] = lambda n: None
           ) -> tuple[pd.DataFrame, dict]:
-    """Settle every world of `groups` (runner.plan of one point), take its first view and judge
+    """Settle every world of `groups` (`plan` of one point), take its first view and judge
     the planes of every grid point in `points` (which differ in traced alignment values only).
 
     Returns one row per (grid point, world) (`COLUMNS`) and the timings: settle and view
     seconds, the scoring call's compile seconds, and the scoring's views per second.
     """
-    from graspjax.runner import chunks, program
-
     timings = {"settle_s": 0.0, "view_s": 0.0, "score_compile_s": 0.0, "score_s": 0.0,
                "views_scored": 0}
     frames, compiled = [], {}
@@ -152,20 +149,11 @@ def study(groups, points: list[Config], batch: int, progress: Callable[[int], No
     return pd.concat(frames, ignore_index=True)[COLUMNS], timings
 
 
-def detectable_difference(rate: float, n: int) -> float:
-    """Smallest difference of two rates near `rate`, each from `n` independent views, that a
-    two-sided test at 5 % finds with 80 % power (normal approximation; `summarize` passes the
-    rate as (k + 1) / (n + 2), so a rate of 0 or 1 does not claim a zero difference)."""
-    return (1.96 + 0.84) * np.sqrt(2 * max(rate * (1 - rate), 1e-12) / max(n, 1))
-
-
 def summarize(rows: pd.DataFrame, grid: dict[str, list]) -> pd.DataFrame:
     """Per grid point, over the views whose first view has no grasp (those that re-align): how
     often a plane is found, lies on the target (Wilson 95 % interval), its normal's error and the
     view's tilt, and the smallest on-target difference this many views can detect (computed as
     for independent samples: conservative, since every point scores the same views)."""
-    from graspjax.report import wilson
-
     out = []
     for point, part in rows[~rows.first_view_grasp & (rows.target != "")].groupby("point"):
         found = part[part.plane_found]

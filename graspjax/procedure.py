@@ -32,7 +32,7 @@ grasp; else no visible target; else the alignment failure that ended the
 search (no plane, or its view unreachable); else the detection failure of
 the last view searched.
 
-Batch with `jax.vmap` at the edge (`runner.py`).
+Batch with `jax.vmap` at the edge (`batch/program.py`).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ from graspjax.perception import (
 from graspjax.perception.cluster import nearest_pixel
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
-from graspjax.sim.render import render_depth_and_piece, world_planes
+from graspjax.sim.raycast import render_depth_and_piece, world_planes
 from graspjax.sim.scene import Scene, mjx
 from graspjax.sim.world import (
     Execution,
@@ -74,8 +74,8 @@ from graspjax.sim.world import (
     physics_state,
     play,
     reset,
-    where_tree,
 )
+from graspjax.tree import pytree_dataclass, where_tree
 
 ALIGN_BASE = 10  # Reason of an alignment failure: ALIGN_BASE + AlignReason
 DETECT_BASE = 20  # Reason of a detection failure: DETECT_BASE + GraspReason
@@ -129,7 +129,7 @@ class Surface(IntEnum):
     BIN = 3  # a wall of the bin
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class WorldSpec:
     """What a world plays, fixed for its round (one row of a batch)."""
 
@@ -141,7 +141,7 @@ class WorldSpec:
     config: Config  # this world's traced configuration values
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class RoundState:
     """A world between attempts."""
 
@@ -151,7 +151,7 @@ class RoundState:
     key: jax.Array  # the round's PRNG key (its layout key)
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class PlaneTruth:
     """The chosen re-alignment plane of one view against the simulation's ground truth."""
 
@@ -162,9 +162,9 @@ class PlaneTruth:
     view_tilt_deg: jax.Array  # () the re-aligned view's optical axis from straight down (deg)
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Record:
-    """One attempt of one world, fixed-shape (the runner turns it into one CSV row)."""
+    """One attempt of one world, fixed-shape (`batch/rows.py` turns it into one CSV row)."""
 
     target: jax.Array  # () int32 scene object attempted, -1 if none was visible
     reason: jax.Array  # () int32 Reason
@@ -183,7 +183,7 @@ class Record:
     layout: LayoutStats  # the scene's density after this call's settling
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Views:
     """Every image of one attempt, for debug pictures: the overview, then V = R + 1 views."""
 
@@ -197,7 +197,7 @@ class Views:
     state: PhysicsState  # the world before the attempt (a replay starts here: sim/replay.py)
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class _View:
     """What one camera pose yields."""
 
@@ -210,11 +210,6 @@ class _View:
     truth: PlaneTruth  # the chosen plane, judged by ground truth
     depth: jax.Array  # (H, W) the image
     surface: jax.Array  # (H, W) int32 `Surface` of each pixel (ground truth)
-
-
-for _cls in (WorldSpec, RoundState, PlaneTruth, Record, Views, _View):
-    jax.tree_util.register_dataclass(
-        _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
 
 
 _NO_PLANE = PlaneTruth(surface=np.int32(Surface.NONE), on_target=np.float32(np.nan),  # numpy: no
@@ -267,7 +262,7 @@ def _settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array
 def _look(scene: Scene, data, rotation, position, camera: Camera, config: Config, key):
     """Depth image (H, W), object index per pixel (H, W) (-1: table, bin or nothing) and whether
     each pixel shows the table (H, W) bool (rendered piece 0; the bin's walls follow it)."""
-    depth, piece = render_depth_and_piece(scene.render, data.geom_xpos, data.geom_xmat, rotation,
+    depth, piece = render_depth_and_piece(scene.solids, data.geom_xpos, data.geom_xmat, rotation,
                                           position, camera, config.camera, key)
     objects = jnp.asarray(scene.piece_object)
     return depth, jnp.where(piece >= 0, objects[jnp.maximum(piece, 0)], -1), piece == 0
@@ -283,9 +278,9 @@ def _surfaces(objects: jax.Array, table: jax.Array, depth: jax.Array, target) ->
 def target_faces(scene: Scene, data, target) -> tuple[jax.Array, jax.Array]:
     """Outward unit normals (G * P, 3) of the target's faces in the world (state after
     kinematics), and which are real faces (G * P,) bool (not padding, not another piece's)."""
-    normals, _ = world_planes(scene.render, data.geom_xpos, data.geom_xmat)
+    normals, _ = world_planes(scene.solids, data.geom_xpos, data.geom_xmat)
     real = (jnp.asarray(scene.piece_object) == target)[:, None] & (
-        jnp.linalg.norm(scene.render.planes[..., :3], axis=-1) > 0.5)
+        jnp.linalg.norm(scene.solids.planes[..., :3], axis=-1) > 0.5)
     return normals.reshape(-1, 3), real.reshape(-1)
 
 
@@ -537,7 +532,3 @@ def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, de
         approach=jnp.where(pose.valid, pose.approach, nan3),
         closing=jnp.where(pose.valid, pose.closing, nan3), realign=realign, layout=stats)
 
-
-REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
-                          for r in range(max(Reason) + 1)], dtype=object)
-SURFACE_LABELS = np.array(["", "target", "other object", "table", "bin"], dtype=object)  # Surface + 1

@@ -22,21 +22,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from graspjax.batch.rows import outcome_label
 from graspjax.config import Config, override
+from graspjax.figures import new_figure, png
+from graspjax.stats import wilson
 
 TABLE_OBJECTS = {1: tuple("abcdef"), 2: tuple("ghijkl")}
 REQUIRED = ("setup", "object", "trial", "round", "seed", "success", "outcome", "reason")
-
-
-def wilson(successes, n, z: float = 1.959964):
-    """95% Wilson score interval (low, high) for `successes` out of `n` (arrays or scalars)."""
-    successes, n = np.asarray(successes, float), np.asarray(n, float)
-    p = np.where(n > 0, successes / np.maximum(n, 1), np.nan)
-    denom = 1 + z**2 / np.maximum(n, 1)
-    centre = (p + z**2 / (2 * np.maximum(n, 1))) / denom
-    half = z * np.sqrt(p * (1 - p) / np.maximum(n, 1) + z**2 / (4 * np.maximum(n, 1) ** 2)) / denom
-    low, high = np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
-    return np.fmin(low, p), np.fmax(high, p)  # rounding must never leave p outside
 
 
 def paper_tables() -> pd.DataFrame:
@@ -194,29 +186,12 @@ def table_latex(summary: pd.DataFrame, table: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _figure():
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(dpi=120)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _png(fig) -> bytes:
-    buffer = io.BytesIO()
-    fig.tight_layout()
-    fig.savefig(buffer, format="png")
-    return buffer.getvalue()
-
-
 def success_figure(summary: pd.DataFrame) -> bytes:
     """Bars per object and setup: ours with 95% intervals (the share rescued by a re-alignment on
     top), the paper's beside them."""
     panels = [(t, s) for t in (1, 2) for s in sorted(summary["setup"].unique())
               if ((summary["setup"] == s) & (summary["table"] == t)).any()]
-    fig = _figure()
-    fig.set_size_inches(4.2 * max(1, len(panels)), 3.6)
+    fig = new_figure(4.2 * max(1, len(panels)), 3.6)
     axes = fig.subplots(1, max(1, len(panels)), squeeze=False)[0]
     for ax, (table, setup) in zip(axes, panels, strict=False):
         part = summary[(summary["setup"] == setup) & (summary["table"] == table)]
@@ -237,7 +212,7 @@ def success_figure(summary: pd.DataFrame) -> bytes:
         ax.set_title(f"Setup {setup}, objects {part['object'].iloc[0]}-{part['object'].iloc[-1]}")
         ax.set_ylabel("grasp success (%)")
         ax.legend(loc="lower left", fontsize=7)
-    return _png(fig)
+    return png(fig)
 
 
 def outcome_colours(labels) -> dict[str, object]:
@@ -254,8 +229,7 @@ def outcome_colours(labels) -> dict[str, object]:
 
 def outcomes_figure(frame: pd.DataFrame) -> bytes:
     """Stacked shares of outcomes (and perception failures) per setup and object."""
-    label = frame["reason"].where(frame["outcome"] == "NOT_EXECUTED", frame["outcome"])
-    label = label.str.replace("detection: ", "no grasp: ").str.replace("alignment: ", "align: ")
+    label = outcome_label(frame)
     cells = frame["setup"].astype(str) + "/" + frame["object"]
     shares = pd.crosstab(cells, label, normalize="index") * 100
     order = sorted(shares.index, key=lambda c: (int(c.split("/")[0]), c.split("/")[1]))
@@ -263,8 +237,7 @@ def outcomes_figure(frame: pd.DataFrame) -> bytes:
     columns = (["SUCCESS"] if "SUCCESS" in shares.columns else []) + sorted(
         c for c in shares.columns if c != "SUCCESS")
     colours = outcome_colours(columns)
-    fig = _figure()
-    fig.set_size_inches(max(6.0, 0.45 * len(shares) + 3), 4.2)
+    fig = new_figure(max(6.0, 0.45 * len(shares) + 3), 4.2)
     ax = fig.subplots()
     bottom = np.zeros(len(shares))
     for column in columns:
@@ -275,7 +248,7 @@ def outcomes_figure(frame: pd.DataFrame) -> bytes:
     ax.set_ylabel("share of attempts (%)")
     ax.set_xlabel("setup / object")
     ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    return _png(fig)
+    return png(fig)
 
 
 def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
@@ -296,8 +269,7 @@ def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
             n="size", successes="sum").reset_index()
         per["rate"] = per["successes"] / per["n"]
         per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
-        fig = _figure()
-        fig.set_size_inches(5.5, 3.8)
+        fig = new_figure(5.5, 3.8)
         ax = fig.subplots()
         for setup, part in per.groupby("setup"):
             part = part.sort_values(key)
@@ -314,12 +286,11 @@ def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
         ax.set_ylim(0, 105)
         ax.legend(fontsize=8)
         ax.set_title("other swept keys pooled" if len(axes) > 1 else "")
-        out[f"sweep_{key[len('cfg.'):]}.png"] = _png(fig)
+        out[f"sweep_{key[len('cfg.'):]}.png"] = png(fig)
     if len(axes) == 2:
         keys = [axes[0][0], axes[1][0]]
         grid = frame.groupby(keys)["success"].mean().unstack(keys[1]) * 100
-        fig = _figure()
-        fig.set_size_inches(6, 4.5)
+        fig = new_figure(6, 4.5)
         ax = fig.subplots()
         image = ax.imshow(grid.to_numpy(), origin="lower", cmap="viridis", vmin=0, vmax=100,
                           aspect="auto")
@@ -330,7 +301,7 @@ def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
         for (i, j), value in np.ndenumerate(grid.to_numpy()):
             ax.text(j, i, f"{value:.0f}", ha="center", va="center", color="w", fontsize=8)
         fig.colorbar(image, ax=ax, label="grasp success (%), all setups and objects")
-        out["sweep_heatmap.png"] = _png(fig)
+        out["sweep_heatmap.png"] = png(fig)
     return out
 
 

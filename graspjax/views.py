@@ -23,24 +23,19 @@ from graspjax.config import Config
 from graspjax.perception import Alignment, Grasp
 from graspjax.perception.contour import Contour, Edges
 from graspjax.perception.grasp import TBeams, surface_contour
+from graspjax.tree import named_fields
 
 if TYPE_CHECKING:
-    from graspjax.runner import ChunkViews
+    from graspjax.batch.program import ChunkViews
 
 _NESTED = {"grasp": Grasp, "alignment": Alignment, "grasp.edges": Edges,
            "grasp.candidates": TBeams, "contour": Contour}
 
 
-def _flat(prefix: str, obj) -> dict[str, np.ndarray]:
-    """Dataclass of arrays -> {'prefix.field': array}, nested dataclasses included."""
-    out = {}
-    for f in dataclasses.fields(obj):
-        value = getattr(obj, f.name)
-        if dataclasses.is_dataclass(value):
-            out.update(_flat(f"{prefix}.{f.name}", value))
-        else:
-            out[f"{prefix}.{f.name}"] = np.asarray(value)
-    return out
+def _arrays(parts: dict) -> dict[str, np.ndarray]:
+    """Dataclasses of arrays by name -> {'name.field.subfield': array}, for one `.npz`."""
+    return {f"{name}.{key}": np.asarray(value) for name, part in parts.items()
+            for key, value in named_fields(part).items()}
 
 
 def _build(prefix: str, arrays: dict) -> object:
@@ -93,8 +88,8 @@ class ViewSaver:
                       "rotation": view.rotation, "position": view.position, "looked": view.looked,
                       "seed": np.asarray(seed), "cluster": np.asarray(cluster),
                       "surface_depth": np.asarray(z_s),
-                      **_flat("grasp", view.grasp), **_flat("alignment", view.alignment),
-                      **_flat("contour", contour), **_flat("state", view.state),
+                      **_arrays({"grasp": view.grasp, "alignment": view.alignment,
+                                 "contour": contour, "state": view.state}),
                       "camera": np.array([camera.fx, camera.fy, camera.cx, camera.cy]),
                       "label": np.array([f"Setup {row.setup}, round {row.round}, attempt "
                                          f"{row.attempt}, object {row.object}: {row.reason}"])}

@@ -1,11 +1,10 @@
 """Per-image debug figures, like the paper's Figs. 2-5 and 8.
 
-`debug_figure`: three panels for one view: the depth image with z_min; the
-surface cluster with its straight edges, every antipodal T-beam placement
-and the chosen grasp; the alignment triangles with the winning plane's
-inliers. `attempt_figure`: a simulated attempt (`graspjax report DIR
---debug N`): its overview with the target, then those three panels for
-every view it took. `scene_figure`: a real image through `detect_scene`:
+`attempt_figure`: a simulated attempt (`graspjax report DIR --debug N`): its
+overview with the target, then three panels for every view it took: the
+depth image with z_min; the surface cluster with its straight edges, every
+antipodal T-beam placement and the chosen grasp; the alignment triangles
+with the winning plane's inliers. `real_image_figure`: a real image through `detect_real_image`:
 the image with its workspace, support plane and the grasp drawn back; the
 height above the support in the (possibly virtual) view the target is
 chosen in; then the same two detection and alignment panels in the
@@ -14,16 +13,13 @@ target's window.
 
 from __future__ import annotations
 
-import io
-
 import jax
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 from matplotlib.patches import Polygon
 
 from graspjax.camera import Camera
-from graspjax.config import Config, SceneConfig
+from graspjax.config import Config, RealImageConfig
+from graspjax.figures import new_figure, png
 from graspjax.perception import Alignment, Grasp, GraspReason, plane_inliers
 from graspjax.perception.grasp import surface_contour
 from graspjax.perception.reasons import SupportReason, TargetReason
@@ -124,15 +120,6 @@ def _draw_alignment(ax, depth, alignment: Alignment, inliers: np.ndarray) -> Non
         ax.set_title(f"alignment: none ({int(counts.max(initial=0))} inliers at best)")
 
 
-def _png(fig, title: str) -> bytes:
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    return buffer.getvalue()
-
-
 def _draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignment, seed,
                cluster, z_s: float, contour, config: Config, label: str = "depth") -> None:
     """Three panels of one view: depth and z_min; detection; alignment."""
@@ -149,26 +136,13 @@ def _draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignm
     _draw_alignment(axes[2], depth, alignment, inliers)
 
 
-def debug_figure(depth: np.ndarray, camera: Camera, grasp: Grasp, alignment: Alignment,
-                 config: Config = Config(), title: str = "") -> bytes:
-    """PNG bytes of the three-panel debug figure for one image."""
-    depth = np.asarray(depth, np.float32)
-    seed, cluster, z_s, contour = jax.jit(surface_contour)(depth, config.detect)
-    fig = Figure(figsize=(15, 4.6), dpi=110)
-    FigureCanvasAgg(fig)
-    _draw_view(fig, fig.subplots(1, 3), depth, camera, grasp, alignment, seed,
-               np.asarray(cluster), float(z_s), contour, config)
-    return _png(fig, title)
-
-
 def attempt_figure(saved, config: Config = Config()) -> bytes:
     """PNG bytes of one simulated attempt (`views.SavedAttempt`): the overview with the
     target, then one row of three panels per view the procedure took."""
     height, width = saved.depth.shape[1:]
     camera = Camera(width, height, *map(float, saved.camera))
     rows = [v for v in range(len(saved.looked) - 1) if saved.looked[v + 1]]
-    fig = Figure(figsize=(15, 4.6 * (len(rows) + 1)), dpi=90)
-    FigureCanvasAgg(fig)
+    fig = new_figure(15, 4.6 * (len(rows) + 1), dpi=90)
     axes = fig.subplots(len(rows) + 1, 3, squeeze=False)
     _frame(axes[0, 0], camera)
     image = axes[0, 0].imshow(_shown(saved.depth[0]), cmap="viridis", interpolation="nearest")
@@ -184,24 +158,24 @@ def attempt_figure(saved, config: Config = Config()) -> bytes:
         _draw_view(fig, axes[r], saved.depth[v + 1], camera, grasp, alignment, saved.seed[v],
                    saved.cluster[v], float(saved.surface_depth[v]), contour, config,
                    label="centred view" if v == 0 else f"re-aligned view {v}")
-    return _png(fig, saved.label)
+    return png(fig, saved.label)
 
 
-def scene_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, views, result,
-                 config: Config = Config(), scene: SceneConfig = SceneConfig(),
-                 title: str = "") -> bytes:
-    """PNG bytes of the four-panel figure of one real image through `detect_scene`.
+def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, result,
+                      config: Config = Config(), image: RealImageConfig = RealImageConfig(),
+                      title: str = "") -> bytes:
+    """PNG bytes of the four-panel figure of one real image through `detect_real_image`.
 
-    depth: metric depth (H, W) at full resolution; workspace: (H, W) bool;
-    camera: its intrinsics; views: `SceneViews` and result: `SceneDetection`
-    of this image (single, not batched).
+    depth: metric depth (H, W) at full resolution; workspace: (H, W) bool; camera: its
+    intrinsics; result: the `RealImageDetection` of this image (single, not batched; its
+    `views` are what is drawn).
     """
     depth = np.asarray(depth, np.float32)
     workspace = np.asarray(workspace, bool)
-    views, result = jax.tree.map(np.asarray, views), jax.tree.map(np.asarray, result)
+    result = jax.tree.map(np.asarray, result)
+    views = result.views
     support = result.support
-    fig = Figure(figsize=(13, 10), dpi=100)
-    FigureCanvasAgg(fig)
+    fig = new_figure(13, 10, dpi=100)
     axes = fig.subplots(2, 2).ravel()
 
     # (a) The input image: workspace, support-plane inliers, target, grasp drawn back.
@@ -217,7 +191,7 @@ def scene_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, views
     if bool(support.found):
         points = np.asarray(camera.unproject(camera.pixel_grid(), np.nan_to_num(depth)))
         height = points @ support.normal + support.distance
-        on_plane = workspace & np.isfinite(shown) & (np.abs(height) < scene.plane_threshold)
+        on_plane = workspace & np.isfinite(shown) & (np.abs(height) < image.plane_threshold)
         overlay[on_plane] = (1.0, 1.0, 1.0, 0.35)
     ax.imshow(overlay, interpolation="nearest")
     if result.target_reason == TargetReason.FOUND:
@@ -268,6 +242,6 @@ def scene_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, views
     _draw_detection(axes[2], views.window, views.window_camera, result.grasp, cluster, contour,
                     z_s, config)
     axes[2].set_title(f"{view_name} window, target {int(result.attempts)} of "
-                      f"{scene.max_targets}\n{axes[2].get_title()}", fontsize=9)
+                      f"{image.max_targets}\n{axes[2].get_title()}", fontsize=9)
     _draw_alignment(axes[3], views.window, result.alignment, inliers)
-    return _png(fig, title)
+    return png(fig, title)

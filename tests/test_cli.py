@@ -131,7 +131,7 @@ def _bad_inputs(folder, tmp_path):
         ([a, str(tmp_path / "small.npy")], "all images must have one size"),
         ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),
         ([a, b, "--figure", str(tmp_path / "f.png")], "--figure takes one image"),
-        ([a, "--set", "scene.min_heigth=0.02"], "did you mean scene.min_height"),
+        ([a, "--set", "image.min_heigth=0.02"], "did you mean image.min_height"),
         (["missing.npy"], "no such file"),
     ]
 
@@ -172,11 +172,13 @@ def test_console_script_exit_status(tmp_path):
 
 def test_importing_graspjax_starts_no_backend_so_xla_flags_apply():
     """XLA reads XLA_FLAGS when the first backend starts: the CLI's deterministic-ops flag takes
-    effect only if importing graspjax starts none."""
+    effect only if importing graspjax (any of its modules) starts none."""
     code = """
 import os
-import graspjax.bench, graspjax.cli, graspjax.procedure, graspjax.realdepth, graspjax.report
-import graspjax.runner, graspjax.views, graspjax.viz
+import importlib, pkgutil
+import graspjax
+for module in pkgutil.walk_packages(graspjax.__path__, "graspjax."):
+    importlib.import_module(module.name)
 from jax._src import xla_bridge
 assert not xla_bridge.backends_are_initialized(), "a backend started at import"
 graspjax.cli._deterministic_gpu(type("Args", (), {"fast": False})())

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from graspjax import exported
+from graspjax.batch import exported
 
 
 @jax.tree_util.register_dataclass

@@ -9,8 +9,9 @@ import pytest
 
 from graspjax import cli
 from graspjax.config import Config, override
-from graspjax.planes import FirstView, detectable_difference, judge, summarize
+from graspjax.planes import FirstView, judge, summarize
 from graspjax.procedure import Surface
+from graspjax.stats import detectable_difference
 from graspjax.synthetic import box, render_depth, rot_y, top_down_pose
 
 CENTRE = override(Config(), ["align.anchor=centre"])

@@ -4,7 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from graspjax.report import build, paper_tables, parse_attempts, summarize, sweep_axes, wilson
+from graspjax.report import build, paper_tables, parse_attempts, summarize, sweep_axes
+from graspjax.stats import wilson
 
 
 def test_wilson_interval_known_values():

@@ -20,8 +20,6 @@ the threshold are traced values (a sweep over them compiles once).
 
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 from jax import lax
@@ -30,9 +28,10 @@ from graspjax.camera import Camera
 from graspjax.config import MAX_WINDOW_PX, AlignConfig
 from graspjax.perception.cluster import nearest_pixel, surface_cluster, valid_mask
 from graspjax.perception.reasons import AlignReason
+from graspjax.tree import pytree_dataclass
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Alignment:
     """Result of `align_tool` for one image (camera frame, metres); N hypotheses."""
 
@@ -48,10 +47,6 @@ class Alignment:
     counts: jax.Array  # (N,) int32 inliers of every hypothesis (0 if invalid)
     valid: jax.Array  # (N,) bool hypothesis corners in view, valid and not collinear
     ranking: jax.Array  # (N,) int32 hypotheses by inlier count, most first (those that turn first)
-
-
-jax.tree_util.register_dataclass(
-    Alignment, data_fields=[f.name for f in dataclasses.fields(Alignment)], meta_fields=[])
 
 
 def _hypothesis_corners(anchor: jax.Array, config: AlignConfig, key) -> jax.Array:

@@ -21,14 +21,13 @@ Edge geometry is metric, on the surface plane at depth `z` in the camera frame.
 
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
+from graspjax.tree import pytree_dataclass
 
 # Module constants are numpy: importing graspjax must not start a JAX backend (XLA reads its
 # flags, e.g. the CLI's deterministic GPU ops, when the first backend starts).
@@ -40,7 +39,7 @@ _DIRECTION_OF = np.array([[5, 6, 7], [4, 0, 0], [3, 2, 1]], np.int32)
 _WEST = 4
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Contour:
     """Ordered outer boundary of a cluster (padded to a static length L)."""
 
@@ -49,7 +48,7 @@ class Contour:
     closed: jax.Array  # () bool, False if the contour was truncated at L
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Edges:
     """Straight edges of a contour (padded to a static maximum K)."""
 
@@ -59,11 +58,6 @@ class Edges:
     length: jax.Array  # (K,) metric length
     count: jax.Array  # (K,) int32 contour points on the edge
     valid: jax.Array  # (K,) bool
-
-
-for _cls, _fields in ((Contour, ["points", "length", "closed"]),
-                      (Edges, ["center", "direction", "normal", "length", "count", "valid"])):
-    jax.tree_util.register_dataclass(_cls, data_fields=_fields, meta_fields=[])
 
 
 def trace_contour(mask: jax.Array, max_points: int, steps_per_iteration: int = 8) -> Contour:

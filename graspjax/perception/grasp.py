@@ -18,8 +18,6 @@ near-ties go to the first placement.
 
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -29,9 +27,10 @@ from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.cluster import nearest_pixel, target_surface, valid_mask
 from graspjax.perception.contour import Contour, Edges, fit_edges, trace_contour
 from graspjax.perception.reasons import CANDIDATE_STAGE, GraspReason
+from graspjax.tree import pytree_dataclass
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class TBeams:
     """Every T-beam placement: edge i's centre with partner edge j, flattened to M = K*K."""
 
@@ -44,7 +43,7 @@ class TBeams:
     valid: jax.Array  # (M,) bool, reason == FOUND
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Grasp:
     """Result of `detect_grasp` for one image (camera frame, metres)."""
 
@@ -64,10 +63,6 @@ class Grasp:
     edges: Edges  # the straight edges (K)
     candidates: TBeams  # every T-beam placement (K*K)
 
-
-for _cls in (TBeams, Grasp):
-    jax.tree_util.register_dataclass(
-        _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
 
 _STAGE = np.zeros(max(GraspReason) + 1, np.int32)
 for _reason, _stage in CANDIDATE_STAGE.items():

@@ -21,19 +21,19 @@ out the feet of walls and objects, which pull on a plane). Everything works on a
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import jax
 import jax.numpy as jnp
 
 from graspjax.camera import Camera
-from graspjax.config import SceneConfig
+from graspjax.config import RealImageConfig
 from graspjax.perception.cluster import valid_mask
 from graspjax.perception.reasons import SupportReason
+from graspjax.tree import pytree_dataclass
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class SupportPlane:
     """Result of `support_plane` for one image: the plane `normal . p + distance = 0`."""
 
@@ -44,10 +44,6 @@ class SupportPlane:
     tilt: jax.Array  # () angle between the normal and the optical axis (rad)
     inliers: jax.Array  # () int32 grid pixels within `plane_threshold` of the best plane (found or not)
     fraction: jax.Array  # () inliers / valid grid pixels
-
-
-jax.tree_util.register_dataclass(
-    SupportPlane, data_fields=[f.name for f in dataclasses.fields(SupportPlane)], meta_fields=[])
 
 
 def plane_height(points: jax.Array, normal: jax.Array, distance) -> jax.Array:
@@ -67,7 +63,7 @@ def _least_squares(points: jax.Array, weight: jax.Array) -> tuple[jax.Array, jax
     return normal, -jnp.dot(normal, centre)
 
 
-def support_plane(depth: jax.Array, camera: Camera, config: SceneConfig = SceneConfig()
+def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = RealImageConfig()
                   ) -> SupportPlane:
     """The dominant plane with nothing behind it, facing the camera within `max_plane_tilt_deg`.
 

@@ -17,11 +17,11 @@ import jax
 import jax.numpy as jnp
 
 from graspjax.camera import Camera
-from graspjax.config import SceneConfig
+from graspjax.config import RealImageConfig
 from graspjax.perception.cluster import valid_mask
 
 
-def block_factors(width: int, config: SceneConfig) -> tuple[int, int]:
+def block_factors(width: int, config: RealImageConfig) -> tuple[int, int]:
     """Static block factors (detection, support) for images `width` pixels wide.
 
     Detection: `downsample` if set, else the whole factor nearest to
@@ -119,7 +119,7 @@ def _blocks(image: jax.Array, camera: Camera, factor: int) -> tuple[jax.Array, C
     return small, cropped.scaled(w, h)  # cropping to whole blocks keeps the optics
 
 
-def working_views(depth: jax.Array, workspace: jax.Array, camera: Camera, config: SceneConfig,
+def working_views(depth: jax.Array, workspace: jax.Array, camera: Camera, config: RealImageConfig,
                   tolerance: float) -> tuple[jax.Array, Camera, jax.Array, Camera]:
     """The detection depth and camera, then the coarser support depth and camera.
 

@@ -1,6 +1,6 @@
 """Simulation: objects a-l, scenes, layouts, depth rendering and the floating gripper (MuJoCo MJX).
 
-Everything here acts on ONE world; `graspjax.runner` batches worlds with `jax.vmap`.
+Everything here acts on ONE world; `graspjax.batch.program` batches worlds with `jax.vmap`.
 """
 
 from graspjax.sim.objects import BASIC, INDUSTRIAL, OBJECTS, ObjectSpec, parse_letters

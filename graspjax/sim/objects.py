@@ -23,7 +23,6 @@ import dataclasses
 import functools
 import io
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -337,8 +336,3 @@ def write_assets(folder: str | Path) -> list[Path]:
         writer.writeheader()
         writer.writerows(rows)
     return [*written, folder / "catalogue.csv"]
-
-
-if __name__ == "__main__":
-    for path in write_assets(sys.argv[1] if len(sys.argv) > 1 else "assets/objects"):
-        print(path)

@@ -33,7 +33,7 @@ import numpy as np
 
 from graspjax.config import GripperConfig, LayoutConfig, SimConfig
 from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses
-from graspjax.sim.render import RenderGeometry, render_geometry
+from graspjax.sim.raycast import Solids, solids_of
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
     from mujoco import mjx
@@ -75,7 +75,7 @@ class Scene:
     object_com: np.ndarray  # (n, 3) centre of mass of each object in its frame (m)
     object_points: np.ndarray  # (n, V, 3) piece vertices in the object frame, padded by repeats
     resting: np.ndarray  # (n, R, 3, 3) rotations in which drops of each object came to rest
-    render: RenderGeometry  # half-spaces of the table, the bin walls and every object piece
+    solids: Solids  # half-spaces of the table, the bin walls and every object piece
     piece_object: np.ndarray  # (G,) object index of each rendered piece, -1 for table and bin
     gripper: GripperConfig
     sim: SimConfig
@@ -258,7 +258,7 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         object_com=mj_model.body_ipos[bodies].copy(),
         object_points=padded,
         resting=np.stack([resting_poses(c) for c in letters]),
-        render=render_geometry(mj_model, statics + object_geoms),
+        solids=solids_of(mj_model, statics + object_geoms),
         piece_object=np.array([-1] * len(statics) + [int(geom_object[g]) for g in object_geoms],
                               np.int32),
         gripper=gripper,

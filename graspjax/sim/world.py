@@ -29,8 +29,9 @@ from graspjax.camera import Camera
 from graspjax.config import CameraConfig, Config
 from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
 from graspjax.sim.layout import footprints, gaps
-from graspjax.sim.render import render_depth, world_planes
+from graspjax.sim.raycast import render_depth, world_planes
 from graspjax.sim.scene import BIN_PARK, CLOSED_TARGET, GRIPPER_HOME, Scene, mjx
+from graspjax.tree import pytree_dataclass, where_tree
 
 HOME_QUAT = np.array([0.0, 1.0, 0.0, 0.0])  # hand z (approach) pointing down
 _HELD_MARGIN = 0.01  # target centre of mass within the jaw span plus this (m)
@@ -49,7 +50,7 @@ class Outcome(IntEnum):
     NOT_EXECUTED = 6  # no grasp to execute (perception found none)
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class GraspPose:
     """A grasp to execute in one world (world frame)."""
 
@@ -59,7 +60,7 @@ class GraspPose:
     valid: jax.Array  # () bool: False means do not execute
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Snapshot:
     """What the judge needs from one moment of one world (read from qpos alone)."""
 
@@ -72,7 +73,7 @@ class Snapshot:
     finite: jax.Array  # () bool
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Execution:
     """What executing (or not) one grasp did to one world."""
 
@@ -82,12 +83,7 @@ class Execution:
     opening: jax.Array  # () half jaw opening after closing (m)
 
 
-for _cls in (GraspPose, Snapshot, Execution):
-    jax.tree_util.register_dataclass(
-        _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
-
-
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class PhysicsState:
     """One world's physics state, enough to continue it elsewhere (C MuJoCo: `sim/replay.py`)."""
 
@@ -97,10 +93,6 @@ class PhysicsState:
     ctrl: jax.Array  # (nu,)
     mocap_pos: jax.Array  # (nmocap, 3) the hand's target, the bin
     mocap_quat: jax.Array  # (nmocap, 4)
-
-
-jax.tree_util.register_dataclass(
-    PhysicsState, data_fields=[f.name for f in dataclasses.fields(PhysicsState)], meta_fields=[])
 
 
 def physics_state(data: mjx.Data) -> PhysicsState:
@@ -222,15 +214,12 @@ def hand_contact_force(scene: Scene, data: mjx.Data) -> jax.Array:
     return jnp.sum(jnp.where(on_hand, normal, 0.0))
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class Reflex:
     """The approach's collision reflex: whether it fired, and where the hand target stopped."""
 
     tripped: jax.Array  # () bool
     stop: jax.Array  # (3,) hand target where the motion stopped
-
-
-jax.tree_util.register_dataclass(Reflex, data_fields=["tripped", "stop"], meta_fields=[])
 
 
 def segment(scene: Scene, model: mjx.Model, data: mjx.Data, start: jax.Array, end: jax.Array,
@@ -267,7 +256,7 @@ def hand_clear(scene: Scene, data: mjx.Data, position: jax.Array, rotation: jax.
     the bin and the table: sample points of its boxes (`Scene.hand_points`) against the
     half-spaces of every rendered piece (state after kinematics). () bool."""
     points = jnp.asarray(scene.hand_points) @ rotation.T + position  # (P, 3)
-    normals, offsets = world_planes(scene.render, data.geom_xpos, data.geom_xmat)
+    normals, offsets = world_planes(scene.solids, data.geom_xpos, data.geom_xmat)
     depth = offsets[None] - jnp.einsum("gpi,ki->kgp", normals, points)  # inside where all > 0
     return ~jnp.any(jnp.min(depth, -1) > margin)
 
@@ -289,10 +278,10 @@ def snapshot(scene: Scene, data: mjx.Data) -> Snapshot:
     )
 
 
-def render(scene: Scene, data: mjx.Data, rotation: jax.Array, position: jax.Array,
+def depth_image(scene: Scene, data: mjx.Data, rotation: jax.Array, position: jax.Array,
            camera: Camera, config: CameraConfig, key: jax.Array | None = None) -> jax.Array:
     """Depth image (H, W) of this world from a camera pose (state after kinematics)."""
-    return render_depth(scene.render, data.geom_xpos, data.geom_xmat, rotation, position, camera,
+    return render_depth(scene.solids, data.geom_xpos, data.geom_xmat, rotation, position, camera,
                         config, key)
 
 
@@ -434,7 +423,7 @@ def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, targe
     return data, result
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree_dataclass
 class LayoutStats:
     """How dense one world's layout is (Setups 2, 3; `rounds.csv`)."""
 
@@ -443,10 +432,6 @@ class LayoutStats:
     stacked: jax.Array  # () int32 of them resting on another object
     gap: jax.Array  # () median over objects of the nearest footprint-to-footprint distance (m)
     spread: jax.Array  # () largest distance between two objects' origins, seen from above (m)
-
-
-jax.tree_util.register_dataclass(
-    LayoutStats, data_fields=[f.name for f in dataclasses.fields(LayoutStats)], meta_fields=[])
 
 
 def layout_stats(scene: Scene, data: mjx.Data) -> LayoutStats:
@@ -477,7 +462,3 @@ def layout_stats(scene: Scene, data: mjx.Data) -> LayoutStats:
                        gap=jnp.nanmedian(jnp.where(present & jnp.isfinite(nearest), nearest, jnp.nan)),
                        spread=spread)
 
-
-def where_tree(flag: jax.Array, a, b):
-    """`a` where the scalar `flag` holds, else `b`, for two pytrees of one structure."""
-    return jax.tree.map(lambda x, y: jnp.where(flag, x, y), a, b)

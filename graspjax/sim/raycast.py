@@ -31,8 +31,9 @@ from graspjax.config import CameraConfig
 
 
 @dataclasses.dataclass(frozen=True)
-class RenderGeometry:
-    """Half-space form of every renderable geom (static per model)."""
+class Solids:
+    """Half-space form of every rendered geom (static per model): the camera's, the hand
+    clearance check's and the ground truth's one description of the solids."""
 
     geom_ids: np.ndarray  # (G,) geom ids
     planes: np.ndarray  # (G, P, 4) (nx, ny, nz, d) in the geom frame; padding (0, 0, 0, 1)
@@ -49,7 +50,7 @@ def _hull_planes(vertices: np.ndarray) -> np.ndarray:
     return np.array(unique)
 
 
-def render_geometry(mj_model: mujoco.MjModel, geom_ids) -> RenderGeometry:
+def solids_of(mj_model: mujoco.MjModel, geom_ids) -> Solids:
     """Half-spaces of the given geoms of a compiled model (planes, boxes and meshes)."""
     per_geom = []
     for g in geom_ids:
@@ -72,27 +73,27 @@ def render_geometry(mj_model: mujoco.MjModel, geom_ids) -> RenderGeometry:
     padded[:, :, 3] = 1.0  # 0 . x <= 1 holds everywhere: a no-op plane
     for i, planes in enumerate(per_geom):
         padded[i, : len(planes)] = planes
-    return RenderGeometry(np.asarray(geom_ids, np.int32), padded.astype(np.float32))
+    return Solids(np.asarray(geom_ids, np.int32), padded.astype(np.float32))
 
 
-def world_planes(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.Array
+def world_planes(solids: Solids, geom_xpos: jax.Array, geom_xmat: jax.Array
                  ) -> tuple[jax.Array, jax.Array]:
     """Every piece's half-spaces in the world, `normals @ x <= offsets`: normals (G, P, 3) and
     offsets (G, P), from the geoms' world poses (ngeom, 3) and (ngeom, 3, 3) or (ngeom, 9)."""
-    ids = geometry.geom_ids
+    ids = solids.geom_ids
     normals = jnp.einsum("gij,gpj->gpi", geom_xmat[ids].reshape(-1, 3, 3),
-                         jnp.asarray(geometry.planes[..., :3]))
-    return normals, geometry.planes[..., 3] + jnp.einsum("gpi,gi->gp", normals, geom_xpos[ids])
+                         jnp.asarray(solids.planes[..., :3]))
+    return normals, solids.planes[..., 3] + jnp.einsum("gpi,gi->gp", normals, geom_xpos[ids])
 
 
-def render_depth(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.Array,
+def render_depth(solids: Solids, geom_xpos: jax.Array, geom_xmat: jax.Array,
                  rotation: jax.Array, position: jax.Array, camera: Camera,
                  config: CameraConfig = CameraConfig(), key: jax.Array | None = None) -> jax.Array:
     """Metric depth `(H, W)` seen from a camera pose in one world (0 = no valid return).
 
     Arguments as for `render_depth_and_piece`.
     """
-    return render_depth_and_piece(geometry, geom_xpos, geom_xmat, rotation, position, camera,
+    return render_depth_and_piece(solids, geom_xpos, geom_xmat, rotation, position, camera,
                                   config, key)[0]
 
 
@@ -135,12 +136,12 @@ def kinect_axial_sigma(z):
     return 0.0012 + 0.0019 * (z - 0.4) ** 2
 
 
-def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_xmat: jax.Array,
+def render_depth_and_piece(solids: Solids, geom_xpos: jax.Array, geom_xmat: jax.Array,
                            rotation: jax.Array, position: jax.Array, camera: Camera,
                            config: CameraConfig = CameraConfig(), key: jax.Array | None = None
                            ) -> tuple[jax.Array, jax.Array]:
     """Metric depth `(H, W)` (0 = no valid return) and the index `(H, W)` int32 of the piece
-    seen at each pixel (into `geometry.geom_ids`, -1 where the depth is invalid).
+    seen at each pixel (into `solids.geom_ids`, -1 where the depth is invalid).
 
     geom_xpos, geom_xmat: (ngeom, 3), (ngeom, 3, 3) or (ngeom, 9) world poses of
     all geoms (MJX `Data` fields after kinematics); rotation: camera-to-world
@@ -151,7 +152,7 @@ def render_depth_and_piece(geometry: RenderGeometry, geom_xpos: jax.Array, geom_
     point), axial noise growing with depth, and disparity quantized in
     `disparity_step`s of a native pixel. key: PRNG key of the Kinect's noise.
     """
-    normal_world, offset_world = world_planes(geometry, geom_xpos, geom_xmat)
+    normal_world, offset_world = world_planes(solids, geom_xpos, geom_xmat)
     normal_cam = jnp.einsum("ij,gpi->gpj", rotation, normal_world)  # R^T n
     offset_cam = offset_world - normal_world @ position  # (G, P)
 

@@ -38,7 +38,7 @@ import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
-from graspjax.config import Config, SceneConfig
+from graspjax.config import Config, RealImageConfig
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.grasp import Grasp, detect_grasp
@@ -47,11 +47,12 @@ from graspjax.perception.support import SupportPlane, plane_height, support_plan
 from graspjax.perception.target import best_candidate, target_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
 from graspjax.perception.workspace import working_views
+from graspjax.tree import pytree_dataclass
 
 
-@dataclasses.dataclass(frozen=True)
-class SceneViews:
-    """The images `detect_scene` works on, for one input image."""
+@pytree_dataclass
+class RealImageViews:
+    """The images `detect_real_image` works on, for one input image."""
 
     work: jax.Array  # (h, w) support-resolution depth in the camera's own view (0 = invalid)
     work_camera: Camera  # intrinsics of `work`
@@ -62,9 +63,9 @@ class SceneViews:
     window_camera: Camera  # intrinsics of `window` (same frame as `depth`, detection resolution)
 
 
-@dataclasses.dataclass(frozen=True)
-class SceneDetection:
-    """Result of `detect_scene` for one image: the camera frame (m) and full-resolution pixels."""
+@pytree_dataclass
+class RealImageDetection:
+    """Result of `detect_real_image` for one image: the camera frame (m) and full-resolution pixels."""
 
     found: jax.Array  # () bool: a grasp was found
     support: SupportPlane  # the support plane, camera frame
@@ -87,11 +88,7 @@ class SceneDetection:
     plane_point: jax.Array  # (3,) centroid of its inliers, camera frame
     grasp: Grasp  # the detector's full result on the reported target, in its window
     alignment: Alignment  # align_tool's full result on the reported target, in its window
-
-
-for _cls in (SceneViews, SceneDetection):
-    jax.tree_util.register_dataclass(
-        _cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
+    views: RealImageViews  # the images the steps worked on (for figures)
 
 
 def _no_support() -> SupportPlane:
@@ -116,7 +113,7 @@ def _window(fine: jax.Array, fine_camera: Camera, view: Camera, rotation: jax.Ar
 
 @dataclasses.dataclass(frozen=True)
 class _Targets:
-    """Steps 1-4 of `detect_scene` on one image: its views and target candidates."""
+    """Steps 1-4 of `detect_real_image` on one image: its views and target candidates."""
 
     fine: jax.Array  # (H', W') detection-resolution depth (0 = invalid)
     fine_camera: Camera  # intrinsics of `fine`
@@ -134,18 +131,18 @@ class _Targets:
     reason: jax.Array  # () int32 TargetReason
 
 
-def _targets(depth, workspace, camera: Camera, config: Config, scene: SceneConfig) -> _Targets:
+def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageConfig) -> _Targets:
     depth = jnp.asarray(depth, jnp.float32)
     if depth.shape != (camera.height, camera.width) or workspace.shape != depth.shape:
         raise ValueError(f"depth {depth.shape} and workspace {workspace.shape} must match the "
                          f"camera ({camera.height}, {camera.width})")
     tolerance = config.detect.surface_tolerance
-    fine, fine_camera, work, work_camera = working_views(depth, workspace, camera, scene,
+    fine, fine_camera, work, work_camera = working_views(depth, workspace, camera, image,
                                                          tolerance)
 
     # Support plane and the view (turned to face it when it is tilted).
-    support = support_plane(work, work_camera, scene) if scene.support else _no_support()
-    virtual = support.found & (support.tilt > np.deg2rad(scene.max_tilt_deg))
+    support = support_plane(work, work_camera, image) if image.support else _no_support()
+    virtual = support.found & (support.tilt > np.deg2rad(image.max_tilt_deg))
     rotation = view_rotation(support.normal, virtual)
     view = view_camera(work_camera, rotation)
     view_depth = jnp.where(virtual, warp_depth(work, work_camera, view, rotation), work)
@@ -153,15 +150,24 @@ def _targets(depth, workspace, camera: Camera, config: Config, scene: SceneConfi
     height = jnp.where(support.found,
                        plane_height(points, rotation.T @ support.normal, support.distance), jnp.nan)
     candidate, score, reason = target_candidates(
-        view_depth, view, height, support.found, window=scene.target_window_px,
-        min_pixels=scene.min_target_pixels, max_slope_deg=scene.max_target_slope_deg,
-        min_height=scene.min_height, tolerance=tolerance)
+        view_depth, view, height, support.found, window=image.target_window_px,
+        min_pixels=image.min_target_pixels, max_slope_deg=image.max_target_slope_deg,
+        min_height=image.min_height, tolerance=tolerance)
     return _Targets(fine, fine_camera, work, work_camera, support, virtual, rotation, view,
                     view_depth, points, height, candidate, score, reason)
 
 
-def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConfig):
-    prep = _targets(depth, workspace, camera, config, scene)
+def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
+                      config: Config = Config(), image: RealImageConfig = RealImageConfig()
+                      ) -> RealImageDetection:
+    """Find a grasp and a re-alignment plane on the object highest above the support.
+
+    depth: metric depth (H, W) float32 at full resolution, 0 or nan = invalid; workspace:
+    (H, W) bool, True where the search may look (pixels outside are invalid for every step);
+    camera: intrinsics of the full image; image: the real-image steps' settings. Pure and
+    static-shaped: jit it, vmap it over a batch.
+    """
+    prep = _targets(depth, workspace, camera, config, image)
     fine, fine_camera, rotation, points = prep.fine, prep.fine_camera, prep.rotation, prep.points
     view_depth, height, candidate, score = prep.depth, prep.height, prep.candidate, prep.score
     tolerance = config.detect.surface_tolerance
@@ -176,7 +182,7 @@ def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConf
         has_target = jnp.any(chosen)
         point = jnp.where(has_target, rotation @ points[target[1], target[0]], 0.0)
         window, window_camera, seed = _window(fine, fine_camera, fine_view, rotation, point,
-                                              scene.crop_px)
+                                              image.crop_px)
         seed = seed & has_target
         grasp = detect_grasp(window, window_camera, config.detect, config.gripper, seed_mask=seed)
         surface, _ = target_surface(view_depth, valid & has_target, target,
@@ -186,20 +192,23 @@ def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConf
 
     def more(state):
         k, tried, *_, grasp = state
-        return (k < scene.max_targets) & ~grasp.found & jnp.any(candidate & ~tried)
+        return (k < image.max_targets) & ~grasp.found & jnp.any(candidate & ~tried)
 
-    n = scene.max_targets
+    n = image.max_targets
     first = attempt(0, jnp.zeros(candidate.shape, bool), jnp.full(n, -1, jnp.int32),
                     jnp.zeros((n, 2), jnp.int32))
     attempts, _, reasons, pixels, window, window_camera, seed, target, grasp = lax.while_loop(
         more, lambda state: attempt(*state[:4]), first)
-    alignment = align_tool(window, window_camera, config.align, jax.random.key(scene.seed),
+    alignment = align_tool(window, window_camera, config.align, jax.random.key(image.seed),
                            seed_mask=seed)
 
     has_target = jnp.any(seed)
     target_point = jnp.where(has_target, rotation @ points[target[1], target[0]], jnp.nan)
     position = rotation @ grasp.position
-    result = SceneDetection(
+    views = RealImageViews(work=prep.work, work_camera=prep.work_camera, depth=view_depth,
+                           camera=prep.view, height=height, window=window,
+                           window_camera=window_camera)
+    return RealImageDetection(
         found=grasp.found & has_target,
         support=prep.support,
         virtual=prep.virtual,
@@ -221,25 +230,7 @@ def _pipeline(depth, workspace, camera: Camera, config: Config, scene: SceneConf
         plane_point=rotation @ alignment.point,
         grasp=grasp,
         alignment=alignment,
+        views=views,
     )
-    views = SceneViews(work=prep.work, work_camera=prep.work_camera, depth=view_depth,
-                       camera=prep.view, height=height, window=window, window_camera=window_camera)
-    return result, views
 
 
-def detect_scene(depth: jax.Array, workspace: jax.Array, camera: Camera, config: Config = Config(),
-                 scene: SceneConfig = SceneConfig()) -> SceneDetection:
-    """Find a grasp and a re-alignment plane on the object highest above the support.
-
-    depth: metric depth (H, W) float32 at full resolution, 0 or nan =
-    invalid; workspace: (H, W) bool, True where the search may look (pixels
-    outside are invalid for every step); camera: intrinsics of the full
-    image. Pure and static-shaped: jit it, vmap it over a batch.
-    """
-    return _pipeline(depth, workspace, camera, config, scene)[0]
-
-
-def scene_views(depth: jax.Array, workspace: jax.Array, camera: Camera, config: Config = Config(),
-                scene: SceneConfig = SceneConfig()) -> SceneViews:
-    """The views and the detection window of `detect_scene` (for figures); same arguments."""
-    return _pipeline(depth, workspace, camera, config, scene)[1]

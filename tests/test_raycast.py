@@ -9,7 +9,7 @@ from conftest import SIM_BATCH, hull_solid
 from graspjax.config import CameraConfig
 from graspjax.geometry import axis_angle, look_down, matrix_to_quat
 from graspjax.sim.objects import OBJECTS
-from graspjax.sim.world import move_hand, render
+from graspjax.sim.world import depth_image, move_hand
 from graspjax.synthetic import render_depth, rot_z
 
 
@@ -48,7 +48,7 @@ def test_depth_matches_analytic_rays(basic_sim, view):
         position = -0.4 * rotation[:, 2] + jnp.array([0.0, 0.0, 0.02])
     data = _state(basic_sim)
     one = jax.tree.map(lambda x: x[0], data)
-    depth = np.asarray(jax.jit(render, static_argnums=(0, 4, 5))(
+    depth = np.asarray(jax.jit(depth_image, static_argnums=(0, 4, 5))(
         basic_sim.scene, one, rotation, position, camera, cfg))
     expected = _reference(camera, rotation, position)
     assert (expected > 0).all() and len(np.unique(np.round(expected, 3))) > 20
@@ -59,7 +59,7 @@ def test_gripper_is_invisible_and_range_limits_apply(basic_sim):
     cfg = CameraConfig()
     camera = cfg.camera()
     rotation, position = look_down(jnp.array([0.0, 0.0, 0.5]))
-    draw = jax.jit(jax.vmap(lambda d, c: render(basic_sim.scene, d, rotation, position, camera, c),
+    draw = jax.jit(jax.vmap(lambda d, c: depth_image(basic_sim.scene, d, rotation, position, camera, c),
                             in_axes=(0, None)), static_argnums=1)
     data = _state(basic_sim)
     plain = np.asarray(draw(data, cfg))
@@ -95,7 +95,7 @@ def test_kinect_shadow_falls_where_the_projector_cannot_see(basic_sim):
     camera = KINECT.camera()
     rotation, position = look_down(jnp.array([0.0, 0.0, 0.5]))
     one = _cube_alone(basic_sim)
-    draw = jax.jit(render, static_argnums=(0, 4, 5))
+    draw = jax.jit(depth_image, static_argnums=(0, 4, 5))
     exact = np.asarray(draw(basic_sim.scene, one, rotation, position, camera, CameraConfig()))
     kinect = np.asarray(draw(basic_sim.scene, one, rotation, position, camera, KINECT,
                              jax.random.key(0)))
@@ -117,7 +117,7 @@ def test_kinect_depth_is_quantized_in_disparity(basic_sim):
     camera = KINECT.camera()
     rotation, position = look_down(jnp.array([0.0, 0.0, 0.8]))
     one = _cube_alone(basic_sim)
-    depth = np.asarray(jax.jit(render, static_argnums=(0, 4, 5))(
+    depth = np.asarray(jax.jit(depth_image, static_argnums=(0, 4, 5))(
         basic_sim.scene, one, rotation, position, camera, KINECT, jax.random.key(0)))
     f = 640 / (2 * np.tan(np.deg2rad(57.0) / 2))  # native focal length (pixels)
     expected = f * 0.075 / (np.round(f * 0.075 / 0.8 * 8) / 8)
@@ -135,7 +135,7 @@ def test_kinect_noise_grows_as_measured_by_nguyen_et_al(basic_sim, scale):
     rotation, position = look_down(jnp.array([0.0, 0.0, 0.8]))
     one = _cube_alone(basic_sim)
     noisy = CameraConfig(sensor="kinect", noise_scale=scale)
-    depth = np.asarray(jax.jit(render, static_argnums=(0, 4, 5))(
+    depth = np.asarray(jax.jit(depth_image, static_argnums=(0, 4, 5))(
         basic_sim.scene, one, rotation, position, camera, noisy, jax.random.key(1)))
     table = depth[np.abs(depth - 0.8) < 0.02]
     f = 640 / (2 * np.tan(np.deg2rad(57.0) / 2))

@@ -8,7 +8,7 @@ import pytest
 from real_scenes import tilted_pose
 
 from graspjax import Camera
-from graspjax.config import ConfigError, SceneConfig
+from graspjax.config import ConfigError, RealImageConfig
 from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.perception.support import plane_height, support_plane
 from graspjax.perception.target import (
@@ -194,7 +194,7 @@ def test_the_papers_nearest_point_on_a_tilted_table_is_its_near_edge(support):
     depth = jnp.asarray(depth)
     plane = support(depth, WORK)
     height = plane_height(WORK.unproject(WORK.pixel_grid(), depth), plane.normal, plane.distance)
-    cfg = SceneConfig()
+    cfg = RealImageConfig()
     args = dict(window=cfg.target_window_px, min_pixels=cfg.min_target_pixels,
                 max_slope_deg=cfg.max_target_slope_deg, min_height=cfg.min_height,
                 tolerance=0.005)
@@ -212,10 +212,10 @@ def test_the_papers_nearest_point_on_a_tilted_table_is_its_near_edge(support):
     (dict(target_window_px=4), "target_window_px must be odd"),
     (dict(min_target_pixels=30), "min_target_pixels must be <= target_window_px"),
     (dict(min_depth=2.0, max_depth=1.0), "min_depth < max_depth"),
-    (dict(crop_px=8), "SceneConfig.crop_px"),
-    (dict(max_targets=0), "SceneConfig.max_targets"),
+    (dict(crop_px=8), "RealImageConfig.crop_px"),
+    (dict(max_targets=0), "RealImageConfig.max_targets"),
 ])
 def test_scene_config_refuses_bad_values(kwargs, match):
     with pytest.raises(ConfigError, match=match) as info:
-        SceneConfig(**kwargs)
+        RealImageConfig(**kwargs)
     assert "\n" not in str(info.value)

@@ -1,31 +1,15 @@
-"""The batch driver: many worlds of `procedure.attempt`, compiled once, run chunk by chunk.
+"""Compiled batch programs: a group's `start_round` and `attempt`, one copy per local device,
+compiled in the background, and the chunks played on them.
 
-Jobs, worlds, groups, chunks:
+A chunk is `start_round`, then `attempt` for k = -1 (the drop settles), 0, 1, ... (one compiled
+call each, all on the device), then one transfer of its records to the host. Nothing a world
+does depends on the other worlds of its chunk: same seed, same batch size, same device kind
+give the same records.
 
-- A `Job` is the paper's unit: objects, setups, trials. With every grid
-  point of a sweep (a `Config` and its seed) it yields *worlds*: in Setup 1
-  one world per (object, trial), holding that object alone, with one
-  attempt; in Setups 2 and 3 one world per round, holding all the job's
-  objects, with one attempt per object.
-- Worlds that can share one compiled program form a *group*: the same scene
-  (objects, and whether objects touch each other), the same number of
-  attempts per round and the same static configuration. Traced
-  configuration values (thresholds, frictions, ...) differ freely between
-  the worlds of a group, so a sweep over them compiles once.
-- A group runs in *chunks* of at most `batch` worlds, padded to one static
-  size and split over every local device. A chunk is the unit of progress:
-  `run` yields its attempt rows as soon as it finishes.
-
-Jitted work, orchestration and I/O are apart: a chunk is `start_round`,
-then `attempt` for k = -1 (the drop settles), 0, 1, ... (one compiled call
-each, all on the device), then one transfer of its records to the host,
-where they become rows. Nothing a world does depends on the other worlds of
-its chunk: same seed, same batch size, same device kind give the same rows.
-
-The groups' programs compile in the background (one thread lowers them in
-turn, XLA compiles them in parallel threads); chunks run in plan order, each
-as soon as its own group's program is ready, so the device runs the first
-group while the host still compiles the others.
+The groups' programs compile in the background (one thread lowers them in turn, XLA compiles
+them in parallel threads); chunks run in plan order, each as soon as its own group's program
+is ready, so the device runs the first group while the host still compiles the others.
+Records become rows in `rows.py`; this module never builds a table.
 """
 
 from __future__ import annotations
@@ -40,134 +24,12 @@ from collections.abc import Callable, Iterator
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pandas as pd
 
-from graspjax import exported
-from graspjax.config import MAX_REORIENTATIONS, Config, stack_configs
-from graspjax.perception import AlignReason, GraspReason
-from graspjax.procedure import (
-    REASON_LABELS,
-    SURFACE_LABELS,
-    Record,
-    RoundState,
-    Views,
-    WorldSpec,
-    attempt,
-    settle,
-    start_round,
-)
-from graspjax.sim.objects import parse_letters
+from graspjax.batch import exported
+from graspjax.batch.plan import Chunk, Group, World, chunks, padded_size
+from graspjax.config import Config, stack_configs
+from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
 from graspjax.sim.scene import Scene, mjx, scene_for
-from graspjax.sim.world import Outcome
-
-
-@dataclasses.dataclass(frozen=True)
-class Job:
-    """Setups x trials in one scene; each world attempts `objects` once (Setup 1: one each)."""
-
-    objects: tuple[str, ...]  # attempted objects (Setups 2, 3: the round's order of preference)
-    setups: tuple[int, ...]  # each setup gets `trials` trials (Setup 1) or rounds
-    trials: int
-
-    def __post_init__(self):
-        parse_letters("".join(self.objects))
-        if not self.setups or any(s not in (1, 2, 3) for s in self.setups):
-            raise ValueError(f"setups must be 1, 2 or 3, got {self.setups}")
-        if self.trials < 1:
-            raise ValueError(f"trials must be >= 1, got {self.trials}")
-
-    @property
-    def letters(self) -> tuple[str, ...]:
-        """Objects of the scene model, in a-l order."""
-        return tuple(sorted(self.objects))
-
-    @property
-    def attempts(self) -> int:
-        """Attempt rows a job yields per grid point."""
-        return sum(self.trials * len(self.objects) for _ in self.setups)
-
-
-def table_job(table: int, trials: int) -> Job:
-    """The paper's presets: Table 1 = a-f in Setups 1-3, Table 2 = g-l in Setup 1."""
-    if table == 1:
-        return Job(tuple("abcdef"), (1, 2, 3), trials)
-    if table == 2:
-        return Job(tuple("ghijkl"), (1,), trials)
-    raise ValueError(f"table must be 1 or 2, got {table}")
-
-
-@dataclasses.dataclass(frozen=True)
-class World:
-    """One world of a run, host side: which round of which grid point it plays."""
-
-    point: int  # grid point index (0 for a plain run)
-    seed: int  # the grid point's seed
-    setup: int
-    trial: int  # trial (Setup 1) or round (Setups 2, 3)
-    objects: tuple[str, ...]  # attempt order (Setup 1: the one object)
-
-
-@dataclasses.dataclass(frozen=True)
-class Group:
-    """Worlds that share one compiled program."""
-
-    letters: tuple[str, ...]  # objects of the scene
-    collide: bool  # objects touch each other (Setups 2, 3)
-    attempts: int  # attempts per round
-    config: Config  # static configuration (traced values: per world, from its point)
-    worlds: tuple[World, ...]
-
-
-@dataclasses.dataclass(frozen=True)
-class Chunk:
-    """The unit of progress: up to `batch` worlds of one group."""
-
-    index: int  # position in the run (stable for a given command and batch size)
-    group: int
-    worlds: tuple[World, ...]
-
-
-def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False) -> list[Group]:
-    """Every world of a run, grouped by compiled program; grid point i has seed `seed + i`, or
-    `seed` for every point when `paired` (the same layouts and keys: differences are paired)."""
-    groups: dict = {}
-    for i, config in enumerate(points):
-        seed_i = seed if paired else seed + i
-        for job in jobs:
-            for setup in job.setups:
-                if setup == 1:
-                    worlds = [World(i, seed_i, 1, t, (c,)) for c in job.objects
-                              for t in range(job.trials)]
-                else:
-                    worlds = [World(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
-                key = (job.letters, setup > 1, len(worlds[0].objects), jax.tree.structure(config))
-                groups.setdefault(key, (config, []))[1].extend(worlds)
-    return [Group(letters, collide, attempts, config, tuple(worlds))
-            for (letters, collide, attempts, _), (config, worlds) in groups.items()]
-
-
-def chunks(groups: list[Group], batch: int) -> list[Chunk]:
-    """Each group's worlds cut into equal chunks of at most `batch`, numbered through the run."""
-    out = []
-    for g, group in enumerate(groups):
-        size = padded_size(len(group.worlds), batch)
-        for start in range(0, len(group.worlds), size):
-            out.append(Chunk(len(out), g, group.worlds[start:start + size]))
-    return out
-
-
-def default_batch() -> int:
-    """Worlds per chunk: device-sized (GPU: thousands; CPU: a few dozen)."""
-    return 4096 * jax.local_device_count() if jax.default_backend() == "gpu" else 32
-
-
-def padded_size(worlds: int, batch: int) -> int:
-    """The static batch of a group: its worlds in as few equal chunks of at most `batch` as
-    possible (6,000 worlds at batch 4,096: two of 3,000), rounded up to the device count."""
-    devices = jax.local_device_count()
-    chunks_needed = -(-worlds // batch)
-    size = -(-worlds // chunks_needed)
-    return -(-size // devices) * devices
 
 
 class Program:
@@ -413,102 +275,24 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
     return futures
 
 
-# ---------------------------------------------------------------------------
-# Records to rows
+
+@dataclasses.dataclass(frozen=True)
+class ChunkResult:
+    """One finished chunk, on the host: what `rows.py` turns into rows."""
+
+    chunk: Chunk
+    group: Group
+    drop: Record  # the drop's record (k = -1): the settled layout's statistics; leading axis batch
+    records: list[Record]  # attempt k's records (numpy, leading axis batch; padding included)
+    timings: dict  # program (traced / loaded), trace_s, compile_s, started_s, wall_s, ...
+    views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
 
 
-def rows(program: Program, worlds: tuple[World, ...], records: list[Record]) -> pd.DataFrame:
-    """One row per attempt (and per object of a round that never got one), in world order."""
-    n_real = len(worlds)
-    letters = np.array(program.group.letters + ("",))  # index -1 -> ""
-    frames = []
-    for k, record in enumerate(records):
-        r = jax.tree.map(lambda x: np.asarray(x)[:n_real], record)
-        keep = np.flatnonzero(r.target >= 0)
-        if not len(keep):
-            continue
-        reason = r.reason[keep]
-        frame = _world_columns(worlds, keep, letters[r.target[keep]])
-        frame["attempt"] = k
-        frame["success"] = (reason == Outcome.SUCCESS).astype(int)
-        frame["outcome"] = [Outcome(o).name for o in r.outcome[keep]]
-        frame["reason"] = REASON_LABELS[reason]
-        frame["reason_code"] = reason
-        frame["reorientations"] = r.reorientations[keep]
-        frame["grasp_found"] = r.grasp_found[keep].astype(int)
-        frame["first_view_grasp"] = (r.grasp_found[keep] & (r.reorientations[keep] == 0)).astype(int)
-        frame["rescued"] = ((reason == Outcome.SUCCESS) & (r.reorientations[keep] > 0)).astype(int)
-        frame["detect_reason"] = [GraspReason(c).name for c in r.detect_reason[keep]]
-        frame["align_reason"] = [AlignReason(c).name if c >= 0 else "" for c in r.align_reason[keep]]
-        frame["lifted_object"] = letters[r.lifted_object[keep]]
-        frame["rise_m"] = r.rise[keep]
-        frame["jaw_opening_m"] = 2 * r.opening[keep]
-        for name in ("tcp", "approach", "closing"):
-            values = getattr(r, name)[keep]
-            for i, axis in enumerate("xyz"):
-                frame[f"grasp_{name}_{axis}"] = values[:, i]
-        truth = jax.tree.map(lambda x, rows=keep: x[rows], r.realign)  # (rows, R) per field
-        for turn in range(MAX_REORIENTATIONS):  # ground truth on each re-alignment taken
-            frame[f"realign{turn + 1}_surface"] = SURFACE_LABELS[truth.surface[:, turn] + 1]
-            frame[f"realign{turn + 1}_on_target"] = truth.on_target[:, turn]
-            frame[f"realign{turn + 1}_normal_error_deg"] = truth.normal_error_deg[:, turn]
-            frame[f"realign{turn + 1}_view_tilt_deg"] = truth.view_tilt_deg[:, turn]
-        frames.append(frame)
-    frames.append(_unattempted(program, worlds, records))
-    return pd.concat([f for f in frames if len(f)], ignore_index=True)
-
-
-def round_rows(worlds: tuple[World, ...], drop: Record) -> pd.DataFrame:
-    """One row per Setup 2/3 round: how dense its layout was once the drop settled."""
-    stats = jax.tree.map(lambda x: np.asarray(x)[:len(worlds)], drop.layout)
-    keep = [w for w, world in enumerate(worlds) if world.setup > 1]
-    frame = _world_columns(worlds, keep)[["point", "seed", "setup", "round", "objects"]]
-    return frame.assign(
-        touching_fraction=stats.touching[keep] / np.maximum(stats.objects[keep], 1),
-        stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep])
-
-
-def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
-    """The columns that name row i's world `worlds[index[i]]`, and its `objects[i]` (if given)."""
-    return pd.DataFrame({
-        "point": [worlds[w].point for w in index], "setup": [worlds[w].setup for w in index],
-        "object": objects if objects is not None else "", "trial": [worlds[w].trial for w in index],
-        "round": [worlds[w].trial for w in index], "seed": [worlds[w].seed for w in index],
-        "objects": ["".join(worlds[w].objects) for w in index]})
-
-
-def _unattempted(program: Program, worlds, records: list[Record]) -> pd.DataFrame:
-    """Objects of a Setup 2/3 round that never got their attempt: removed with another, or unseen."""
-    n_real = len(worlds)
-    target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
-    lifted = np.stack([np.asarray(r.lifted_object)[:n_real] for r in records], 1)
-    index, objects, why = [], [], []
-    for w, world in enumerate(worlds):
-        for c in world.objects:
-            i = program.group.letters.index(c)
-            if i not in target[w]:
-                index.append(w)
-                objects.append(c)
-                why.append("removed with another object" if i in lifted[w] else "not visible")
-    frame = _world_columns(worlds, index, objects)
-    frame["attempt"] = -1
-    frame["success"] = 0
-    frame["outcome"] = Outcome.NOT_EXECUTED.name
-    frame["reason"] = [f"not attempted: {w}" for w in why]
-    frame["reason_code"] = -1
-    frame["reorientations"] = 0
-    frame["grasp_found"] = 0
-    frame["first_view_grasp"] = 0
-    frame["rescued"] = 0
-    return frame
-
-
-def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
-        keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
-        log: Callable[[str], None] = lambda m: None, overlap: bool = True
-        ) -> Iterator[tuple[Chunk, pd.DataFrame, pd.DataFrame, dict, ChunkViews | None]]:
-    """Run every chunk not in `done`, in plan order; yield each as it finishes: (chunk,
-    attempt rows, round rows, timings, views).
+def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
+               keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
+               log: Callable[[str], None] = lambda m: None, overlap: bool = True
+               ) -> Iterator[ChunkResult]:
+    """Play every chunk not in `done`, in plan order; yield each as it finishes.
 
     Programs compile in background threads; with `overlap`, a group's chunks start as soon as
     its own program is ready, while the later groups' programs still compile (the device works
@@ -548,17 +332,17 @@ def run(groups: list[Group], points: list[Config], batch: int, done: set[int] = 
             ready(prog)
             start = time.perf_counter()
             drop, records, views = prog.play(chunk.worlds, points, progress)
-            frame = rows(prog, chunk.worlds, records)
-            frame.insert(0, "chunk", chunk.index)
-            layouts = round_rows(chunk.worlds, drop)
+            wall_s = time.perf_counter() - start
+            real = len(chunk.worlds)
+            attempts = sum(int(np.sum(np.asarray(r.target)[:real] >= 0)) for r in records)
             first = chunk.group in fresh  # a group's first chunk carries its compile time
             fresh.discard(chunk.group)
             timings = {"chunk": chunk.index, "group": chunk.group,
-                       "scene": "".join(prog.group.letters), "worlds": len(chunk.worlds),
-                       "batch": prog.batch, "attempts": int((frame["attempt"] >= 0).sum()),
+                       "scene": "".join(prog.group.letters), "worlds": real,
+                       "batch": prog.batch, "attempts": attempts,
                        "program": "loaded" if prog.loaded else "traced",
                        "trace_s": round(prog.trace_s if first else 0.0, 3),
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
                        "started_s": round(start - began, 3),
-                       "wall_s": round(time.perf_counter() - start, 3)}
-            yield chunk, frame, layouts, timings, views
+                       "wall_s": round(wall_s, 3)}
+            yield ChunkResult(chunk, prog.group, drop, records, timings, views)

@@ -1,8 +1,8 @@
-"""`detect_scene` end to end on synthetic images made to look like real captures.
+"""`detect_real_image` end to end on synthetic images made to look like real captures.
 
 Tilted table with a robot finger nearer than the table, holes and outlier
 specks, a bin with walls and a rim: the grasp must land on the object, with
-the geometry of the analytic scene. Runs through `realdepth.detect_images`
+the geometry of the analytic scene. Runs through `realimage.detect.detect_batch`
 (batched), the function `graspjax detect` uses, so that the compiles are
 shared with the CLI tests.
 """
@@ -13,19 +13,19 @@ import pytest
 from conftest import assert_trees_close
 from real_scenes import bin_scene, table_scene, with_holes_and_specks
 
-from graspjax.config import Config, SceneConfig
+from graspjax.config import Config, RealImageConfig
 from graspjax.perception import GraspReason
 from graspjax.perception.reasons import SupportReason, TargetReason
-from graspjax.realdepth import detect_images, stack_cameras
+from graspjax.realimage.detect import detect_batch, stack_cameras
 
 PIXEL = 0.73 / 525.0  # a detection pixel (full resolution) on the table, metres
 
 
 def detect(scenes):
-    """Results of `detect_images` for scenes sharing one workspace, as NumPy, one per scene."""
+    """Results of `detect_batch` for scenes sharing one workspace, as NumPy, one per scene."""
     depth = np.stack([s.depth for s in scenes])
-    result = detect_images(depth, scenes[0].workspace, stack_cameras([s.camera for s in scenes]),
-                           Config(), SceneConfig())
+    result = detect_batch(depth, scenes[0].workspace, stack_cameras([s.camera for s in scenes]),
+                           Config(), RealImageConfig())
     result = jax.tree.map(np.asarray, result)
     return [jax.tree.map(lambda x, i=i: x[i], result) for i in range(len(scenes))]
 

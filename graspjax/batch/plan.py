@@ -1,0 +1,137 @@
+"""Planning a run on the host: jobs into worlds, worlds into groups, groups into chunks.
+
+- A `Job` is the paper's unit: objects, setups, trials. With every grid
+  point of a sweep (a `Config` and its seed) it yields *worlds*: in Setup 1
+  one world per (object, trial), holding that object alone, with one
+  attempt; in Setups 2 and 3 one world per round, holding all the job's
+  objects, with one attempt per object.
+- Worlds that can share one compiled program form a *group*: the same scene
+  (objects, and whether objects touch each other), the same number of
+  attempts per round and the same static configuration. Traced
+  configuration values (thresholds, frictions, ...) differ freely between
+  the worlds of a group, so a sweep over them compiles once.
+- A group runs in *chunks* of at most `batch` worlds, padded to one static
+  size and split over every local device. A chunk is the unit of progress.
+
+Nothing here touches a device: planning is plain Python over the run's command.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+
+from graspjax.config import Config
+from graspjax.sim.objects import parse_letters
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """Setups x trials in one scene; each world attempts `objects` once (Setup 1: one each)."""
+
+    objects: tuple[str, ...]  # attempted objects (Setups 2, 3: the round's order of preference)
+    setups: tuple[int, ...]  # each setup gets `trials` trials (Setup 1) or rounds
+    trials: int
+
+    def __post_init__(self):
+        parse_letters("".join(self.objects))
+        if not self.setups or any(s not in (1, 2, 3) for s in self.setups):
+            raise ValueError(f"setups must be 1, 2 or 3, got {self.setups}")
+        if self.trials < 1:
+            raise ValueError(f"trials must be >= 1, got {self.trials}")
+
+    @property
+    def letters(self) -> tuple[str, ...]:
+        """Objects of the scene model, in a-l order."""
+        return tuple(sorted(self.objects))
+
+    @property
+    def attempts(self) -> int:
+        """Attempt rows a job yields per grid point."""
+        return sum(self.trials * len(self.objects) for _ in self.setups)
+
+
+def table_job(table: int, trials: int) -> Job:
+    """The paper's presets: Table 1 = a-f in Setups 1-3, Table 2 = g-l in Setup 1."""
+    if table == 1:
+        return Job(tuple("abcdef"), (1, 2, 3), trials)
+    if table == 2:
+        return Job(tuple("ghijkl"), (1,), trials)
+    raise ValueError(f"table must be 1 or 2, got {table}")
+
+
+@dataclasses.dataclass(frozen=True)
+class World:
+    """One world of a run, host side: which round of which grid point it plays."""
+
+    point: int  # grid point index (0 for a plain run)
+    seed: int  # the grid point's seed
+    setup: int
+    trial: int  # trial (Setup 1) or round (Setups 2, 3)
+    objects: tuple[str, ...]  # attempt order (Setup 1: the one object)
+
+
+@dataclasses.dataclass(frozen=True)
+class Group:
+    """Worlds that share one compiled program."""
+
+    letters: tuple[str, ...]  # objects of the scene
+    collide: bool  # objects touch each other (Setups 2, 3)
+    attempts: int  # attempts per round
+    config: Config  # static configuration (traced values: per world, from its point)
+    worlds: tuple[World, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class Chunk:
+    """The unit of progress: up to `batch` worlds of one group."""
+
+    index: int  # position in the run (stable for a given command and batch size)
+    group: int
+    worlds: tuple[World, ...]
+
+
+def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False) -> list[Group]:
+    """Every world of a run, grouped by compiled program; grid point i has seed `seed + i`, or
+    `seed` for every point when `paired` (the same layouts and keys: differences are paired)."""
+    groups: dict = {}
+    for i, config in enumerate(points):
+        seed_i = seed if paired else seed + i
+        for job in jobs:
+            for setup in job.setups:
+                if setup == 1:
+                    worlds = [World(i, seed_i, 1, t, (c,)) for c in job.objects
+                              for t in range(job.trials)]
+                else:
+                    worlds = [World(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
+                key = (job.letters, setup > 1, len(worlds[0].objects), jax.tree.structure(config))
+                groups.setdefault(key, (config, []))[1].extend(worlds)
+    return [Group(letters, collide, attempts, config, tuple(worlds))
+            for (letters, collide, attempts, _), (config, worlds) in groups.items()]
+
+
+def chunks(groups: list[Group], batch: int) -> list[Chunk]:
+    """Each group's worlds cut into equal chunks of at most `batch`, numbered through the run."""
+    out = []
+    for g, group in enumerate(groups):
+        size = padded_size(len(group.worlds), batch)
+        for start in range(0, len(group.worlds), size):
+            out.append(Chunk(len(out), g, group.worlds[start:start + size]))
+    return out
+
+
+def default_batch() -> int:
+    """Worlds per chunk: device-sized (GPU: thousands; CPU: a few dozen)."""
+    return 4096 * jax.local_device_count() if jax.default_backend() == "gpu" else 32
+
+
+def padded_size(worlds: int, batch: int) -> int:
+    """The static batch of a group: its worlds in as few equal chunks of at most `batch` as
+    possible (6,000 worlds at batch 4,096: two of 3,000), rounded up to the device count."""
+    devices = jax.local_device_count()
+    chunks_needed = -(-worlds // batch)
+    size = -(-worlds // chunks_needed)
+    return -(-size // devices) * devices
+
+

@@ -1,0 +1,170 @@
+"""Records -> rows: the ONE home of the columns of `attempts.csv` and `rounds.csv`, their
+order and their sort.
+
+An attempt row names its world (grid point, setup, object, trial, round, seed), says what
+happened (success, outcome, one reason and its code, re-alignments, the grasp found, what was
+lifted, the grasp pose) and what the simulation knows that the method never saw (where each
+re-alignment's plane lay, its normal's error). Objects of a Setup 2/3 round that never got an
+attempt get a row too (attempt -1). The run adds its id, the chunk and a `cfg.<key>` column
+per grid key and per value the run changed from the defaults (`RunColumns`).
+
+A round row (`rounds.csv`) says how dense a settled Setup 2/3 layout was.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+import jax
+import numpy as np
+import pandas as pd
+
+from graspjax.batch.plan import World
+from graspjax.config import MAX_REORIENTATIONS, Config, differences
+from graspjax.perception import AlignReason, GraspReason
+from graspjax.procedure import Reason, Record
+from graspjax.sim.world import Outcome
+from graspjax.tree import named_fields
+
+if TYPE_CHECKING:
+    from graspjax.batch.program import ChunkResult
+
+FIRST_COLUMNS = ["run_id", "point", "setup", "object", "trial", "round", "attempt", "seed",
+                 "success", "outcome", "reason", "reorientations", "lifted_object"]
+SORT = ["point", "setup", "round", "attempt_order", "object"]
+REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
+                          for r in range(max(Reason) + 1)], dtype=object)
+SURFACE_LABELS = np.array(["", "target", "other object", "table", "bin"], dtype=object)  # Surface + 1
+
+
+@dataclasses.dataclass(frozen=True)
+class RunColumns:
+    """What every row of a run carries besides its world and record."""
+
+    run_id: str  # the run's id (`outputs.run_id`)
+    points: list[Config]  # grid point i's configuration
+    keys: list[str]  # the grid's dotted keys
+    base: Config  # the run's configuration before the grid
+
+    def config_columns(self) -> list[str]:
+        """Dotted keys with a `cfg.` column: the grid's, then every value the base changes."""
+        return [*self.keys, *sorted(set(differences(self.base, Config())) - set(self.keys))]
+
+
+def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
+    """Every attempt row of a finished chunk, the first columns first (in world order; the run
+    folder sorts the whole run with `sort_attempts`)."""
+    frame = _record_rows(result.group.letters, result.chunk.worlds, result.records)
+    frame.insert(0, "chunk", result.chunk.index)
+    frame.insert(0, "run_id", run.run_id)
+    values = [named_fields(p) for p in run.points]
+    for key in run.config_columns():
+        frame[f"cfg.{key}"] = [values[p][key] for p in frame["point"]]
+    rest = [c for c in frame.columns if c not in FIRST_COLUMNS]
+    return frame[FIRST_COLUMNS + rest]
+
+
+def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
+    """Rows in the canonical order: point, setup, round, attempt (unattempted last), object."""
+    order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
+    order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
+    return order.reset_index(drop=True)
+
+
+def outcome_label(frame: pd.DataFrame) -> pd.Series:
+    """One short label per attempt row: its outcome when executed, else why no grasp was
+    executed ("no grasp: NO_ROOM", "align: NO_PLANE", "no target", "not attempted: ...")."""
+    label = frame["reason"].where(frame["outcome"] == "NOT_EXECUTED", frame["outcome"])
+    return label.str.replace("detection: ", "no grasp: ").str.replace("alignment: ", "align: ")
+
+
+def _record_rows(letters: tuple[str, ...], worlds: tuple[World, ...], records: list[Record]
+                 ) -> pd.DataFrame:
+    """One row per attempt (and per object of a round that never got one), in world order:
+    the columns a world and its records give, before the run's own."""
+    n_real = len(worlds)
+    letters = np.array(letters + ("",))  # index -1 -> ""
+    frames = []
+    for k, record in enumerate(records):
+        r = jax.tree.map(lambda x: np.asarray(x)[:n_real], record)
+        keep = np.flatnonzero(r.target >= 0)
+        if not len(keep):
+            continue
+        reason = r.reason[keep]
+        frame = _world_columns(worlds, keep, letters[r.target[keep]])
+        frame["attempt"] = k
+        frame["success"] = (reason == Outcome.SUCCESS).astype(int)
+        frame["outcome"] = [Outcome(o).name for o in r.outcome[keep]]
+        frame["reason"] = REASON_LABELS[reason]
+        frame["reason_code"] = reason
+        frame["reorientations"] = r.reorientations[keep]
+        frame["grasp_found"] = r.grasp_found[keep].astype(int)
+        frame["first_view_grasp"] = (r.grasp_found[keep] & (r.reorientations[keep] == 0)).astype(int)
+        frame["rescued"] = ((reason == Outcome.SUCCESS) & (r.reorientations[keep] > 0)).astype(int)
+        frame["detect_reason"] = [GraspReason(c).name for c in r.detect_reason[keep]]
+        frame["align_reason"] = [AlignReason(c).name if c >= 0 else "" for c in r.align_reason[keep]]
+        frame["lifted_object"] = letters[r.lifted_object[keep]]
+        frame["rise_m"] = r.rise[keep]
+        frame["jaw_opening_m"] = 2 * r.opening[keep]
+        for name in ("tcp", "approach", "closing"):
+            values = getattr(r, name)[keep]
+            for i, axis in enumerate("xyz"):
+                frame[f"grasp_{name}_{axis}"] = values[:, i]
+        truth = jax.tree.map(lambda x, rows=keep: x[rows], r.realign)  # (rows, R) per field
+        for turn in range(MAX_REORIENTATIONS):  # ground truth on each re-alignment taken
+            frame[f"realign{turn + 1}_surface"] = SURFACE_LABELS[truth.surface[:, turn] + 1]
+            frame[f"realign{turn + 1}_on_target"] = truth.on_target[:, turn]
+            frame[f"realign{turn + 1}_normal_error_deg"] = truth.normal_error_deg[:, turn]
+            frame[f"realign{turn + 1}_view_tilt_deg"] = truth.view_tilt_deg[:, turn]
+        frames.append(frame)
+    frames.append(_unattempted(letters[:-1], worlds, records))
+    return pd.concat([f for f in frames if len(f)], ignore_index=True)
+
+
+def round_rows(result: ChunkResult) -> pd.DataFrame:
+    """One row per Setup 2/3 round of a chunk: how dense its layout was once the drop settled."""
+    worlds, drop = result.chunk.worlds, result.drop
+    stats = jax.tree.map(lambda x: np.asarray(x)[:len(worlds)], drop.layout)
+    keep = [w for w, world in enumerate(worlds) if world.setup > 1]
+    frame = _world_columns(worlds, keep)[["point", "seed", "setup", "round", "objects"]]
+    return frame.assign(
+        touching_fraction=stats.touching[keep] / np.maximum(stats.objects[keep], 1),
+        stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep])
+
+
+def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
+    """The columns that name row i's world `worlds[index[i]]`, and its `objects[i]` (if given)."""
+    return pd.DataFrame({
+        "point": [worlds[w].point for w in index], "setup": [worlds[w].setup for w in index],
+        "object": objects if objects is not None else "", "trial": [worlds[w].trial for w in index],
+        "round": [worlds[w].trial for w in index], "seed": [worlds[w].seed for w in index],
+        "objects": ["".join(worlds[w].objects) for w in index]})
+
+
+def _unattempted(letters, worlds, records: list[Record]) -> pd.DataFrame:
+    """Objects of a Setup 2/3 round that never got their attempt: removed with another, or unseen."""
+    n_real = len(worlds)
+    target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
+    lifted = np.stack([np.asarray(r.lifted_object)[:n_real] for r in records], 1)
+    index, objects, why = [], [], []
+    for w, world in enumerate(worlds):
+        for c in world.objects:
+            i = list(letters).index(c)
+            if i not in target[w]:
+                index.append(w)
+                objects.append(c)
+                why.append("removed with another object" if i in lifted[w] else "not visible")
+    frame = _world_columns(worlds, index, objects)
+    frame["attempt"] = -1
+    frame["success"] = 0
+    frame["outcome"] = Outcome.NOT_EXECUTED.name
+    frame["reason"] = [f"not attempted: {w}" for w in why]
+    frame["reason_code"] = -1
+    frame["reorientations"] = 0
+    frame["grasp_found"] = 0
+    frame["first_view_grasp"] = 0
+    frame["rescued"] = 0
+    return frame
+
+

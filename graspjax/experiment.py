@@ -1,0 +1,215 @@
+"""The workflows that turn a checked command into files: a simulated run or sweep, a plane
+study, and a detection on real depth images.
+
+Each reads top to bottom: plan the work, write what identifies it, run the compiled kernels
+chunk by chunk (`batch.program`, `planes`, `realimage.detect`), turn their records into rows
+or records (`batch.rows`, `realimage.records`), write them as they come (`outputs`), then the
+report computed from the written rows alone (`report`). The command line parses and checks
+the arguments and prints what these return.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from graspjax.batch.plan import Job, chunks, default_batch, plan
+from graspjax.batch.program import run_chunks
+from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
+from graspjax.config import Config, differences
+from graspjax.io import jsonable, write_atomic
+from graspjax.outputs import RunFolder, check_output_folder, run_id
+from graspjax.provenance import provenance
+from graspjax.tree import named_fields
+
+
+def progress_bar(total: int, quiet: bool, initial: int = 0, unit: str = "attempt",
+                 show_bar: bool = True):
+    """A progress bar on stderr (none with `quiet`, or without `show_bar`) and a `log(message)` that
+    prints above it (nothing with `quiet`)."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, initial=initial, unit=unit, disable=quiet or not show_bar,
+               dynamic_ncols=True, file=sys.stderr, smoothing=0.05)
+
+    def log(message: str) -> None:
+        if not quiet:
+            bar.write(message, file=sys.stderr)
+
+    return bar, log
+
+
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """One `graspjax run` (a grid of one point) or `sweep`, as the command line checked it."""
+
+    jobs: list[Job]
+    base: Config  # the preset with every --set applied
+    points: list[tuple[dict[str, str], Config]]  # grid point i: its --grid values and config
+    keys: list[str]  # the grid's dotted keys ([] for a plain run)
+    seed: int
+    batch: int | None  # worlds per chunk (None: device-sized)
+    paired: bool  # every grid point plays the same worlds
+    preset: str
+    save_views: str  # none, failed or all
+    max_views: int
+    deterministic: bool  # XLA's deterministic GPU ops (not --fast)
+
+    @property
+    def sweep(self) -> bool:
+        return bool(self.keys)
+
+
+@dataclasses.dataclass(frozen=True)
+class RunResult:
+    """What a finished run (or one part of a shared run) wrote."""
+
+    folder: Path
+    files: list[Path]  # [] while other parts of a shared run are missing
+    chunks_done: int
+    chunks: int
+    attempts: int  # rows of attempts.csv (0 while parts are missing)
+    success_rate: float  # their mean success (nan while parts are missing)
+
+
+def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite: bool = False,
+        part: int = 0, parts: int = 1, quiet: bool = False) -> RunResult:
+    """Run an experiment into the folder `out` (`outputs.RunFolder`), chunk by chunk, then
+    write its report. With `parts` > 1 this process runs every `parts`-th chunk from `part`
+    into a folder shared with the other parts; the one that completes the last chunk writes
+    the results."""
+    from graspjax.report import write_report
+    from graspjax.views import ViewSaver
+
+    out = check_output_folder(out, resume or parts > 1, overwrite)
+    configs = [c for _, c in experiment.points]
+    batch = experiment.batch or default_batch()
+    groups = plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+    planned = chunks(groups, batch)
+    meta = {"seed": experiment.seed, "paired": experiment.paired, "preset": experiment.preset,
+            "jobs": [dataclasses.asdict(j) for j in experiment.jobs],
+            "overrides": differences(experiment.base, Config()),
+            "grid": {k: [p[0][k] for p in experiment.points] for k in experiment.keys},
+            "points": len(experiment.points),
+            "config": named_fields(experiment.base),
+            "batch": batch, "deterministic": experiment.deterministic,
+            "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": experiment.save_views,
+            **provenance()}
+    meta = {"run_id": run_id(meta), **meta}
+    columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
+    folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1)
+    skip = folder.done | {c.index for c in planned if c.index % parts != part}
+    per_chunk = {c.index: sum(len(w.objects) for w in c.worlds) for c in planned
+                 if c.index % parts == part}
+    bar, log = progress_bar(sum(per_chunk.values()), quiet,
+                            sum(n for c, n in per_chunk.items() if c in folder.done))
+    if experiment.sweep:
+        log(f"{len(experiment.points)} grid points of {', '.join(experiment.keys)}; "
+            + (f"every point has seed {experiment.seed} (paired)" if experiment.paired
+               else f"point i has seed {experiment.seed} + i"))
+    saver = ViewSaver(out, experiment.save_views, experiment.max_views, configs)
+    with bar:
+        for result in run_chunks(groups, configs, batch, skip,
+                                 keep_views=experiment.save_views != "none",
+                                 progress=bar.update, log=log):
+            frame = attempt_rows(result, columns)
+            folder.add(result.chunk.index, frame, round_rows(result), result.timings)
+            if result.views is not None:
+                saver.save(result.chunk, frame, result.views)
+    files = folder.finish()
+    if not files:
+        return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
+    files += write_report(out)
+    success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
+    return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()))
+
+
+def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str], Config]],
+                keys: list[str], seed: int, batch: int | None, preset: str, out: str | Path,
+                overwrite: bool = False, quiet: bool = False) -> tuple[pd.DataFrame, dict, Path]:
+    """`graspjax planes`: settle the worlds, take each first view and judge the re-alignment's
+    plane for every grid point (traced `align.*` values) into `out`: planes.csv.gz,
+    planes_summary.csv, config.json. Returns the summary, the timings and the folder."""
+    from graspjax import planes
+
+    out = check_output_folder(out, overwrite=overwrite)
+    groups = plan(jobs, [base], seed)
+    batch = batch or default_batch()
+    bar, _ = progress_bar(sum(len(g.worlds) for g in groups), quiet, unit="world")
+    with bar:
+        rows, timings = planes.study(groups, [c for _, c in points], batch, bar.update)
+    grid = {k: [p[0][k] for p in points] for k in keys}
+    for k, values in grid.items():
+        rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
+    summary = planes.summarize(rows, grid)
+    out.mkdir(parents=True, exist_ok=True)
+    rows.to_csv(out / "planes.csv.gz", index=False)
+    summary.to_csv(out / "planes_summary.csv", index=False)
+    meta = {"seed": seed, "preset": preset, "jobs": [dataclasses.asdict(j) for j in jobs],
+            "overrides": differences(base, Config()), "grid": grid, "batch": batch,
+            "config": named_fields(base), "timings": timings, **provenance()}
+    (out / "config.json").write_text(json.dumps(meta, indent=1, default=jsonable))
+    return summary, timings, out
+
+
+@dataclasses.dataclass(frozen=True)
+class DetectOutputs:
+    """Where a detection run writes (each None: not written). Checked writable by the caller."""
+
+    json: str | None = None  # the record (one image) or the list of records
+    figure: str | None = None  # the debug figure of the one image
+    figures: str | None = None  # a folder: one debug figure per image
+    csv: str | None = None  # the results table
+    folder: str | None = None  # a folder: results.csv and results.json
+
+
+def detect(inputs, outputs: DetectOutputs, batch: int = 16, quiet: bool = False) -> list[dict]:
+    """`graspjax detect`: every image of `inputs` (`realimage.inputs.prepare`) through the
+    batched detector; its records (JSON values), with the files of `outputs` written
+    atomically once everything has run (figures as each image is done)."""
+    from graspjax.realimage import records as rec
+    from graspjax.realimage.detect import detect_files
+    from graspjax.viz import real_image_figure
+
+    many = len(inputs.paths) > 1
+    names = figure_names(inputs.paths)
+    if outputs.figures:
+        Path(outputs.figures).mkdir(exist_ok=True)
+    records, first_figure = [], None
+    bar, log = progress_bar(len(inputs.paths), quiet, unit="image", show_bar=many)
+    with bar:
+        for found in detect_files(inputs, batch, bar.update, log):
+            records.append(rec.record(found, inputs))
+            if outputs.figure or outputs.figures:
+                png = real_image_figure(found.depth, inputs.workspace, found.camera, found.result,
+                                        inputs.config, inputs.image, title=str(found.path))
+                if outputs.figures:
+                    write_atomic(Path(outputs.figures) / names[found.index], png)
+                else:
+                    first_figure = png
+    if outputs.json:
+        write_atomic(outputs.json, rec.json_bytes(records, many))
+    if outputs.figure:
+        write_atomic(outputs.figure, first_figure)
+    if outputs.csv:
+        write_atomic(outputs.csv, rec.csv_bytes(records))
+    if outputs.folder:
+        Path(outputs.folder).mkdir(exist_ok=True)
+        write_atomic(Path(outputs.folder) / "results.csv", rec.csv_bytes(records))
+        write_atomic(Path(outputs.folder) / "results.json", rec.json_bytes(records, True))
+    return records
+
+
+def figure_names(paths: list[Path] | tuple[Path, ...]) -> list[str]:
+    """Distinct PNG names for the images: their stems, prefixed by parent folders where needed."""
+    parts = [p.resolve().with_suffix("").parts for p in paths]
+    for depth in range(1, max(len(q) for q in parts) + 1):
+        names = ["_".join(q[-depth:]) for q in parts]
+        if len(set(names)) == len(names):
+            return [n + ".png" for n in names]
+    return [f"{i:05d}_{p.stem}.png" for i, p in enumerate(paths)]

@@ -1,0 +1,41 @@
+"""What produced a result: package versions, the devices, the host and the command line.
+
+Every run's `config.json`, every plane study's and every benchmark record carry it.
+"""
+
+from __future__ import annotations
+
+import platform
+import sys
+from importlib import metadata
+
+PACKAGES = ("graspjax", "jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy", "pandas")
+
+
+def provenance() -> dict:
+    """Versions, Python, devices (every local one, and the first one's platform, kind and the
+    count), host and command line."""
+    import jax
+
+    versions = {}
+    for name in PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = None
+    devices = jax.local_devices()
+    return {"versions": versions, "python": platform.python_version(),
+            "devices": [f"{d.platform}:{getattr(d, 'device_kind', d)}:{d.id}" for d in devices],
+            "device": {"platform": devices[0].platform,
+                       "kind": getattr(devices[0], "device_kind", str(devices[0])),
+                       "count": len(devices)},
+            "host": platform.node(),
+            "command": " ".join(["graspjax", *sys.argv[1:]])}
+
+
+def device_line(record: dict) -> str:
+    """`device: NVIDIA H100 80GB HBM3 (gpu) x1, jax 0.11.2`: the first line of a printed
+    benchmark."""
+    device = record["device"]
+    return (f"device: {device['kind']} ({device['platform']}) x{device['count']}, "
+            f"jax {record['versions']['jax']}")

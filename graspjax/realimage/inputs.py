@@ -1,0 +1,207 @@
+"""The inputs of a detection on real depth images: files, intrinsics, workspace, settings.
+
+`prepare` reads and checks everything a user can get wrong (image formats and sizes,
+intrinsics, workspace, depth range) before anything is computed; every problem is an
+`InputError` with a one-line message. The command line parses its flags into the values
+taken here (`IntrinsicsRequest`, a workspace box, a depth range).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
+from graspjax.config import Config, RealImageConfig, override
+from graspjax.io import InputError, load_intrinsics, load_mask, read_depth
+from graspjax.perception.workspace import block_factors
+
+DEPTH_SUFFIXES = (".npy", ".npz", ".png")
+
+
+@dataclasses.dataclass(frozen=True)
+class Intrinsics:
+    """Where the intrinsics come from: explicit values, or each file's own K, or the default."""
+
+    values: tuple[float, float, float, float] | None  # (fx, fy, cx, cy), None: per image
+    source: str  # how the user gave them, for the records
+
+    def describe(self, file_k: np.ndarray | None) -> str:
+        """Where one image's intrinsics come from."""
+        if self.values is not None:
+            return self.source
+        return "the file's K" if file_k is not None else "the Kinect's 57 x 43 degrees (default)"
+
+    def camera(self, width: int, height: int, file_k: np.ndarray | None) -> Camera:
+        """Full-resolution intrinsics of one `width` x `height` image with its own `file_k`."""
+        if self.values is not None:
+            return Camera(width, height, *map(float, self.values))
+        if file_k is not None:
+            return Camera(width, height, float(file_k[0, 0]), float(file_k[1, 1]),
+                          float(file_k[0, 2]), float(file_k[1, 2]))
+        return Camera.from_fov(width, height, KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG)
+
+
+@dataclasses.dataclass(frozen=True)
+class IntrinsicsRequest:
+    """The intrinsics as the user gave them, in at most one way (full-resolution pixels), to be
+    resolved once the images' size is known. Nothing given: each file's own K, else the
+    Kinect's field of view."""
+
+    focal: tuple[float, float] | None = None  # (fx, fy) in pixels
+    centre: tuple[float | None, float | None] = (None, None)  # (cx, cy); None: the image centre
+    file: str | None = None  # JSON with fx, fy, cx, cy (or K), a gqcnn .intr, a 3x3 .npy/.txt
+    fov_deg: tuple[float | None, float | None] | None = None  # (horizontal, vertical) degrees
+    source: str = "per image"  # how they were given, for the records ({fx}, {fy}, {cx}, {cy}
+    # stand for the resolved values)
+
+    def resolve(self, width: int, height: int) -> Intrinsics:
+        """The intrinsics of `width` x `height` images."""
+        if self.focal is not None:
+            fx, fy = self.focal
+            if fx <= 0 or fy <= 0:
+                raise InputError("focal lengths must be > 0")
+            cx = (width - 1) / 2 if self.centre[0] is None else self.centre[0]
+            cy = (height - 1) / 2 if self.centre[1] is None else self.centre[1]
+            return Intrinsics((fx, fy, cx, cy), self.source.format(fx=fx, fy=fy, cx=cx, cy=cy))
+        if self.file is not None:
+            data = load_intrinsics(self.file)
+            stated = (data.get("width"), data.get("height"))
+            if None not in stated and stated != (width, height):
+                raise InputError(f"{self.file} is for {stated[0]:g}x{stated[1]:g} images, the "
+                                 f"depth images are {width}x{height}")
+            return Intrinsics((data["fx"], data["fy"], data["cx"], data["cy"]), self.file)
+        if self.fov_deg is not None:
+            fov_x, fov_y = self.fov_deg
+            try:
+                cam = Camera.from_fov(width, height, KINECT_FOV_X_DEG if fov_x is None else fov_x,
+                                      fov_y if fov_y is not None or fov_x is None else None)
+            except ValueError as exc:
+                raise InputError(str(exc)) from None
+            return Intrinsics((cam.fx, cam.fy, cam.cx, cam.cy), self.source)
+        return Intrinsics(None, self.source)
+
+
+@dataclasses.dataclass(frozen=True)
+class Inputs:
+    """Everything one detection run needs, checked."""
+
+    paths: tuple[Path, ...]  # the depth images, all of one size
+    width: int  # their columns
+    height: int  # their rows
+    depth_scale: float  # metres per unit of a 16-bit PNG
+    intrinsics: Intrinsics
+    workspace: np.ndarray  # (H, W) bool, True where the search may look
+    roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) full-resolution pixels
+    mask: str | None  # mask file
+    config: Config
+    image: RealImageConfig
+
+
+def _settings_type():
+    """`Config`'s sections plus `image`, so that `--set` names and suggestions cover both."""
+    hints = typing.get_type_hints(Config)
+    fields = [(f.name, hints[f.name], dataclasses.field(default=getattr(Config(), f.name)))
+              for f in dataclasses.fields(Config)]
+    fields.append(("image", RealImageConfig, dataclasses.field(default=RealImageConfig())))
+    return dataclasses.make_dataclass("DetectSettings", fields, frozen=True)
+
+
+_Settings = _settings_type()
+
+
+def split_overrides(items: Sequence[str]) -> tuple[Config, RealImageConfig]:
+    """Settings by dotted name: `image.NAME=V` for `RealImageConfig`, the rest for `Config`."""
+    settings = override(_Settings(), items)
+    config = Config(**{f.name: getattr(settings, f.name) for f in dataclasses.fields(Config)})
+    return config, settings.image
+
+
+def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
+    """The image paths, a directory standing for its depth files (.npy, .npz, .png), sorted."""
+    paths = []
+    for image in images:
+        path = Path(image)
+        if path.is_dir():
+            inside = sorted(p for p in path.iterdir()
+                            if p.is_file() and p.suffix.lower() in DEPTH_SUFFIXES)
+            if not inside:
+                raise InputError(f"directory {path} holds no .npy, .npz or .png files")
+            paths += inside
+        else:
+            paths.append(path)
+    if not paths:
+        raise InputError("no depth images given")
+    return tuple(paths)
+
+
+def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_scale: float) -> None:
+    """Refuse an image none of whose pixels lies in the depth range (a wrong depth scale)."""
+    valid = depth[np.isfinite(depth) & (depth > 0)]
+    if not ((valid >= image.min_depth) & (valid <= image.max_depth)).any():
+        unit = f" with depth scale {depth_scale:g}" if path.suffix.lower() == ".png" else ""
+        raise InputError(f"{path}: every pixel lies outside the depth range "
+                         f"{image.min_depth:g}-{image.max_depth:g} m (its depths span "
+                         f"{valid.min():.4g}-{valid.max():.4g} m{unit}; check the depth scale "
+                         "or the range)")
+
+
+def _workspace_box(roi: tuple[int, int, int, int], width: int, height: int) -> np.ndarray:
+    """The workspace (H, W) bool of a box of columns x0 <= u < x1 and rows y0 <= v < y1."""
+    x0, y0, x1, y1 = roi
+    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+        raise InputError(f"the workspace box {x0},{y0},{x1},{y1} lies outside the "
+                         f"{width}x{height} image (need 0 <= X0 < X1 <= {width}, "
+                         f"0 <= Y0 < Y1 <= {height})")
+    inside = np.zeros((height, width), bool)
+    inside[y0:y1, x0:x1] = True
+    return inside
+
+
+def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
+            intrinsics: IntrinsicsRequest = IntrinsicsRequest(),
+            roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
+            depth_range: tuple[float, float] | None = None, downsample: int | None = None,
+            overrides: Sequence[str] = ()) -> Inputs:
+    """Read and check every input; nothing is computed yet. Every image is read once here, to
+    check it (its size, its intrinsics, its depth range)."""
+    paths = expand_images(images)
+    if not (depth_scale > 0 and math.isfinite(depth_scale)):
+        raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
+    config, image = split_overrides(overrides)
+    if depth_range is not None:
+        image = dataclasses.replace(image, min_depth=depth_range[0], max_depth=depth_range[1])
+    if downsample is not None:
+        image = dataclasses.replace(image, downsample=downsample)
+
+    first, first_k = read_depth(paths[0], depth_scale)
+    height, width = first.shape
+    _, coarse = block_factors(width, image)
+    if min(width, height) // coarse < 8:
+        raise InputError(f"downsampling {width}x{height} by {coarse} leaves less than 8x8 pixels")
+    source = intrinsics.resolve(width, height)
+    workspace = np.ones((height, width), bool)
+    if roi is not None:
+        workspace &= _workspace_box(roi, width, height)
+    if mask is not None:
+        workspace &= load_mask(mask, (height, width))
+        if not workspace.any():
+            raise InputError(f"the mask {mask} and the workspace box {roi} do not overlap")
+    for i, path in enumerate(paths):
+        depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
+        if depth.shape != (height, width):
+            raise InputError(f"all images must have one size: {paths[0]} is {width}x{height}, "
+                             f"{path} is {depth.shape[1]}x{depth.shape[0]}")
+        if source.values is None and (k is None) != (first_k is None):
+            with_k, without = (paths[0], path) if first_k is not None else (path, paths[0])
+            raise InputError(f"{with_k} holds its intrinsics K but {without} does not; give "
+                             "the intrinsics for all images")
+        _check_range(depth, path, image, depth_scale)
+    return Inputs(paths=paths, width=width, height=height, depth_scale=depth_scale,
+                  intrinsics=source, workspace=workspace, roi=roi, mask=mask, config=config,
+                  image=image)

@@ -1,0 +1,107 @@
+"""One record per real image, in the three forms a detection run gives: JSON, a CSV row, and
+the printed line."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+
+import numpy as np
+
+from graspjax.io import jsonable
+from graspjax.perception import AlignReason, GraspReason
+from graspjax.perception.reasons import SupportReason, TargetReason
+from graspjax.perception.workspace import block_factors
+from graspjax.realimage.detect import Detection
+from graspjax.realimage.inputs import Inputs
+
+
+def record(d: Detection, inputs: Inputs) -> dict:
+    """The record of one image's `Detection` (JSON values: lists, numbers, strings, None)."""
+    r, camera = d.result, d.camera
+    g, a, s = r.grasp, r.alignment, r.support
+    target_ok = int(r.target_reason) == TargetReason.FOUND
+    reason = (GraspReason(int(g.reason)).name if target_ok
+              else TargetReason(int(r.target_reason)).name)
+    fine, coarse = block_factors(inputs.width, inputs.image)
+    return jsonable({
+        "image": str(d.path),
+        "found": bool(r.found),
+        "reason": reason,
+        "size": [inputs.width, inputs.height],
+        "working_resolution": [inputs.width // fine, inputs.height // fine],
+        "downsample": fine,
+        "support_resolution": [inputs.width // coarse, inputs.height // coarse],
+        "window": inputs.image.crop_px,
+        "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
+                   "source": d.source},
+        "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
+                      "range": [inputs.image.min_depth, inputs.image.max_depth],
+                      "pixels": int(inputs.workspace.sum())},
+        "support_plane": {"found": bool(s.found), "reason": SupportReason(int(s.reason)).name,
+                          "normal": s.normal, "distance": s.distance,
+                          "tilt_deg": np.rad2deg(s.tilt), "inliers": int(s.inliers),
+                          "inlier_fraction": s.fraction},
+        "view": "virtual" if bool(r.virtual) else "camera",
+        "view_rotation": r.rotation,
+        "window_camera": {"fx": r.view.fx, "fy": r.view.fy, "cx": r.view.cx, "cy": r.view.cy},
+        "target": {"reason": TargetReason(int(r.target_reason)).name,
+                   "attempts": int(r.attempts),
+                   "attempt_reasons": [GraspReason(int(x)).name for x in r.attempt_reasons if x >= 0],
+                   "pixel": r.target_pixel, "point": r.target_point, "height": r.target_height},
+        "grasp": {"found": bool(r.found), "reason": GraspReason(int(g.reason)).name,
+                  "position": r.position, "closing_axis": r.closing_axis,
+                  "approach": r.approach, "width": g.width, "depth": g.depth,
+                  "surface_depth": g.surface_depth, "pixel": r.pixel,
+                  "surface_pixels": int(g.surface_pixels),
+                  "valid_candidates": int(g.candidates.valid.sum())},
+        "alignment": {"found": bool(a.found), "reason": AlignReason(int(a.reason)).name,
+                      "normal": r.plane_normal, "point": r.plane_point,
+                      "inliers": int(a.inliers), "counts": a.counts},
+        "timing": {"load_ms": 1e3 * d.load_s, "compute_ms": 1e3 * d.compute_s},
+    })
+
+
+CSV_COLUMNS = [
+    "image", "found", "reason", "x", "y", "z", "axis_x", "axis_y", "axis_z", "approach_x",
+    "approach_y", "approach_z", "width", "grasp_depth", "u", "v", "target_u", "target_v",
+    "target_height", "attempts", "view", "support", "support_nx", "support_ny", "support_nz",
+    "support_distance", "support_tilt_deg", "support_inlier_fraction", "alignment",
+    "align_nx", "align_ny", "align_nz", "load_ms", "compute_ms",
+]
+
+
+def csv_row(rec: dict) -> list:
+    """One CSV row (`CSV_COLUMNS`) of a record."""
+    g, s, t, a = rec["grasp"], rec["support_plane"], rec["target"], rec["alignment"]
+    return [rec["image"], rec["found"], rec["reason"], *g["position"], *g["closing_axis"],
+            *g["approach"], g["width"], g["depth"], *g["pixel"], *t["pixel"], t["height"],
+            t["attempts"], rec["view"], s["reason"], *s["normal"], s["distance"], s["tilt_deg"],
+            s["inlier_fraction"], a["reason"], *a["normal"], rec["timing"]["load_ms"],
+            rec["timing"]["compute_ms"]]
+
+
+def csv_bytes(records: Sequence[dict]) -> bytes:
+    """The results table: one row per image, nan as an empty cell."""
+    import pandas as pd
+
+    frame = pd.DataFrame([csv_row(r) for r in records], columns=CSV_COLUMNS)
+    return frame.to_csv(index=False, float_format="%.6g").encode()
+
+
+def json_bytes(records: Sequence[dict], many: bool) -> bytes:
+    """The JSON file: the one record, or the list of them."""
+    return (json.dumps(list(records) if many else records[0], indent=2) + "\n").encode()
+
+
+def line(rec: dict) -> str:
+    """The printed line of one record (several images)."""
+    text = f"{rec['image']}: {rec['reason']}"
+    if rec["found"]:
+        x, y, z = rec["grasp"]["position"]
+        text += (f", width {100 * rec['grasp']['width']:.1f} cm at ({x:+.3f}, {y:+.3f}, {z:.3f}) m"
+                 f", pixel ({rec['grasp']['pixel'][0]:.0f}, {rec['grasp']['pixel'][1]:.0f})")
+    support = rec["support_plane"]
+    if support["found"]:
+        text += f"; {rec['view']} view, support tilt {support['tilt_deg']:.1f} deg"
+    return text

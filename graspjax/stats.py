@@ -1,0 +1,40 @@
+"""Statistics of success rates: intervals, paired tests and the differences a sample can detect."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def wilson(successes, n, z: float = 1.959964):
+    """95% Wilson score interval (low, high) for `successes` out of `n` (arrays or scalars)."""
+    successes, n = np.asarray(successes, float), np.asarray(n, float)
+    p = np.where(n > 0, successes / np.maximum(n, 1), np.nan)
+    denom = 1 + z**2 / np.maximum(n, 1)
+    centre = (p + z**2 / (2 * np.maximum(n, 1))) / denom
+    half = z * np.sqrt(p * (1 - p) / np.maximum(n, 1) + z**2 / (4 * np.maximum(n, 1) ** 2)) / denom
+    low, high = np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+    return np.fmin(low, p), np.fmax(high, p)  # rounding must never leave p outside
+
+
+def detectable_difference(rate: float, n: int) -> float:
+    """Smallest difference of two rates near `rate`, each from `n` independent views, that a
+    two-sided test at 5 % finds with 80 % power (normal approximation; `summarize` passes the
+    rate as (k + 1) / (n + 2), so a rate of 0 or 1 does not claim a zero difference)."""
+    return (1.96 + 0.84) * np.sqrt(2 * max(rate * (1 - rate), 1e-12) / max(n, 1))
+
+
+def mcnemar_p(only_here: int, only_reference: int) -> float:
+    """Exact two-sided McNemar p: the discordant pairs split as a fair coin would split them."""
+    n, k = only_here + only_reference, min(only_here, only_reference)
+    if n == 0:
+        return 1.0
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2 ** n
+    return min(1.0, 2 * tail)
+
+
+def paired_detectable(discordant: int, pairs: int) -> float:
+    """Smallest paired difference of success rates detectable at 5 % (two-sided), 80 % power."""
+    share = max(discordant, 1) / max(pairs, 1)
+    return (1.96 + 0.84) * math.sqrt(share / max(pairs, 1))

@@ -1,0 +1,42 @@
+"""Pytree helpers shared by every layer: dataclasses of arrays, selection between trees, and the
+dotted names of a nested dataclass's fields."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+
+def pytree_dataclass(cls=None, *, meta: tuple[str, ...] = ()):
+    """A frozen dataclass registered as a JAX pytree: every field is data (a leaf, traced under
+    `jit`, batched by `vmap`) except those named in `meta` (static: part of the tree's
+    structure, e.g. an image size)."""
+
+    def wrap(cls):
+        cls = dataclasses.dataclass(frozen=True)(cls)
+        data = [f.name for f in dataclasses.fields(cls) if f.name not in meta]
+        jax.tree_util.register_dataclass(cls, data_fields=data, meta_fields=list(meta))
+        return cls
+
+    return wrap if cls is None else wrap(cls)
+
+
+def where_tree(flag: jax.Array, a, b):
+    """`a` where the scalar `flag` holds, else `b`, for two pytrees of one structure."""
+    return jax.tree.map(lambda x, y: jnp.where(flag, x, y), a, b)
+
+
+def named_fields(obj: Any, prefix: str = "") -> dict[str, Any]:
+    """Every field of a (nested) dataclass that is not itself a dataclass, by dotted name
+    (`{"align.window_px": 15, ...}`), in declaration order."""
+    out = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            out.update(named_fields(value, f"{prefix}{f.name}."))
+        else:
+            out[prefix + f.name] = value
+    return out

@@ -1,0 +1,88 @@
+"""The package's layers (docs/architecture.md): no module imports one above it, the command line
+is the only entry point, and every module has its place."""
+
+import ast
+import pathlib
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent / "graspjax"
+
+# Bottom to top. A module may import modules of its own layer or below, never above. A name
+# ending in ".*" stands for every module of that package.
+LAYERS = [
+    ("foundations", ["tree", "figures", "stats", "io", "provenance", "geometry", "camera"]),
+    ("configuration", ["config"]),
+    ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",
+                              "graspjax"]),
+    ("the procedure; real-image inputs", ["procedure", "realimage", "realimage.inputs"]),
+    ("batches", ["batch", "batch.*", "realimage.detect", "realimage.records"]),
+    ("studies, files, reports, benchmarks", ["planes", "views", "viz", "outputs", "report",
+                                             "bench"]),
+    ("workflows", ["experiment"]),
+    ("entry point", ["cli"]),
+]
+
+
+def _modules() -> dict[str, pathlib.Path]:
+    """Every module of the package by dotted name under `graspjax` ("graspjax" for the root)."""
+    out = {}
+    for path in ROOT.rglob("*.py"):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts) or "graspjax"] = path
+    return out
+
+
+def _layer(name: str) -> int:
+    for i, (_, members) in enumerate(LAYERS):
+        for member in members:
+            if name == member or member.endswith(".*") and name.startswith(member[:-1]):
+                return i
+    raise KeyError(name)
+
+
+def _imports(path: pathlib.Path) -> set[str]:
+    """The graspjax modules a file imports (at the top or inside functions), by dotted name."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        else:
+            continue
+        for name in names:
+            if name == "graspjax" or name.startswith("graspjax."):
+                found.add(name.removeprefix("graspjax.") if name != "graspjax" else "graspjax")
+    return found
+
+
+MODULES = _modules()
+
+
+def test_every_module_has_a_layer():
+    unplaced = []
+    for name in MODULES:
+        try:
+            _layer(name)
+        except KeyError:
+            unplaced.append(name)
+    assert not unplaced, f"modules without a layer in LAYERS: {unplaced}"
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_module_imports_one_above_it(name):
+    mine = _layer(name)
+    above = sorted(other for other in _imports(MODULES[name]) if other in MODULES
+                   and _layer(other) > mine)
+    assert not above, (f"{name} ({LAYERS[mine][0]}) imports {above} from a higher layer")
+
+
+def test_only_the_command_line_is_an_entry_point():
+    for name, path in MODULES.items():
+        text = path.read_text()
+        assert "cli" not in _imports(path), f"{name} imports the command line"
+        if name != "cli":
+            assert "argparse" not in text and '__name__ == "__main__"' not in text, name
