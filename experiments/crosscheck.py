@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from graspjax.batch.plan import Job
 from tqdm import tqdm
 
+from graspjax.batch.plan import Job
 from graspjax.report import load_attempts, markdown, point_config
 from graspjax.sim import scene_for
 from graspjax.sim.replay import replay
@@ -63,7 +63,7 @@ def replays(folder: Path, iterations: int | None, quiet: bool = False) -> pd.Dat
                           closing=np.array([row.grasp_closing_x, row.grasp_closing_y,
                                             row.grasp_closing_z]), valid=True)
         outcome = replay(scene, config, state, grasp, scene.letters.index(row.object), iterations)
-        rows.append({"point": row.point, "setup": row.setup, "round": row.round,
+        rows.append({"point": row.point, "setup": row.setup, "trial": row.trial,
                      "attempt": row.attempt, "object": row.object, "mjx": row.outcome,
                      "c_mujoco": outcome.name})
     return pd.DataFrame(rows)

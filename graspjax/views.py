@@ -48,8 +48,9 @@ def _build(prefix: str, arrays: dict) -> object:
 
 
 def attempt_name(row) -> str:
-    """File stem of one attempt: point, setup, round, attempt and object."""
-    return (f"p{int(row.point):03d}_s{int(row.setup)}_r{int(row.round):05d}"
+    """File stem of one attempt: point, setup, trial (the round in Setups 2, 3), attempt and
+    object."""
+    return (f"p{int(row.point):03d}_s{int(row.setup)}_r{int(row.trial):05d}"
             f"_a{int(row.attempt)}_{row.object}")
 
 
@@ -91,7 +92,7 @@ class ViewSaver:
                       **_arrays({"grasp": view.grasp, "alignment": view.alignment,
                                  "contour": contour, "state": view.state}),
                       "camera": np.array([camera.fx, camera.fy, camera.cx, camera.cy]),
-                      "label": np.array([f"Setup {row.setup}, round {row.round}, attempt "
+                      "label": np.array([f"Setup {row.setup}, trial {row.trial}, attempt "
                                          f"{row.attempt}, object {row.object}: {row.reason}"])}
             np.savez_compressed(self.folder / f"{attempt_name(row)}.npz", **arrays)
             self.saved += 1

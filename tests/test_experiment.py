@@ -48,6 +48,7 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run):
     assert len(frame) == 6 and set(frame["success"]) <= {0, 1}
     assert sorted(zip(frame["object"], frame["trial"], strict=True)) == [
         (c, t) for c in "ac" for t in range(3)]
+    assert frame["round"].isna().all()  # Setup 1 has trials, not rounds
     assert (frame["cfg.align.window_px"] == 12).all()
     assert sorted(frame["chunk"].unique()) == [0, 1]
     parquet = pd.read_parquet(tiny_run / "attempts.parquet").replace("", float("nan"))
@@ -241,6 +242,7 @@ def test_rounds_attempt_every_object_once(rounds_runs):
     """Setups 2 and 3: each object gets one row per round; a lifted object leaves the scene."""
     frame = pd.read_csv(rounds_runs[1] / "attempts.csv", keep_default_na=False)
     assert len(frame) == 2 * 2 * 6
+    assert (frame["round"] == frame["trial"]).all()  # a round is every object's trial
     for _, part in frame.groupby(["setup", "round"]):
         assert sorted(part["object"]) == list("abcdef")
         tried = part[part["attempt"] >= 0]

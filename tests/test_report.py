@@ -112,7 +112,7 @@ def test_debug_figures_use_each_grid_points_own_configuration():
     assert third.camera.sensor == "kinect"
     plain = point_config({"overrides": {"align.window_px": 20}, "grid": {}}, 0)
     assert plain.align.window_px == 20
-    row = SimpleNamespace(point=12, setup=2, round=3, attempt=1, object="b")
+    row = SimpleNamespace(point=12, setup=2, trial=3, attempt=1, object="b")
     assert point_of(attempt_name(row)) == 12
 
 

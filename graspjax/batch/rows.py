@@ -1,7 +1,8 @@
 """Records -> rows: the ONE home of the columns of `attempts.csv` and `rounds.csv`, their
 order and their sort.
 
-An attempt row names its world (grid point, setup, object, trial, round, seed), says what
+An attempt row names its world (grid point, setup, object, trial; in Setups 2 and 3 the round,
+which is the trial of every object in it, and joins `rounds.csv`; seed), says what
 happened (success, outcome, one reason and its code, re-alignments, the grasp found, what was
 lifted, the grasp pose) and what the simulation knows that the method never saw (where each
 re-alignment's plane lay, its normal's error). Objects of a Setup 2/3 round that never got an
@@ -32,7 +33,7 @@ if TYPE_CHECKING:
 
 FIRST_COLUMNS = ["run_id", "point", "setup", "object", "trial", "round", "attempt", "seed",
                  "success", "outcome", "reason", "reorientations", "lifted_object"]
-SORT = ["point", "setup", "round", "attempt_order", "object"]
+SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)
 SURFACE_LABELS = np.array(["", "target", "other object", "table", "bin"], dtype=object)  # Surface + 1
@@ -66,7 +67,8 @@ def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
 
 
 def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
-    """Rows in the canonical order: point, setup, round, attempt (unattempted last), object."""
+    """Rows in the canonical order: point, setup, trial (the round in Setups 2, 3), attempt
+    (unattempted last), object."""
     order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
     order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
     return order.reset_index(drop=True)
@@ -138,7 +140,9 @@ def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
     return pd.DataFrame({
         "point": [worlds[w].point for w in index], "setup": [worlds[w].setup for w in index],
         "object": objects if objects is not None else "", "trial": [worlds[w].trial for w in index],
-        "round": [worlds[w].trial for w in index], "seed": [worlds[w].seed for w in index],
+        "round": pd.array([worlds[w].trial if worlds[w].setup > 1 else None for w in index],
+                          dtype="Int64"),  # Setups 2, 3 only: Setup 1 has no rounds
+        "seed": [worlds[w].seed for w in index],
         "objects": ["".join(worlds[w].objects) for w in index]})
 
 
