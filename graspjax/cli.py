@@ -15,7 +15,7 @@ import re
 import sys
 from pathlib import Path
 
-from graspjax.config import ConfigError
+from graspjax.config import METHODS, ConfigError
 from graspjax.io import InputError, check_writable
 
 
@@ -242,7 +242,8 @@ def _experiment_request(args, grid_items):
     from graspjax.experiment import Experiment
 
     jobs = _jobs(args)
-    config = override(preset(args.preset), args.set or [])
+    method = [f"method={args.method}"] if args.method else []
+    config = override(preset(args.preset), method + (args.set or []))
     keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
     return Experiment(jobs=jobs, base=config, points=points, keys=keys, seed=args.seed,
                       batch=args.batch, paired=getattr(args, "paired", False), preset=args.preset,
@@ -344,6 +345,9 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
                    help="paper: exact depth, the paper's checks, exact execution (default); "
                         "realistic: Kinect sensor, our wall check, execution error")
+    p.add_argument("--method", choices=list(METHODS),
+                   help="grasp method: paper (the double T-beam, default), highest-pca or "
+                        "antipodal (docs/baselines.md); the same as --set method=...")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")

@@ -124,6 +124,8 @@ class DetectorConfig:
     depth_clearance: float = traced(0.003)  # free space kept below the finger tips (m)
     finger_samples: int = 3  # depth-check grid per finger (n x n points over its footprint)
     wall_check: bool = traced(False)  # ours: gripped sides must fall steeper than 90 deg - atan(friction)
+    tbeam_positions: int = 1  # T-beams per edge: 1 at its centre (the paper); more spread along
+    # it (the paper's Discussion proposes it, Fig. 8)
 
     def __post_init__(self):
         _positive(self, "surface_tolerance", "min_surface_pixels", "max_contour",
@@ -138,6 +140,7 @@ class DetectorConfig:
                  "DetectorConfig.min_grasp_depth must be <= grasp_depth")
         _require(self.max_contour >= 16, "DetectorConfig.max_contour must be >= 16")
         _require(self.finger_samples >= 2, "DetectorConfig.finger_samples must be >= 2")
+        _in_range(self, "tbeam_positions", 1, 16)
 
 
 @_config
@@ -177,6 +180,31 @@ class AlignConfig:
         _in_range(self, "triangle_radius_px", 1.0, MAX_WINDOW_PX)
         _positive(self, "distance_threshold", "min_inliers")
         _in_range(self, "min_turn_deg", 0.0, 89.0)
+
+
+METHODS = ("paper", "highest-pca", "antipodal")  # the grasp methods (`Config.method`)
+
+
+@_config
+class BaselineConfig:
+    """The other grasp methods run on the same worlds (`Config.method`; docs/baselines.md).
+
+    Both work on the target's surface band, as the T-beam does, and go through the same
+    finger checks (collision, room to go down, the optional wall check).
+    """
+
+    antipodal_contacts: int = 128  # antipodal: band-boundary pixels tried as first contacts
+    antipodal_steps: int = 64  # antipodal: pixels walked across the band to the second contact
+    antipodal_cone_deg: float = traced(35.0)  # antipodal: the line between the contacts lies
+    # within this angle of both inward normals (atan(0.7) = 35 deg: the pads' friction cone)
+    antipodal_tie_deg: float = traced(2.0)  # antipodal: pairs this close to the most antipodal
+    # one are tied; the tie goes to the one nearest the band's centroid
+
+    def __post_init__(self):
+        _in_range(self, "antipodal_contacts", 1, 4096)
+        _in_range(self, "antipodal_steps", 4, 512)
+        _in_range(self, "antipodal_cone_deg", 0.0, 89.0)
+        _require(self.antipodal_tie_deg >= 0, "BaselineConfig.antipodal_tie_deg must be >= 0")
 
 
 @_config
@@ -312,6 +340,11 @@ class ProcedureConfig:
     view_tilt_deg: float = traced(0.0)  # ours, 0 = the paper: the centred view looks at the
     # target this far off vertical (azimuth uniform), so every top is sloped to the camera as on
     # a ramp: the variant that needs re-alignment (docs/realignment.md)
+    round_attempts: int = 0  # Setups 2, 3: attempts per round. 0: one per object (the paper's
+    # protocol); more: any object still in the scene may be attempted again, the round ending
+    # when the scene is empty or stuck (clutter removal, as VGN measures it)
+    stuck_after: int = traced(2)  # round_attempts > 0: a round is stuck after this many failed
+    # attempts in a row (VGN: 2)
     tcp_error: float = traced(0.0)  # execution error: TCP position sigma per axis (m; 0: exact)
     tilt_error_deg: float = traced(0.0)  # execution error: rotation sigma about a random axis (deg)
 
@@ -322,6 +355,8 @@ class ProcedureConfig:
         _require(self.tcp_error >= 0, f"ProcedureConfig.tcp_error must be >= 0, got {self.tcp_error!r}")
         _in_range(self, "tilt_error_deg", 0.0, 45.0)
         _in_range(self, "view_tilt_deg", 0.0, 60.0)
+        _in_range(self, "round_attempts", 0, 64)
+        _require(self.stuck_after >= 1, f"ProcedureConfig.stuck_after must be >= 1, got {self.stuck_after!r}")
 
 
 # ---------------------------------------------------------------------------
@@ -432,6 +467,8 @@ def stack_configs(configs: list[Any]) -> Any:
 class Config:
     """Everything one run needs, addressed by dotted names (`--set align.window_px=10`)."""
 
+    method: Literal["paper", "highest-pca", "antipodal"] = "paper"  # the grasp method: the
+    # paper's double T-beam, or a baseline on the same worlds (`baseline`; docs/baselines.md)
     camera: CameraConfig = CameraConfig()  # the tool camera
     gripper: GripperConfig = GripperConfig()  # shared by the T-beam and the physics
     detect: DetectorConfig = DetectorConfig()  # grasp point detection (paper 3.1)
@@ -439,8 +476,11 @@ class Config:
     sim: SimConfig = SimConfig()  # physics and grasp execution
     layout: LayoutConfig = LayoutConfig()  # random scenes of the three setups
     procedure: ProcedureConfig = ProcedureConfig()  # the grasping procedure
+    baseline: BaselineConfig = BaselineConfig()  # the other grasp methods' settings
 
     def __post_init__(self):
+        _require(self.method in METHODS,
+                 f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
         _require(self.detect.grasp_depth <= self.gripper.finger_length,
                  "detect.grasp_depth must be <= gripper.finger_length")
 

@@ -104,7 +104,7 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
     folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1)
     skip = folder.done | {c.index for c in planned if c.index % parts != part}
-    per_chunk = {c.index: sum(len(w.objects) for w in c.worlds) for c in planned
+    per_chunk = {c.index: len(c.worlds) * groups[c.group].attempts for c in planned
                  if c.index % parts == part}
     bar, log = progress_bar(sum(per_chunk.values()), quiet,
                             sum(n for c, n in per_chunk.items() if c in folder.done))
@@ -118,7 +118,7 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
                                  keep_views=experiment.save_views != "none",
                                  progress=bar.update, log=log):
             frame = attempt_rows(result, columns)
-            folder.add(result.chunk.index, frame, round_rows(result), result.timings)
+            folder.add(result.chunk.index, frame, round_rows(result, columns), result.timings)
             if result.views is not None:
                 saver.save(result.chunk, frame, result.views)
     files = folder.finish()

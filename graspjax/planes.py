@@ -32,6 +32,7 @@ from graspjax.procedure import (
     Surface,
     WorldSpec,
     attempt_keys,
+    eligible_objects,
     first_look,
     plane_truth,
     target_faces,
@@ -62,7 +63,7 @@ def first_view(scene, state: RoundState, spec: WorldSpec) -> FirstView:
     config = spec.config
     camera = config.camera.camera()
     data = mjx.kinematics(physics_model(scene, config), state.data)
-    eligible = spec.members & ~state.attempted & ~state.removed
+    eligible = eligible_objects(state, spec)
     k_search, _ = attempt_keys(state, 0)
     target, (rotation, position), _, k_views = first_look(scene, data, eligible, k_search, config)
     key = jax.random.fold_in(k_views, 0)

@@ -9,11 +9,16 @@ k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
 2. Select: the nearest point (z_min) among the objects still to be
    attempted picks the target. (Which objects are "still to be attempted" is
    protocol bookkeeping and uses the simulator's object identities;
-   everything the method itself decides uses depth alone.)
+   everything the method itself decides uses depth alone. In the paper's
+   protocol every object of a round gets one attempt; with
+   `procedure.round_attempts` any object still in the scene may be tried
+   again, until the scene is empty or `stuck_after` attempts in a row fail.)
 3. Centre: the camera moves parallel to the table until its optical axis
    passes through that point, and looks again (`procedure.centre`: the
    paper does, "otherwise the influence of shadows increases").
-4. Detect a grasp (double T-beam), with z_min taken on the target's pixels.
+4. Detect a grasp with the configured method (`Config.method`: the paper's
+   double T-beam, or a baseline from `perception/baselines.py`), with z_min
+   taken on the target's pixels.
 5. Re-align when none is found: the camera turns to look along the negative
    normal of the best neighbour plane, at the same distance from the plane's
    inliers, and detects again; at most `max_reorientations` times (a
@@ -53,9 +58,9 @@ from graspjax.perception import (
     Grasp,
     GraspReason,
     align_tool,
-    detect_grasp,
     plane_inliers,
 )
+from graspjax.perception.baselines import grasp_method
 from graspjax.perception.cluster import nearest_pixel
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
@@ -147,6 +152,7 @@ class RoundState:
 
     data: mjx.Data  # the physics state
     attempted: jax.Array  # (n,) bool objects that had their attempt
+    failures: jax.Array  # () int32 attempts in a row that lifted nothing (a stuck round)
     removed: jax.Array  # (n,) bool objects lifted out of the scene
     key: jax.Array  # the round's PRNG key (its layout key)
 
@@ -242,7 +248,8 @@ def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec) -> RoundState:
                              one[:2], group[:2], heap[:2])
     active = jnp.where(spec.setup == 1, one[2], spec.members)
     data = reset(scene, data, pos, quat, active, bin_in_place=spec.setup == 3)
-    return RoundState(data=data, attempted=jnp.zeros(n, bool), removed=jnp.zeros(n, bool), key=key)
+    return RoundState(data=data, attempted=jnp.zeros(n, bool), failures=jnp.int32(0),
+                      removed=jnp.zeros(n, bool), key=key)
 
 
 def _settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array:
@@ -352,7 +359,7 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Came
     depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
     surface = _surfaces(obj, table, depth, target)
     mask = surface == Surface.TARGET
-    grasp = detect_grasp(depth, camera, config.detect, config.gripper, seed_mask=mask)
+    grasp = grasp_method(config.method)(depth, camera, config, mask)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
     approach = rotation[:, 2]
@@ -466,6 +473,16 @@ def settle(scene: Scene, state: RoundState, spec: WorldSpec) -> RoundState:
     return dataclasses.replace(state, data=data)
 
 
+def eligible_objects(state: RoundState, spec: WorldSpec) -> jax.Array:
+    """The objects (n,) bool the next attempt may target: the paper's protocol, those of the
+    layout not yet attempted nor lifted; a continued round (`procedure.round_attempts`), any
+    still in the scene, none once it is stuck."""
+    present = spec.members & ~state.removed
+    if spec.config.procedure.round_attempts == 0:
+        return present & ~state.attempted
+    return present & (state.failures < spec.config.procedure.stuck_after)
+
+
 def attempt_keys(state: RoundState, k) -> tuple[jax.Array, jax.Array]:
     """Attempt k's keys: its search (images, planes) and its execution error."""
     return jax.random.split(jax.random.fold_in(state.key, 1000 + k))
@@ -478,7 +495,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     config = spec.config
     model = physics_model(scene, config)
     n = scene.num_objects
-    eligible = spec.members & ~state.attempted & ~state.removed
+    eligible = eligible_objects(state, spec)
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     k_search, k_error = attempt_keys(state, k)
 
@@ -507,8 +524,11 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
                       reachable=clear)
 
     attempted = state.attempted | ((jnp.arange(n) == target) & (target >= 0))
+    failures = jnp.where(target >= 0, jnp.where(done.outcome == Outcome.SUCCESS, 0,
+                                                state.failures + 1), state.failures)
     removed = state.removed | ((jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0))
-    state = RoundState(data=data, attempted=attempted, removed=removed, key=state.key)
+    state = RoundState(data=data, attempted=attempted, failures=failures.astype(jnp.int32),
+                       removed=removed, key=state.key)
     return state, _record(target, pose, done, finite, blocked, turns, detect_reason,
                           align_reason, realign, layout_stats(scene, data)), views
 

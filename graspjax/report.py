@@ -25,7 +25,7 @@ import pandas as pd
 from graspjax.batch.rows import outcome_label
 from graspjax.config import Config, override
 from graspjax.figures import new_figure, png
-from graspjax.stats import wilson
+from graspjax.stats import mean_interval, wilson
 
 TABLE_OBJECTS = {1: tuple("abcdef"), 2: tuple("ghijkl")}
 REQUIRED = ("setup", "object", "trial", "round", "seed", "success", "outcome", "reason")
@@ -314,7 +314,8 @@ def load_rounds(folder: str | Path) -> pd.DataFrame | None:
 
 
 def layout_lines(rounds: pd.DataFrame | None) -> list[str]:
-    """How dense the Setup 2/3 layouts were, one markdown line per setup."""
+    """How dense the Setup 2/3 layouts were and how their rounds went (clutter removal), one
+    markdown line each per setup."""
     if rounds is None or rounds.empty:
         return []
     lines = ["", "Layouts once settled (`rounds.csv`), per setup: objects touching another, "
@@ -326,7 +327,45 @@ def layout_lines(rounds: pd.DataFrame | None) -> list[str]:
                      f"{part.stacked.mean():.2f} per round, gap "
                      f"{100 * part.min_face_gap_m.median():.1f} cm, "
                      f"spread {100 * part.spread_m.median():.1f} cm")
+    clutter = clutter_summary(rounds)
+    if clutter is None:
+        return lines
+    lines += ["", "Clutter removal per round, as VGN defines it (`rounds_summary.csv`): grasp "
+              "success rate (successes / attempts) and declutter rate (objects removed / placed), "
+              "means over rounds with 95 % intervals.", ""]
+    for row in clutter.itertuples():
+        lines.append(f"- Setup {row.setup}: grasp success {_pct(row.grasp_success_rate)} "
+                     f"[{_pct(row.grasp_success_low)}-{_pct(row.grasp_success_high)}], declutter "
+                     f"{_pct(row.declutter_rate)} [{_pct(row.declutter_low)}-"
+                     f"{_pct(row.declutter_high)}], {row.attempts_mean:.1f} attempts per round")
     return lines
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.0f} %"
+
+
+def clutter_summary(rounds: pd.DataFrame | None) -> pd.DataFrame | None:
+    """Per grid point and setup, over its rounds: VGN's clutter-removal metrics (grasp success
+    rate, declutter rate) as means with 95 % intervals, the attempts per round and how the
+    rounds ended. None for round rows without them (runs before these columns)."""
+    if rounds is None or rounds.empty or "grasp_success_rate" not in rounds.columns:
+        return None
+    keys = [k for k in ("point", "method", "setup") if k in rounds.columns]
+    out = []
+    for values, part in rounds.groupby(keys):
+        success = mean_interval(part["grasp_success_rate"])
+        declutter = mean_interval(part["declutter_rate"])
+        out.append({**dict(zip(keys, values, strict=True)), "rounds": len(part),
+                    "attempts_mean": part["attempts"].mean(),
+                    "grasp_success_rate": success[0], "grasp_success_low": success[1],
+                    "grasp_success_high": success[2], "pooled_success_rate":
+                    part["successes"].sum() / max(part["attempts"].sum(), 1),
+                    "declutter_rate": declutter[0], "declutter_low": declutter[1],
+                    "declutter_high": declutter[2],
+                    **{f"ended_{end}": (part["end"] == end).mean()
+                       for end in ("empty", "stuck", "limit") if (part["end"] == end).any()}})
+    return pd.DataFrame(out)
 
 
 def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, bytes]:
@@ -344,7 +383,105 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, 
         files["success_by_object.png"] = success_figure(summary)
     files["outcomes.png"] = outcomes_figure(frame)
     files.update(sweep_outputs(frame))
+    if varying_config(frame):
+        order = point_order(frame)
+        files["comparison.md"] = comparison_markdown(summary, order).encode()
+        files["comparison.png"] = comparison_figure(summary, order)
+    clutter = clutter_summary(rounds)
+    if clutter is not None:
+        files["rounds_summary.csv"] = clutter.to_csv(index=False).encode()
     return files
+
+
+def point_order(frame: pd.DataFrame) -> list[str]:
+    """The grid points' labels (`point_labels`) in the order of the grid."""
+    keys = varying_config(frame)
+    points = frame.sort_values("point", kind="stable").drop_duplicates(keys)
+    return list(dict.fromkeys(point_labels(points[keys])))
+
+
+def point_labels(summary: pd.DataFrame) -> pd.Series:
+    """A label per summary row naming its grid point by the values that vary
+    ("method=antipodal, procedure.max_reorientations=0")."""
+    keys = [c for c in summary.columns if c.startswith("cfg.")]
+    if not keys:
+        return pd.Series("", index=summary.index)
+    return summary[keys].astype(str).apply(
+        lambda row: ", ".join(f"{k[len('cfg.'):]}={v}" for k, v in row.items()), axis=1)
+
+
+def comparison_markdown(summary: pd.DataFrame, order: list[str]) -> str:
+    """Every grid point of a sweep in the paper's Tables 1 and 2 layout: per table and setup one
+    row per point (success with its 95 % Wilson interval), one for the share rescued by a
+    re-alignment where any was, and the paper's row."""
+    labelled = summary.assign(label=point_labels(summary))
+    lines = ["# Every grid point in the Tables 1 and 2 layout", "",
+             "Success with its 95 % Wilson interval; *rescued*: the share of attempts that "
+             "succeeded with a grasp found only after a re-alignment (the rest came from the "
+             "first view); the paper's row: its 10 trials per cell.", ""]
+    for table, objects in TABLE_OBJECTS.items():
+        part = labelled[labelled["object"].isin(objects)]
+        if part.empty:
+            continue
+        lines += [f"## Table {table}", "", "| | " + " | ".join(f"{c})" for c in objects)
+                  + " | all |", "|---" * (len(objects) + 2) + "|"]
+        for setup in sorted(part["setup"].unique()):
+            here = part[part["setup"] == setup]
+            for label in order:
+                cells = here[here["label"] == label]
+                if cells.empty:
+                    continue
+                by_obj = cells.set_index("object")
+                row = [_cell(by_obj.loc[c]) if c in by_obj.index else "" for c in objects]
+                k, n = cells["successes"].sum(), cells["n"].sum()
+                low, high = wilson(k, n)
+                row.append(f"{100 * k / n:.0f} % [{100 * low:.0f}-{100 * high:.0f}]")
+                lines.append(f"| Setup {setup}, {label} | " + " | ".join(row) + " |")
+                if "rescued" in cells.columns and cells["rescued"].sum() > 0:
+                    rescued = [f"{100 * by_obj.loc[c, 'rate_rescued']:.0f} %"
+                               if c in by_obj.index else "" for c in objects]
+                    rescued.append(f"{100 * cells['rescued'].sum() / n:.0f} %")
+                    lines.append("| of which rescued | " + " | ".join(rescued) + " |")
+            paper = here.drop_duplicates("object").set_index("object")["paper_pct"]
+            if paper.notna().any():
+                cells = [f"{paper[c]:.0f} %" if c in paper.index and pd.notna(paper[c]) else ""
+                         for c in objects]
+                known = paper.dropna()
+                cells.append(f"{known.mean():.0f} %" if len(known) == len(objects) else "")
+                lines.append(f"| Setup {setup}, the paper | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def comparison_figure(summary: pd.DataFrame, labels: list[str]) -> bytes:
+    """Success per object, one bar per grid point (95 % intervals, in the order of `labels`),
+    a panel per table and setup; the share rescued by a re-alignment drawn on top."""
+    labelled = summary.assign(label=point_labels(summary))
+    panels = [(t, s) for t in (1, 2) for s in sorted(labelled["setup"].unique())
+              if ((labelled["setup"] == s) & (labelled["table"] == t)).any()]
+    fig = new_figure(4.8 * max(1, len(panels)), 4.4 + 0.2 * len(labels))
+    axes = fig.subplots(1, max(1, len(panels)), squeeze=False)[0]
+    width = 0.8 / max(1, len(labels))
+    for ax, (table, setup) in zip(axes, panels, strict=False):
+        part = labelled[(labelled["setup"] == setup) & (labelled["table"] == table)]
+        objects = sorted(part["object"].unique())
+        x = np.arange(len(objects))
+        for i, label in enumerate(labels):
+            cells = part[part["label"] == label].set_index("object").reindex(objects)
+            offset = x - 0.4 + (i + 0.5) * width
+            err = np.maximum(0, np.vstack([cells["rate"] - cells["ci_low"],
+                                           cells["ci_high"] - cells["rate"]])) * 100
+            bars = ax.bar(offset, 100 * cells["rate"], width, yerr=err, capsize=2, label=label)
+            if "rate_rescued" in cells.columns and cells["rescued"].sum() > 0:
+                ax.bar(offset, 100 * cells["rate_rescued"], width,
+                       bottom=100 * cells["rate_first_view"], color=bars.patches[0].get_facecolor(),
+                       hatch="///", edgecolor="white", linewidth=0)
+        ax.set_xticks(x, [f"{c})" for c in objects])
+        ax.set_ylim(0, 105)
+        ax.set_title(f"Setup {setup}, objects {objects[0]}-{objects[-1]}")
+        ax.set_ylabel("grasp success (%); hatched: rescued")
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.1))
+    return png(fig)
 
 
 def write_report(folder: str | Path, debug: int = 0) -> list[Path]:

@@ -38,3 +38,15 @@ def paired_detectable(discordant: int, pairs: int) -> float:
     """Smallest paired difference of success rates detectable at 5 % (two-sided), 80 % power."""
     share = max(discordant, 1) / max(pairs, 1)
     return (1.96 + 0.84) * math.sqrt(share / max(pairs, 1))
+
+
+def mean_interval(values, z: float = 1.959964) -> tuple[float, float, float]:
+    """Mean of per-round values and its 95% normal interval (mean +- z s / sqrt(n)); nan for
+    no values, the mean itself for one."""
+    values = np.asarray(values, float)
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return math.nan, math.nan, math.nan
+    mean = float(values.mean())
+    half = z * float(values.std(ddof=1)) / math.sqrt(len(values)) if len(values) > 1 else 0.0
+    return mean, mean - half, mean + half

@@ -272,6 +272,77 @@ def test_rounds_csv_says_how_dense_the_layouts_were(rounds_runs):
     assert "Setup 3 (2 rounds): touching" in (rounds_runs[1] / "table1.md").read_text()
 
 
+def test_rounds_csv_measures_clutter_removal(rounds_runs):
+    """VGN's metrics per round, from the round's own attempt rows: grasp success rate and
+    declutter rate; the paper's protocol attempts each object once."""
+    attempts = pd.read_csv(rounds_runs[1] / "attempts.csv", keep_default_na=False)
+    rounds = pd.read_csv(rounds_runs[1] / "rounds.csv")
+    for row in rounds.itertuples():
+        mine = attempts[(attempts.setup == row.setup) & (attempts["round"] == row.round)]
+        tried = mine[mine.attempt >= 0]
+        assert (row.attempts, row.successes) == (len(tried), tried.success.sum())
+        lifted = {c for c in tried.lifted_object if c}
+        assert (row.objects_placed, row.objects_removed) == (6, len(lifted))
+        assert row.declutter_rate == pytest.approx(len(lifted) / 6)
+        assert row.grasp_success_rate == pytest.approx(tried.success.mean())
+        assert row.end == "once each" and row.method == "paper"
+    clutter = pd.read_csv(rounds_runs[1] / "rounds_summary.csv")
+    assert list(clutter.setup) == [2, 3] and (clutter.rounds == 2).all()
+    table = (rounds_runs[1] / "table1.md").read_text()
+    assert "Clutter removal per round" in table and "declutter" in table
+
+
+def test_a_continued_round_runs_until_the_scene_is_empty_or_stuck(tmp_path):
+    """`procedure.round_attempts`: an object may be tried again; the round ends empty, stuck
+    (two failures in a row) or at its limit, and rounds.csv says which."""
+    out = tmp_path / "continued"
+    assert main(["run", "--setup", "2", "--objects", "a,d", "--trials", "3", "--batch", "3",
+                 "--seed", "2", "--quiet", "--set", "procedure.round_attempts=4",
+                 "--out", str(out)]) == 0
+    attempts = pd.read_csv(out / "attempts.csv", keep_default_na=False)
+    rounds = pd.read_csv(out / "rounds.csv")
+    assert len(rounds) == 3 and set(rounds.end) <= {"empty", "stuck", "limit"}
+    for row in rounds.itertuples():
+        tried = attempts[(attempts["round"] == row.round) & (attempts.attempt >= 0)]
+        assert row.attempts == len(tried) <= 4
+        outcomes = list(tried.sort_values("attempt").success)
+        if row.end == "empty":
+            assert row.objects_removed == row.objects_placed == 2
+        if row.end == "stuck":
+            assert outcomes[-2:] == [0, 0]
+        # after two failures in a row nothing more is attempted
+        assert not any(outcomes[i] == outcomes[i + 1] == 0 for i in range(len(outcomes) - 2))
+        lifted = [c for c in tried.lifted_object if c]
+        assert len(lifted) == len(set(lifted)) == row.objects_removed
+
+
+@pytest.fixture(scope="module")
+def methods_sweep(tmp_path_factory):
+    """The paper's method and both baselines on the same worlds (paired)."""
+    out = tmp_path_factory.mktemp("methods") / "sweep"
+    assert main(["sweep", "--setup", "1", "--objects", "b", "--trials", "3", "--batch", "3",
+                 "--seed", "4", "--quiet", "--paired", "--grid",
+                 "method=paper,highest-pca,antipodal", "--out", str(out)]) == 0
+    return out
+
+
+def test_a_method_sweep_plays_the_same_worlds_and_compares_them(methods_sweep):
+    frame = pd.read_csv(methods_sweep / "attempts.csv")
+    assert list(frame.groupby("method").size().items()) == [
+        ("antipodal", 3), ("highest-pca", 3), ("paper", 3)]
+    assert (frame["method"] == frame["cfg.method"]).all()
+    keys = frame.groupby("method")[["seed", "object", "trial"]].apply(
+        lambda part: tuple(map(tuple, part.to_numpy())))
+    assert len(set(keys)) == 1  # paired: every method plays the same worlds
+    comparison = (methods_sweep / "comparison.md").read_text()
+    for method in ("paper", "highest-pca", "antipodal"):
+        assert f"| Setup 1, method={method} |" in comparison
+    assert "| Setup 1, the paper |" in comparison
+    assert (methods_sweep / "comparison.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    meta = json.loads((methods_sweep / "config.json").read_text())
+    assert meta["grid"] == {"method": ["paper", "highest-pca", "antipodal"]}
+
+
 def test_the_realistic_preset_is_recorded_and_runs(tmp_path):
     out = tmp_path / "realistic"
     assert main(["run", "--setup", "1", "--objects", "c", "--trials", "2", "--batch", "2",

@@ -105,10 +105,19 @@ def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False)
                               for t in range(job.trials)]
                 else:
                     worlds = [World(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
-                key = (job.letters, setup > 1, len(worlds[0].objects), jax.tree.structure(config))
+                key = (job.letters, setup > 1, round_attempts(setup, job.objects, config),
+                       jax.tree.structure(config))
                 groups.setdefault(key, (config, []))[1].extend(worlds)
     return [Group(letters, collide, attempts, config, tuple(worlds))
             for (letters, collide, attempts, _), (config, worlds) in groups.items()]
+
+
+def round_attempts(setup: int, objects: tuple[str, ...], config: Config) -> int:
+    """Attempts per world: one per object (Setup 1: the one object), or in Setups 2 and 3
+    `procedure.round_attempts` when it is set (a round continued until empty or stuck)."""
+    if setup > 1 and config.procedure.round_attempts > 0:
+        return config.procedure.round_attempts
+    return len(objects) if setup > 1 else 1
 
 
 def chunks(groups: list[Group], batch: int) -> list[Chunk]:

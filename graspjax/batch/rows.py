@@ -31,8 +31,8 @@ from graspjax.tree import named_fields
 if TYPE_CHECKING:
     from graspjax.batch.program import ChunkResult
 
-FIRST_COLUMNS = ["run_id", "point", "setup", "object", "trial", "round", "attempt", "seed",
-                 "success", "outcome", "reason", "reorientations", "lifted_object"]
+FIRST_COLUMNS = ["run_id", "point", "method", "setup", "object", "trial", "round", "attempt",
+                 "seed", "success", "outcome", "reason", "reorientations", "lifted_object"]
 SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)
@@ -59,6 +59,7 @@ def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     frame = _record_rows(result.group.letters, result.chunk.worlds, result.records)
     frame.insert(0, "chunk", result.chunk.index)
     frame.insert(0, "run_id", run.run_id)
+    frame["method"] = [run.points[p].method for p in frame["point"]]
     values = [named_fields(p) for p in run.points]
     for key in run.config_columns():
         frame[f"cfg.{key}"] = [values[p][key] for p in frame["point"]]
@@ -124,15 +125,50 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[World, ...], records: l
     return pd.concat([f for f in frames if len(f)], ignore_index=True)
 
 
-def round_rows(result: ChunkResult) -> pd.DataFrame:
-    """One row per Setup 2/3 round of a chunk: how dense its layout was once the drop settled."""
+def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
+    """One row per Setup 2/3 round of a chunk: how dense its layout was once the drop settled,
+    and how the round went, as VGN measures clutter removal: its attempts and successes, the
+    grasp success rate (successes / attempts), the objects placed and removed (lifted out,
+    whether the target or not) and the declutter rate (removed / placed); a round continued
+    until empty or stuck (`procedure.round_attempts`) says how it ended."""
     worlds, drop = result.chunk.worlds, result.drop
-    stats = jax.tree.map(lambda x: np.asarray(x)[:len(worlds)], drop.layout)
+    real = len(worlds)
+    stats = jax.tree.map(lambda x: np.asarray(x)[:real], drop.layout)
     keep = [w for w, world in enumerate(worlds) if world.setup > 1]
+    target = np.stack([np.asarray(r.target)[:real] for r in result.records], 1)  # (B, A)
+    lifted = np.stack([np.asarray(r.lifted_object)[:real] for r in result.records], 1)
+    success = np.stack([np.asarray(r.reason)[:real] == Outcome.SUCCESS for r in result.records], 1)
+    tried = target >= 0
+    attempts, successes = tried.sum(1), (success & tried).sum(1)
+    placed = np.array([len(w.objects) for w in worlds])
+    removed = np.array([len({int(o) for o in row if o >= 0}) for row in lifted])
     frame = _world_columns(worlds, keep)[["point", "seed", "setup", "round", "objects"]]
+    frame.insert(1, "method", [run.points[p].method for p in frame["point"]])
     return frame.assign(
         touching_fraction=stats.touching[keep] / np.maximum(stats.objects[keep], 1),
-        stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep])
+        stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep],
+        attempts=attempts[keep], successes=successes[keep],
+        grasp_success_rate=successes[keep] / np.where(attempts[keep] > 0, attempts[keep], np.nan),
+        objects_placed=placed[keep], objects_removed=removed[keep],
+        declutter_rate=removed[keep] / placed[keep],
+        end=[_round_end(tried[w], success[w], removed[w], placed[w], run.points[worlds[w].point])
+             for w in keep])
+
+
+def _round_end(tried: np.ndarray, success: np.ndarray, removed: int, placed: int,
+               config: Config) -> str:
+    """How a round ended: every object attempted once (the paper's protocol), or, continued,
+    `empty` (everything removed), `stuck` (its last `stuck_after` attempts failed) or `limit`
+    (its `round_attempts` used up, or no object left in view)."""
+    if config.procedure.round_attempts == 0:
+        return "once each"
+    if removed == placed:
+        return "empty"
+    outcomes = success[tried]
+    stuck = int(np.asarray(config.procedure.stuck_after))
+    if len(outcomes) >= stuck and not outcomes[-stuck:].any():
+        return "stuck"
+    return "limit"
 
 
 def _world_columns(worlds, index, objects=None) -> pd.DataFrame:

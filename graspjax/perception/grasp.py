@@ -124,55 +124,37 @@ def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
     return seed, cluster, z_s, trace_contour(cluster, config.max_contour)
 
 
-def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
-                 gripper: GripperConfig = GripperConfig(),
-                 seed_mask: jax.Array | None = None) -> Grasp:
-    """Find a parallel-jaw grasp on the surface nearest the camera.
+def _to_pixels(xy: jax.Array, camera: Camera, z_s: jax.Array) -> jax.Array:
+    """Metric points `(..., 2)` on the surface plane at depth `z_s` -> pixels `(..., 2)`."""
+    return jnp.stack([camera.fx * xy[..., 0] / z_s + camera.cx,
+                      camera.fy * xy[..., 1] / z_s + camera.cy], axis=-1)
 
-    depth: metric depth (H, W) float32, 0 or nan = invalid. seed_mask:
-    optional (H, W) bool restricting where the nearest point (the target) may
-    be taken; the surface itself is grown over all pixels. Pure and static-
-    shaped: jit it, and vmap it over a leading batch axis of `depth`.
+
+def _surface_xy(camera: Camera, z_s: jax.Array) -> jax.Array:
+    """Every pixel's metric position `(H, W, 2)` on the surface plane at depth `z_s`."""
+    uv = camera.pixel_grid()
+    return jnp.stack([(uv[..., 0] - camera.cx) * z_s / camera.fx,
+                      (uv[..., 1] - camera.cy) * z_s / camera.fy], -1)
+
+
+def _check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s: jax.Array,
+                      camera: Camera, g_xy: jax.Array, axis: jax.Array, c: jax.Array,
+                      admissible: jax.Array, config: DetectorConfig, gripper: GripperConfig
+                      ) -> tuple[jax.Array, jax.Array]:
+    """Check open-hand placements on the target surface (the band `cluster` at depth `z_s`),
+    for any grasp method: centres `g_xy` `(..., 2)` (metric, on the surface plane), unit
+    closing axes `axis` `(..., 2)`, widths `c` `(...)` between the two contacts (m), and
+    whether the method's own test passed (`admissible`, else NO_ANTIPODAL).
+
+    Returns each placement's `GraspReason` `(...)` (the first check it fails, in stage order)
+    and the finger-tip depth it can reach below the surface `(...)` (m).
     """
-    depth = jnp.asarray(depth, jnp.float32)
-    if depth.shape != (camera.height, camera.width):
-        raise ValueError(f"depth shape {depth.shape} does not match the camera "
-                         f"({camera.height}, {camera.width})")
-    valid = valid_mask(depth)
-    any_valid = jnp.any(valid if seed_mask is None else valid & seed_mask)
-    seed, cluster, z_s, contour = surface_contour(depth, config, seed_mask)
-    n_surface = jnp.sum(cluster)
-    edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
-                      split_angle_deg=config.split_angle_deg,
-                      min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges)
-
-    # --- antipodal pairs: T-beam at edge i, partner edge j --------------------------------
-    k = config.max_edges
-    s_i, n_i = edges.center[:, None, :], edges.normal[:, None, :]
-    s_j, n_j, t_j = edges.center[None], edges.normal[None], edges.direction[None]
-    facing = jnp.sum(n_i * n_j, -1)  # (K, K)
-    safe = jnp.where(facing < 0, facing, -1.0)
-    c = jnp.sum((s_i - s_j) * n_j, -1) / safe  # distance from S_i along -n_i to edge j's line
-    hit = s_i - c[..., None] * n_i
-    lateral = jnp.abs(jnp.sum((hit - s_j) * t_j, -1))
-    pair_ok = (edges.valid[:, None] & edges.valid[None, :] & ~jnp.eye(k, dtype=bool))
-    antipodal = (pair_ok & (facing <= -jnp.cos(jnp.deg2rad(config.antipodal_tolerance_deg)))
-                 & (c > 0) & (lateral <= edges.length[None, :] / 2))
     wide_enough = c >= config.min_width
     fits = c <= gripper.opening - 2 * config.clearance
-
-    # --- T-beam placement, Eq. 1 ----------------------------------------------------------
-    axis = jnp.broadcast_to(edges.normal[:, None, :], (k, k, 2))
-    g_xy = s_i - 0.5 * c[..., None] * n_i  # (K, K, 2)
     corners, footprint = _finger_points(g_xy, axis, gripper, config.finger_samples)
-
-    def to_pixels(xy):
-        return jnp.stack([camera.fx * xy[..., 0] / z_s + camera.cx,
-                          camera.fy * xy[..., 1] / z_s + camera.cy], axis=-1)
-
-    corner_in_cluster, corner_inside = _sample(cluster, to_pixels(corners), False)
+    corner_in_cluster, corner_inside = _sample(cluster, _to_pixels(corners, camera, z_s), False)
     below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
-    free, foot_inside = _sample(below_surface, to_pixels(footprint), jnp.inf)
+    free, foot_inside = _sample(below_surface, _to_pixels(footprint, camera, z_s), jnp.inf)
     in_view = jnp.all(corner_inside, -1) & jnp.all(foot_inside, -1)
     collision = jnp.any(corner_in_cluster, -1)
     wanted = jnp.minimum(config.grasp_depth, gripper.finger_length)  # no deeper than the fingers
@@ -191,48 +173,30 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     half_pixel = 0.5 * z_s * (jnp.abs(axis[..., 0]) / camera.fx + jnp.abs(axis[..., 1]) / camera.fy)
     beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
     wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
-    wall_free, _ = _sample(below_surface, to_pixels(wall_points), jnp.inf)
+    wall_free, _ = _sample(below_surface, _to_pixels(wall_points, camera, z_s), jnp.inf)
     needed = edge + (beyond + half_pixel) * slope
     walls = ~config.wall_check | jnp.all(wall_free >= needed[..., None], -1)
 
     reason = jnp.select(
-        [~antipodal, ~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],
+        [~admissible, ~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],
         [GraspReason.NO_ANTIPODAL, GraspReason.TOO_NARROW, GraspReason.TOO_WIDE,
          GraspReason.OUT_OF_VIEW, GraspReason.COLLISION, GraspReason.NO_ROOM,
          GraspReason.NO_WALL],
         GraspReason.FOUND).astype(jnp.int32)
-    ok = reason == GraspReason.FOUND
+    return reason, reach
 
-    # --- choice: the valid G closest to the cluster centroid ------------------------------
-    centroid_uv = (jnp.sum(camera.pixel_grid() * cluster[..., None], axis=(0, 1))
-                   / jnp.maximum(n_surface, 1))
-    centroid = jnp.stack([(centroid_uv[0] - camera.cx) * z_s / camera.fx,
-                          (centroid_uv[1] - camera.cy) * z_s / camera.fy])
-    # Near-ties (mirror placements on a symmetric face) go to the lowest index,
-    # whatever the float rounding of the batch: the first within 0.5 mm of the best.
-    flat_ok = ok.reshape(-1)
-    dist = jnp.where(flat_ok, jnp.linalg.norm(g_xy - centroid, axis=-1).reshape(-1), jnp.inf)
-    best = jnp.argmax(dist <= jnp.min(dist) + 5e-4)
-    found = flat_ok[best]
 
-    stage = jnp.asarray(_STAGE)[reason.reshape(-1)]
-    furthest = jnp.asarray(_BY_STAGE)[jnp.max(stage)]
-    image_checks = [~any_valid, n_surface < config.min_surface_pixels, jnp.sum(edges.valid) < 2]
-    image_failed = image_checks[0] | image_checks[1] | image_checks[2]
-    overall = jnp.select(
-        image_checks,
-        [GraspReason.NO_DEPTH, GraspReason.SURFACE_TOO_SMALL, GraspReason.NO_EDGES],
-        furthest).astype(jnp.int32)
-    found = found & ~image_failed
-
-    g_flat = g_xy.reshape(-1, 2)
-    centers3 = jnp.concatenate([g_flat, jnp.full((k * k, 1), z_s)], -1)
-    axis_flat = axis.reshape(-1, 2)
-    reach_flat = jnp.clip(reach.reshape(-1), 0.0, None)
-    candidates = TBeams(center=centers3, pixel=to_pixels(g_flat), axis=axis_flat,
-                        width=c.reshape(-1), depth=reach_flat,
-                        reason=jnp.where(image_failed, overall, reason.reshape(-1)),
-                        valid=flat_ok & found)
+def _assemble(found: jax.Array, overall: jax.Array, best: jax.Array, image_failed: jax.Array,
+              g_flat: jax.Array, axis_flat: jax.Array, c_flat: jax.Array, reach_flat: jax.Array,
+              reason_flat: jax.Array, valid_flat: jax.Array, z_s: jax.Array, n_surface,
+              seed: jax.Array, camera: Camera, contour_closed: jax.Array, edges: Edges) -> Grasp:
+    """A method's `Grasp` from its M placements (flat: centres `g_flat` (M, 2), axes (M, 2),
+    widths, reachable depths, reasons, validity (M,)) and its choice `best`."""
+    centers3 = jnp.concatenate([g_flat, jnp.full((g_flat.shape[0], 1), z_s)], -1)
+    candidates = TBeams(center=centers3, pixel=_to_pixels(g_flat, camera, z_s), axis=axis_flat,
+                        width=c_flat, depth=reach_flat,
+                        reason=jnp.where(image_failed, overall, reason_flat),
+                        valid=valid_flat & found)
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
     return Grasp(
         found=found,
@@ -240,14 +204,114 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
         position=jnp.where(found, centers3[best], nan3),
         closing_axis=jnp.where(found, jnp.append(axis_flat[best], 0.0), nan3),
         approach=jnp.array([0.0, 0.0, 1.0], jnp.float32),
-        width=jnp.where(found, c.reshape(-1)[best], jnp.nan),
+        width=jnp.where(found, c_flat[best], jnp.nan),
         depth=jnp.where(found, reach_flat[best], jnp.nan),
         surface_depth=jnp.where(n_surface > 0, z_s, jnp.nan),
-        pixel=jnp.where(found, to_pixels(g_flat[best]), jnp.nan),
+        pixel=jnp.where(found, _to_pixels(g_flat[best], camera, z_s), jnp.nan),
         nearest=seed,
         index=jnp.where(found, best, -1).astype(jnp.int32),
         surface_pixels=n_surface.astype(jnp.int32),
-        contour_closed=contour.closed,
+        contour_closed=contour_closed,
         edges=edges,
         candidates=candidates,
     )
+
+
+def _overall_reason(reason: jax.Array, image_checks: list, image_reasons: list):
+    """The image's `GraspReason`: the first image-level failure, else the furthest stage any
+    placement reached; and whether an image-level check failed."""
+    stage = jnp.asarray(_STAGE)[reason.reshape(-1)]
+    furthest = jnp.asarray(_BY_STAGE)[jnp.max(stage)]
+    image_failed = image_checks[0]
+    for check in image_checks[1:]:
+        image_failed = image_failed | check
+    overall = jnp.select(image_checks, image_reasons, furthest).astype(jnp.int32)
+    return overall, image_failed
+
+
+def _centroid(camera: Camera, cluster: jax.Array, z_s: jax.Array, n_surface) -> jax.Array:
+    """The surface cluster's centroid (2,), metric on the surface plane."""
+    centroid_uv = (jnp.sum(camera.pixel_grid() * cluster[..., None], axis=(0, 1))
+                   / jnp.maximum(n_surface, 1))
+    return jnp.stack([(centroid_uv[0] - camera.cx) * z_s / camera.fx,
+                      (centroid_uv[1] - camera.cy) * z_s / camera.fy])
+
+
+def _check_image(depth: jax.Array, camera: Camera) -> jax.Array:
+    depth = jnp.asarray(depth, jnp.float32)
+    if depth.shape != (camera.height, camera.width):
+        raise ValueError(f"depth shape {depth.shape} does not match the camera "
+                         f"({camera.height}, {camera.width})")
+    return depth
+
+
+def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
+                 gripper: GripperConfig = GripperConfig(),
+                 seed_mask: jax.Array | None = None) -> Grasp:
+    """Find a parallel-jaw grasp on the surface nearest the camera (the paper's double T-beam).
+
+    depth: metric depth (H, W) float32, 0 or nan = invalid. seed_mask:
+    optional (H, W) bool restricting where the nearest point (the target) may
+    be taken; the surface itself is grown over all pixels. Pure and static-
+    shaped: jit it, and vmap it over a leading batch axis of `depth`.
+    """
+    depth = _check_image(depth, camera)
+    valid = valid_mask(depth)
+    any_valid = jnp.any(valid if seed_mask is None else valid & seed_mask)
+    seed, cluster, z_s, contour = surface_contour(depth, config, seed_mask)
+    n_surface = jnp.sum(cluster)
+    edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
+                      split_angle_deg=config.split_angle_deg,
+                      min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges)
+
+    # --- antipodal pairs: a T-beam at P points along edge i, partner edge j ---------------
+    # (P = `tbeam_positions`; the paper places one, at the edge's centre S.)
+    k, p = config.max_edges, config.tbeam_positions
+    s_i = _tbeam_starts(edges, gripper, p).reshape(k * p, 1, 2)  # (K P, 1, 2)
+    n_i = jnp.repeat(edges.normal, p, axis=0)[:, None, :]
+    valid_i = jnp.repeat(edges.valid, p)
+    s_j, n_j, t_j = edges.center[None], edges.normal[None], edges.direction[None]
+    facing = jnp.sum(n_i * n_j, -1)  # (K P, K)
+    safe = jnp.where(facing < 0, facing, -1.0)
+    c = jnp.sum((s_i - s_j) * n_j, -1) / safe  # distance from S_i along -n_i to edge j's line
+    hit = s_i - c[..., None] * n_i
+    lateral = jnp.abs(jnp.sum((hit - s_j) * t_j, -1))
+    own_edge = jnp.repeat(jnp.eye(k, dtype=bool), p, axis=0)
+    pair_ok = valid_i[:, None] & edges.valid[None, :] & ~own_edge
+    antipodal = (pair_ok & (facing <= -jnp.cos(jnp.deg2rad(config.antipodal_tolerance_deg)))
+                 & (c > 0) & (lateral <= edges.length[None, :] / 2))
+
+    # --- T-beam placement, Eq. 1, and its checks ------------------------------------------
+    axis = jnp.broadcast_to(n_i, (k * p, k, 2))
+    g_xy = s_i - 0.5 * c[..., None] * n_i  # (K P, K, 2)
+    reason, reach = _check_placements(depth, valid, cluster, z_s, camera, g_xy, axis, c,
+                                      antipodal, config, gripper)
+    ok = reason == GraspReason.FOUND
+
+    # --- choice: the valid G closest to the cluster centroid ------------------------------
+    centroid = _centroid(camera, cluster, z_s, n_surface)
+    # Near-ties (mirror placements on a symmetric face) go to the lowest index,
+    # whatever the float rounding of the batch: the first within 0.5 mm of the best.
+    flat_ok = ok.reshape(-1)
+    dist = jnp.where(flat_ok, jnp.linalg.norm(g_xy - centroid, axis=-1).reshape(-1), jnp.inf)
+    best = jnp.argmax(dist <= jnp.min(dist) + 5e-4)
+    overall, image_failed = _overall_reason(
+        reason, [~any_valid, n_surface < config.min_surface_pixels, jnp.sum(edges.valid) < 2],
+        [GraspReason.NO_DEPTH, GraspReason.SURFACE_TOO_SMALL, GraspReason.NO_EDGES])
+    found = flat_ok[best] & ~image_failed
+    return _assemble(found, overall, best, image_failed, g_xy.reshape(-1, 2),
+                     axis.reshape(-1, 2), c.reshape(-1), jnp.clip(reach.reshape(-1), 0.0, None),
+                     reason.reshape(-1), flat_ok, z_s, n_surface, seed, camera, contour.closed,
+                     edges)
+
+
+def _tbeam_starts(edges: Edges, gripper: GripperConfig, positions: int) -> jax.Array:
+    """Where the T-beams sit on each edge `(K, P, 2)`: at its centre S (P = 1, the paper), or
+    at P points spread evenly along it, a half finger width from its ends (the paper's
+    Discussion, Fig. 8: the middle of an edge may be the wrong place)."""
+    if positions == 1:
+        return edges.center[:, None, :]
+    span = jnp.clip(edges.length - gripper.finger_width, 0.0, None)  # (K,)
+    fractions = (np.arange(positions, dtype=np.float32) + 0.5) / positions - 0.5  # (P,)
+    offsets = jnp.where(edges.valid[:, None], span[:, None] * fractions[None, :], 0.0)
+    return edges.center[:, None, :] + offsets[..., None] * edges.direction[:, None, :]

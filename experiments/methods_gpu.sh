@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The grasp methods on the same worlds (issue 20): Tables 1 and 2 at 1,000 trials per cell, every
+# method paired (the same layouts and keys), the baselines without and antipodal also with the
+# paper's re-alignment; and Setup 3 rounds continued until the bin is empty or stuck.
+#   OUT=... experiments/methods_gpu.sh paper        # -> $OUT/methods_paper.tar.gz
+#   OUT=... experiments/methods_gpu.sh realistic    # -> $OUT/methods_realistic.tar.gz
+#   OUT=... experiments/methods_gpu.sh clutter      # -> $OUT/clutter.tar.gz
+# (on the GPU machine: ../shared/gpu/README.md; TRIALS=... for another size)
+set -uo pipefail
+out=${OUT:?set OUT to the folder that collects the results}
+trials=${TRIALS:-1000}
+grid=method:procedure.max_reorientations=paper:1,highest-pca:0,antipodal:0,antipodal:1
+run() {  # run NAME ARGS...: one graspjax command into $out/NAME, its log, a tarball of the folder
+  local name=$1 start=$SECONDS
+  shift
+  python3 -m graspjax.cli "$@" --quiet --out "$out/$name" > "$out/$name.log" 2>&1
+  echo "== $name: exit $? after $((SECONDS - start)) s"
+  tail -n 3 "$out/$name.log"
+  cat "$out/$name/timings.csv" 2>/dev/null
+  gzip -f "$out/$name/attempts.csv" 2>/dev/null
+  tar -C "$out" -czf "$out/$name.tar.gz" "$name" && rm -rf "${out:?}/$name"
+}
+case "${1:-}" in
+  paper|realistic)
+    run "methods_$1" sweep --table 1,2 --trials "$trials" --seed 0 --paired --preset "$1" \
+      --grid "$grid" ;;
+  clutter)  # Setups 2 and 3, rounds of up to 12 attempts, paper and antipodal, paired
+    run clutter sweep --setup 2,3 --trials "$trials" --seed 0 --paired \
+      --set procedure.round_attempts=12 --grid method=paper,antipodal ;;
+  *) echo "usage: $0 paper|realistic|clutter" >&2; exit 2 ;;
+esac
