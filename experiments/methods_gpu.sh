@@ -10,10 +10,14 @@ set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-1000}
 grid=method:procedure.max_reorientations=paper:1,highest-pca:0,antipodal:0,antipodal:1
-run() {  # run NAME ARGS...: one graspjax command into $out/NAME, its log, a tarball of the folder
-  local name=$1 start=$SECONDS
+run() {  # run NAME ARGS...: one graspjax command into $out/NAME, its log, a tarball of the folder.
+  # It stops after LIMIT seconds (default 540, inside the machine's 10-minute call) and packs what
+  # is done; RESUME=an earlier tarball of NAME continues that run (--resume) where it stopped.
+  local name=$1 start=$SECONDS resume=()
   shift
-  python3 -m graspjax.cli "$@" --quiet --out "$out/$name" > "$out/$name.log" 2>&1
+  if [ -n "${RESUME:-}" ]; then tar -C "$out" -xzf "$RESUME" && resume=(--resume); fi
+  timeout "${LIMIT:-540}" python3 -m graspjax.cli "$@" "${resume[@]}" --quiet --out "$out/$name" \
+    > "$out/$name.log" 2>&1
   echo "== $name: exit $? after $((SECONDS - start)) s"
   tail -n 3 "$out/$name.log"
   cat "$out/$name/timings.csv" 2>/dev/null
