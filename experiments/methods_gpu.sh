@@ -5,6 +5,10 @@
 #   OUT=... experiments/methods_gpu.sh paper        # -> $OUT/methods_paper.tar.gz
 #   OUT=... experiments/methods_gpu.sh realistic    # -> $OUT/methods_realistic.tar.gz
 #   OUT=... experiments/methods_gpu.sh clutter      # -> $OUT/clutter.tar.gz
+#   OUT=... experiments/methods_gpu.sh tbeams paper # three T-beams per edge (the paper's proposed
+#                                                   # extension), the same worlds as the sweep's
+#                                                   # paper point; WARM=1 runs it twice (the second
+#                                                   # loads the exported programs: warm timings)
 # (on the GPU machine: ../shared/gpu/README.md; TRIALS=... for another size)
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
@@ -31,5 +35,13 @@ case "${1:-}" in
   clutter)  # Setups 2 and 3, rounds of up to 12 attempts, paper and antipodal, paired
     run clutter sweep --setup 2,3 --trials "$trials" --seed 0 --paired \
       --set procedure.round_attempts=12 --grid method=paper,antipodal ;;
-  *) echo "usage: $0 paper|realistic|clutter" >&2; exit 2 ;;
+  tbeams)
+    preset=${2:-paper}
+    run "tbeams_$preset" run --table 1,2 --trials "$trials" --seed 0 --preset "$preset" \
+      --set detect.tbeam_positions=3
+    if [ -n "${WARM:-}" ]; then
+      run "tbeams_${preset}_warm" run --table 1,2 --trials "$trials" --seed 0 --preset "$preset" \
+        --set detect.tbeam_positions=3
+    fi ;;
+  *) echo "usage: $0 paper|realistic|clutter|tbeams PRESET" >&2; exit 2 ;;
 esac
