@@ -39,7 +39,7 @@ def paper_tables() -> pd.DataFrame:
 
 def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
     """Attempt rows from CSV text, checking the columns the report needs."""
-    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""],
+    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], low_memory=False,
                         dtype={"object": str, "lifted_object": str})
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:

@@ -6,6 +6,7 @@ import numpy as np
 from scipy import ndimage
 
 from graspjax.perception.cluster import (
+    boundary_pixels,
     nearest_pixel,
     surface_cluster,
     target_surface,
@@ -42,6 +43,13 @@ def test_flood_fill_matches_connected_component_labelling():
         labels, _ = ndimage.label(band)  # 4-connectivity by default
         expected = labels == labels[seed[1], seed[0]] if band[seed[1], seed[0]] else 0 * band
         np.testing.assert_array_equal(got, expected)
+
+
+def test_boundary_is_the_complement_of_the_4_erosion():
+    rng = np.random.default_rng(1)
+    mask = ndimage.gaussian_filter(rng.random((30, 30)), 2) > 0.5
+    expected = mask & ~ndimage.binary_erosion(np.pad(mask, 1))[1:-1, 1:-1]
+    np.testing.assert_array_equal(np.asarray(boundary_pixels(jnp.asarray(mask))), expected)
 
 
 def test_target_surface_recovers_a_noisy_face(camera, render):

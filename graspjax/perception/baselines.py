@@ -24,7 +24,7 @@ import jax.numpy as jnp
 
 from graspjax.camera import Camera
 from graspjax.config import BaselineConfig, DetectorConfig, GripperConfig
-from graspjax.perception.cluster import nearest_pixel, target_surface, valid_mask
+from graspjax.perception.cluster import boundary_pixels, nearest_pixel, target_surface, valid_mask
 from graspjax.perception.contour import Edges
 from graspjax.perception.grasp import (
     Grasp,
@@ -115,13 +115,6 @@ def _outward_normals(cluster: jax.Array, camera: Camera, z_s: jax.Array) -> jax.
     return jnp.where(norm > 0, -gradient / jnp.maximum(norm, 1e-12), 0.0)
 
 
-def _boundary(cluster: jax.Array) -> jax.Array:
-    """Band pixels with a 4-neighbour outside the band or the image (H, W) bool."""
-    padded = jnp.pad(cluster, 1)
-    interior = (padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:])
-    return cluster & ~interior
-
-
 def _spread(mask: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
     """Up to `count` pixels of `mask` (H, W), spread evenly through its raster order: their
     (u, v) `(count, 2)` int32 and which are real `(count,)` bool."""
@@ -146,7 +139,7 @@ def antipodal_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = D
     height, width = cluster.shape
     xy = _surface_xy(camera, z_s)
     normals = _outward_normals(cluster, camera, z_s)
-    first, real = _spread(_boundary(cluster), baseline.antipodal_contacts)  # (M, 2)
+    first, real = _spread(boundary_pixels(cluster), baseline.antipodal_contacts)  # (M, 2)
     n_p = normals[first[:, 1], first[:, 0]]  # (M, 2) outward at the first contact
     p_xy = xy[first[:, 1], first[:, 0]]
 

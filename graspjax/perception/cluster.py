@@ -70,3 +70,10 @@ def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
     z_first = mean_depth(first)
     cluster = surface_cluster(depth, valid, seed, z_first - tolerance, z_first + tolerance)
     return cluster, mean_depth(cluster)
+
+
+def boundary_pixels(mask: jax.Array) -> jax.Array:
+    """Cluster pixels with a 4-neighbour outside the cluster or the image `(H, W)` bool."""
+    padded = jnp.pad(mask, 1)
+    interior = (padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:])
+    return mask & ~interior
