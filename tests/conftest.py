@@ -1,6 +1,8 @@
 """Shared fixtures: one camera, and jitted kernels compiled once per session."""
 
+import gc
 import os
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -17,6 +19,28 @@ jax.config.update("jax_compilation_cache_dir", os.environ["GRASPJAX_CACHE"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 CAMERA_HEIGHT = 0.5  # metres above the table
+
+
+def _memory_maps() -> int:
+    try:
+        with open("/proc/self/maps") as maps:
+            return sum(1 for _ in maps)
+    except OSError:  # not Linux
+        return 0
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _release_compiled_code():
+    """Drop every test module's compiled programs when it is done. Each XLA:CPU executable
+    keeps its machine code in memory maps of its own; a whole suite in one process otherwise
+    reaches Linux's per-process limit (vm.max_map_count, 65530) and LLVM aborts while loading
+    the next program. Session fixtures recompile from the persistent cache."""
+    yield
+    before = _memory_maps()
+    jax.clear_caches()
+    gc.collect()
+    if os.environ.get("GRASPJAX_TEST_MAPS"):
+        sys.__stderr__.write(f" [maps {before} -> {_memory_maps()}]")
 
 
 @pytest.fixture(scope="session")
