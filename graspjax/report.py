@@ -110,6 +110,16 @@ def _cell(row) -> str:
     return f"{100 * row.rate:.0f} % [{100 * row.ci_low:.0f}-{100 * row.ci_high:.0f}]"
 
 
+def _rate_cells(part: pd.DataFrame, objects) -> tuple[pd.DataFrame, list[str]]:
+    """Per-object cells (`_cell`) of summary rows `part` and the pooled rate with its Wilson
+    interval last; and `part` indexed by object."""
+    by_obj = part.set_index("object")
+    cells = [_cell(by_obj.loc[c]) if c in by_obj.index else "" for c in objects]
+    k, n = part["successes"].sum(), part["n"].sum()
+    low, high = wilson(k, n)
+    return by_obj, cells + [f"{100 * k / n:.0f} % [{100 * low:.0f}-{100 * high:.0f}]"]
+
+
 def _table_rows(summary: pd.DataFrame, table: int):
     """(label, cells, n cells) per setup and source, for present setups of a table."""
     objects = TABLE_OBJECTS[table]
@@ -118,11 +128,8 @@ def _table_rows(summary: pd.DataFrame, table: int):
         part = summary[(summary["setup"] == setup) & summary["object"].isin(objects)]
         if part.empty:
             continue
-        by_obj = part.set_index("object")
-        ours = [_cell(by_obj.loc[c]) if c in by_obj.index else "" for c in objects]
-        total_k, total_n = part["successes"].sum(), part["n"].sum()
-        lo, hi = wilson(total_k, total_n)
-        ours.append(f"{100 * total_k / total_n:.0f} % [{100 * lo:.0f}-{100 * hi:.0f}]")
+        by_obj, ours = _rate_cells(part, objects)
+        total_n = part["n"].sum()
         ns = [str(int(by_obj.loc[c, "n"])) if c in by_obj.index else "" for c in objects]
         ns.append(str(int(total_n)))
         rows.append((f"Setup {setup}, ours", ours, ns))
@@ -396,7 +403,8 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, 
 def point_order(frame: pd.DataFrame) -> list[str]:
     """The grid points' labels (`point_labels`) in the order of the grid."""
     keys = varying_config(frame)
-    points = frame.sort_values("point", kind="stable").drop_duplicates(keys)
+    ordered = frame.sort_values("point", kind="stable") if "point" in frame.columns else frame
+    points = ordered.drop_duplicates(keys)
     return list(dict.fromkeys(point_labels(points[keys])))
 
 
@@ -431,11 +439,8 @@ def comparison_markdown(summary: pd.DataFrame, order: list[str]) -> str:
                 cells = here[here["label"] == label]
                 if cells.empty:
                     continue
-                by_obj = cells.set_index("object")
-                row = [_cell(by_obj.loc[c]) if c in by_obj.index else "" for c in objects]
-                k, n = cells["successes"].sum(), cells["n"].sum()
-                low, high = wilson(k, n)
-                row.append(f"{100 * k / n:.0f} % [{100 * low:.0f}-{100 * high:.0f}]")
+                by_obj, row = _rate_cells(cells, objects)
+                n = cells["n"].sum()
                 lines.append(f"| Setup {setup}, {label} | " + " | ".join(row) + " |")
                 if "rescued" in cells.columns and cells["rescued"].sum() > 0:
                     rescued = [f"{100 * by_obj.loc[c, 'rate_rescued']:.0f} %"
