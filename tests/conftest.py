@@ -2,7 +2,6 @@
 
 import gc
 import os
-import sys
 
 import jax
 import jax.numpy as jnp
@@ -31,18 +30,16 @@ def _memory_maps() -> int:
 
 @pytest.fixture(scope="module", autouse=True)
 def _release_compiled_code():
-    """Drop the compiled programs after a test module when they hold many memory maps. Each XLA:CPU executable
-    keeps its machine code in memory maps of its own; a whole suite in one process otherwise
-    reaches Linux's per-process limit (vm.max_map_count, 65530) and LLVM aborts while loading
-    the next program. Released only past half the limit, as each release costs the session
-    fixtures a recompile (from the persistent cache)."""
+    """Drop the compiled programs after a test module when they hold many memory maps.
+
+    Each XLA:CPU executable keeps its machine code in memory maps of its own; a whole suite in
+    one process otherwise reaches Linux's per-process limit (vm.max_map_count, 65530) and LLVM
+    aborts while loading the next program. Released only past half the limit, as each release
+    costs the session fixtures a recompile (from the persistent cache)."""
     yield
-    before = _memory_maps()
-    if before > 30_000:
+    if _memory_maps() > 30_000:
         jax.clear_caches()
         gc.collect()
-    if os.environ.get("GRASPJAX_TEST_MAPS"):
-        sys.__stderr__.write(f" [maps {before} -> {_memory_maps()}]")
 
 
 @pytest.fixture(scope="session")
