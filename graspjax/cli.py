@@ -111,7 +111,7 @@ def cmd_detect(args) -> int:
         check_writable(path, what, directory=folder)
     inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=_intrinsics(args),
                      roi=_roi(args.roi), mask=args.mask, depth_range=_range(args.range),
-                     downsample=args.downsample, overrides=args.set or [])
+                     downsample=args.downsample, overrides=_detect_settings(args))
     records = detect(inputs, outputs, args.batch or 16, args.quiet)
     if many:
         for rec in records:
@@ -120,6 +120,17 @@ def cmd_detect(args) -> int:
     else:
         print(json.dumps(records[0], indent=2))
     return 0
+
+
+def _detect_settings(args) -> list[str]:
+    """`--set` items of a detect command: its preset's, then --top, then the user's own."""
+    from graspjax.config import PRESETS
+
+    if args.top is not None and args.top < 1:
+        raise UsageError(f"--top must be >= 1, got {args.top}")
+    items = [f"{k}={v}" for k, v in PRESETS[args.preset].items()]
+    items += [f"image.top_k={args.top}"] if args.top is not None else []
+    return items + (args.set or [])
 
 
 def cmd_bench(args) -> int:
@@ -401,6 +412,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--range", metavar="MIN,MAX", help="depth range in metres (default 0,10)")
     p.add_argument("--downsample", type=int,
                    help="block factor of the detection resolution (default: nearest to width / 640)")
+    p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
+                   help="the detector's checks: the paper's, or with the wall check where the "
+                        "jaws touch (realistic)")
+    p.add_argument("--top", type=int, metavar="K",
+                   help="return the K best distinct grasps, ranked (default 1)")
     p.add_argument("--out", help="results table: FILE.csv, or a directory for results.csv and "
                                  "results.json")
     p.add_argument("--json", help="write the record (a list for several images) to this JSON file")

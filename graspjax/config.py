@@ -18,6 +18,7 @@ parsing each string by the field's declared type.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import math
@@ -63,6 +64,15 @@ def _config(cls):
 
     jax.tree_util.register_pytree_node(cls, flatten, unflatten)
     return cls
+
+
+def replace_unchecked(config: Any, **values: Any) -> Any:
+    """`config` with `values` in place, not validated again: for use under `jax.jit`, where its
+    traced fields are tracers (the values must be valid already)."""
+    new = copy.copy(config)
+    for name, value in values.items():
+        object.__setattr__(new, name, value)
+    return new
 
 
 def _require(ok: bool, message: str) -> None:
@@ -511,11 +521,18 @@ class RealImageConfig:
     min_plane_fraction: float = 0.1  # the support plane holds at least this share of valid pixels
     min_height: float = 0.01  # a target stands at least this far above the support plane (m)
     max_tilt_deg: float = 3.0  # a support plane tilted more than this is seen in a virtual view
-    max_targets: int = 3  # surfaces tried in order of height until one holds a grasp (paper: 1)
+    max_targets: int = 8  # surfaces tried in order of height until top_k grasps pass (paper: 1)
     target_window_px: int = 5  # side of the square window of the speck test (support pixels, odd)
     min_target_pixels: int = 9  # a target pixel needs this many pixels at its depth in the window
     max_target_slope_deg: float = 45.0  # a target's surface faces the view within this angle
     seed: int = 0  # PRNG seed of the plane hypotheses (the same draws for every image)
+    tbeam_positions: int = 3  # T-beams per edge on real images (replaces detect.tbeam_positions)
+    candidates_per_target: int = 16  # the most central grasps of each target checked at full resolution
+    top_k: int = 1  # grasps returned, best first (`--top K`); targets are tried until this many pass
+    min_width: float = 0.01  # narrower gripped parts are refused, TOO_NARROW (m)
+    jaw_samples: int = 32  # samples along each jaw's path, band edge to outer jaw face
+    jaw_lanes: int = 5  # samples across the finger's width
+    duplicate_distance: float = 0.01  # grasps closer than this (m) with axes within 20 deg are one
 
     def __post_init__(self):
         _in_range(self, "detect_width", 16, 4096)
@@ -533,6 +550,14 @@ class RealImageConfig:
         _in_range(self, "max_tilt_deg", 0.0, 89.0)
         _in_range(self, "max_target_slope_deg", 1.0, 90.0)
         _in_range(self, "max_targets", 1, 32)
+        _in_range(self, "tbeam_positions", 1, 16)
+        _in_range(self, "candidates_per_target", 1, 256)
+        _in_range(self, "top_k", 1, 64)
+        _in_range(self, "jaw_samples", 8, 256)
+        _in_range(self, "jaw_lanes", 2, 32)
+        _require(self.min_width >= 0, f"RealImageConfig.min_width must be >= 0, got {self.min_width!r}")
+        _require(self.duplicate_distance >= 0,
+                 f"RealImageConfig.duplicate_distance must be >= 0, got {self.duplicate_distance!r}")
         _positive(self, "plane_threshold", "min_target_pixels")
         _require(self.min_height >= 0, f"RealImageConfig.min_height must be >= 0, got {self.min_height!r}")
         _require(self.target_window_px % 2 == 1 and 1 <= self.target_window_px <= 15,

@@ -111,6 +111,7 @@ class Reason(IntEnum):
     DETECT_COLLISION = DETECT_BASE + GraspReason.COLLISION
     DETECT_NO_ROOM = DETECT_BASE + GraspReason.NO_ROOM
     DETECT_NO_WALL = DETECT_BASE + GraspReason.NO_WALL
+    DETECT_JAWS_BLOCKED = DETECT_BASE + GraspReason.JAWS_BLOCKED  # real images only (never here)
 
     @property
     def label(self) -> str:

@@ -132,6 +132,8 @@ def _bad_inputs(folder, tmp_path):
         ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),
         ([a, b, "--figure", str(tmp_path / "f.png")], "--figure takes one image"),
         ([a, "--set", "image.min_heigth=0.02"], "did you mean image.min_height"),
+        ([a, "--top", "0"], "--top must be >= 1"),
+        ([a, "--set", "image.top_k=100"], "RealImageConfig.top_k must be in [1, 64]"),
         (["missing.npy"], "no such file"),
     ]
 

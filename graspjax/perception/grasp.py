@@ -26,7 +26,7 @@ from graspjax.camera import Camera
 from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.cluster import nearest_pixel, target_surface, valid_mask
 from graspjax.perception.contour import Contour, Edges, fit_edges, trace_contour
-from graspjax.perception.reasons import CANDIDATE_STAGE, GraspReason
+from graspjax.perception.reasons import BY_STAGE, STAGE, GraspReason
 from graspjax.tree import pytree_dataclass
 
 
@@ -62,12 +62,6 @@ class Grasp:
     contour_closed: jax.Array  # () bool, False if the contour hit `max_contour`
     edges: Edges  # the straight edges (K)
     candidates: TBeams  # every T-beam placement (K*K)
-
-
-_STAGE = np.zeros(max(GraspReason) + 1, np.int32)
-for _reason, _stage in CANDIDATE_STAGE.items():
-    _STAGE[_reason] = _stage
-_BY_STAGE = np.array(sorted(CANDIDATE_STAGE, key=CANDIDATE_STAGE.get), np.int32)
 
 
 def _sample(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
@@ -220,8 +214,8 @@ def _assemble(found: jax.Array, overall: jax.Array, best: jax.Array, image_faile
 def _overall_reason(reason: jax.Array, image_checks: list, image_reasons: list):
     """The image's `GraspReason`: the first image-level failure, else the furthest stage any
     placement reached; and whether an image-level check failed."""
-    stage = jnp.asarray(_STAGE)[reason.reshape(-1)]
-    furthest = jnp.asarray(_BY_STAGE)[jnp.max(stage)]
+    stage = jnp.asarray(STAGE)[reason.reshape(-1)]
+    furthest = jnp.asarray(BY_STAGE)[jnp.max(stage)]
     image_failed = image_checks[0]
     for check in image_checks[1:]:
         image_failed = image_failed | check

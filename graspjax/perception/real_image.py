@@ -18,10 +18,15 @@
 5. Detect (`detect_grasp`) at the detection resolution, in a `crop_px`
    square window of the virtual view centred on the target (the same camera
    with a shifted principal point, so nothing else changes), with the
-   target's 3 x 3 pixels as `seed_mask`. When no grasp is found, the next
-   target is the highest candidate outside the surfaces already tried, at
-   most `max_targets` in all (the paper tries one: its nearest object).
-   Align (`align_tool`) in the window of the last target.
+   target's 3 x 3 pixels as `seed_mask` and `tbeam_positions` T-beams per
+   edge. Its `candidates_per_target` most central placements are checked on
+   the full-resolution image (`jaws.py`: width, the jaws' paths, the wall
+   where the jaws touch), scored (`_score`) and pooled. The next target is
+   the highest candidate outside the surfaces already tried, until `top_k`
+   distinct grasps passed or `max_targets` were tried (the paper tries one:
+   its nearest object). The best `top_k` are returned, best first. Align
+   (`align_tool`) in the window of the best grasp's target (the last target
+   when none passed).
 
 The results are mapped back into the camera frame and the full-resolution
 image. Written for ONE image; `jax.vmap` it over a batch (the camera may be
@@ -38,11 +43,12 @@ import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
-from graspjax.config import Config, RealImageConfig
+from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.grasp import Grasp, detect_grasp
-from graspjax.perception.reasons import SupportReason
+from graspjax.perception.jaws import JawCheck, check_jaws
+from graspjax.perception.reasons import BY_STAGE, STAGE, GraspReason, SupportReason
 from graspjax.perception.support import SupportPlane, plane_height, support_plane
 from graspjax.perception.target import best_candidate, target_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
@@ -61,6 +67,25 @@ class RealImageViews:
     height: jax.Array  # (h, w) height above the support plane in that view (m; nan: none)
     window: jax.Array  # (S, S) detection window of the reported target (0 = invalid)
     window_camera: Camera  # intrinsics of `window` (same frame as `depth`, detection resolution)
+
+
+@pytree_dataclass
+class RankedGrasps:
+    """The best `top_k` grasps of one image that passed every check, best first (camera frame)."""
+
+    valid: jax.Array  # (K,) bool: a grasp in this rank
+    score: jax.Array  # (K,) clearance + width margin - distance from the part's centre (`_score`)
+    attempt: jax.Array  # (K,) int32 the target it stands on (its attempt), -1 if none
+    index: jax.Array  # (K,) int32 its placement in that target's `Grasp.candidates`, -1 if none
+    position: jax.Array  # (K, 3) grasp centre G on the top surface (nan if none)
+    closing_axis: jax.Array  # (K, 3) unit closing axis
+    pixel: jax.Array  # (K, 2) G in the full-resolution image (u, v)
+    width: jax.Array  # (K,) width of the gripped band (m)
+    contact_width: jax.Array  # (K,) distance between the jaws where they touch the part (m)
+    depth: jax.Array  # (K,) finger-tip depth below G the jaws reach (m)
+    clearance: jax.Array  # (K,) free height below the finger tips in the jaws' paths (m; inf: all)
+    unknown: jax.Array  # (K,) share of the jaws' path samples without depth
+    centre_distance: jax.Array  # (K,) distance of G from the part's centre across the view (m)
 
 
 @pytree_dataclass
@@ -88,6 +113,7 @@ class RealImageDetection:
     plane_point: jax.Array  # (3,) centroid of its inliers, camera frame
     grasp: Grasp  # the detector's full result on the reported target, in its window
     alignment: Alignment  # align_tool's full result on the reported target, in its window
+    ranked: RankedGrasps  # the best `top_k` grasps (the first is the one above)
     views: RealImageViews  # the images the steps worked on (for figures)
 
 
@@ -157,10 +183,45 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
                     view_depth, points, height, candidate, score, reason)
 
 
+def _score(check: JawCheck, width, centre_distance, detect, gripper, image) -> jax.Array:
+    """A passing grasp's rank, each term in [0, 1]: free height below the tips (capped at 1 cm),
+    width margin to the narrowest and widest allowed (capped at a quarter of the opening), less
+    the distance from the part's centre in half-openings (a central grasp pushes it least)."""
+    clear = jnp.minimum(check.clearance, 0.01) / 0.01
+    margin = jnp.minimum(width - image.min_width,
+                         gripper.opening - 2 * detect.clearance - check.contact_width)
+    quarter = gripper.opening / 4
+    return clear + jnp.clip(margin, 0.0, quarter) / quarter - centre_distance / (gripper.opening / 2)
+
+
+def _select(passed, score, position, axis, count: int, distance: float) -> tuple[jax.Array, jax.Array]:
+    """The `count` best distinct grasps among N: indices (count,) int32 and validity (count,).
+    A grasp within `distance` of a better one with its axis within 20 deg (either sign) is the
+    same grasp (mirror placements: edge i with j, and j with i)."""
+    cos_same = np.cos(np.deg2rad(20.0))
+
+    def pick(open_, _):
+        best = jnp.argmax(jnp.where(open_, score, -jnp.inf))
+        ok = open_[best]
+        same = ((jnp.linalg.norm(position - position[best], axis=-1) <= distance)
+                & (jnp.abs(axis @ axis[best]) >= cos_same))
+        return open_ & ~(same & ok) & (jnp.arange(open_.shape[0]) != best), (best, ok)
+
+    _, (chosen, ok) = lax.scan(pick, passed, None, length=count)
+    return jnp.where(ok, chosen, -1).astype(jnp.int32), ok
+
+
+def _furthest(reasons: jax.Array, among: jax.Array, otherwise: jax.Array) -> jax.Array:
+    """The furthest candidate stage of `reasons` where `among`, else `otherwise` (GraspReason)."""
+    stage = jnp.where(among, jnp.asarray(STAGE)[reasons], -1)
+    return jnp.where(jnp.any(among), jnp.asarray(BY_STAGE)[jnp.max(stage).clip(0)],
+                     otherwise).astype(jnp.int32)
+
+
 def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                       config: Config = Config(), image: RealImageConfig = RealImageConfig()
                       ) -> RealImageDetection:
-    """Find a grasp and a re-alignment plane on the object highest above the support.
+    """Find the best grasps, and a re-alignment plane, on the objects highest above the support.
 
     depth: metric depth (H, W) float32 at full resolution, 0 or nan = invalid; workspace:
     (H, W) bool, True where the search may look (pixels outside are invalid for every step);
@@ -172,65 +233,156 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     view_depth, height, candidate, score = prep.depth, prep.height, prep.candidate, prep.score
     tolerance = config.detect.surface_tolerance
     fine_view = view_camera(fine_camera, rotation)
+    # The window's own checks; the wall is judged at full resolution where the jaws touch.
+    window_detect = replace_unchecked(config.detect, tbeam_positions=image.tbeam_positions,
+                                      wall_check=jnp.zeros((), bool))
+    full = jnp.where(workspace & valid_mask(depth) & (depth >= image.min_depth)
+                     & (depth <= image.max_depth), jnp.asarray(depth, jnp.float32), 0.0)
+    approach = rotation[:, 2]  # the view's optical axis, camera frame
+    n, per = image.max_targets, image.candidates_per_target
+    check = jax.vmap(check_jaws, in_axes=(None, None, 0, 0, None, 0, None, None, None))
 
     # Targets in order of height, each outside the surfaces already tried; each detected in
-    # its own window of the view at the detection resolution.
+    # its own window of the view at the detection resolution, its most central placements
+    # checked on the full-resolution image, until `top_k` distinct grasps pass.
     valid = valid_mask(view_depth)
 
-    def attempt(k, tried, reasons, pixels):
+    def examine(k, tried):
+        """Target k: the surfaces tried after it, its checked placements (`per` each), and the
+        target's own results."""
         chosen, target = best_candidate(candidate & ~tried, score)
         has_target = jnp.any(chosen)
         point = jnp.where(has_target, rotation @ points[target[1], target[0]], 0.0)
         window, window_camera, seed = _window(fine, fine_camera, fine_view, rotation, point,
                                               image.crop_px)
         seed = seed & has_target
-        grasp = detect_grasp(window, window_camera, config.detect, config.gripper, seed_mask=seed)
+        grasp = detect_grasp(window, window_camera, window_detect, config.gripper, seed_mask=seed)
         surface, _ = target_surface(view_depth, valid & has_target, target,
                                     view_depth[target[1], target[0]], tolerance)
-        return (k + 1, tried | surface | chosen, reasons.at[k].set(grasp.reason),
-                pixels.at[k].set(target), window, window_camera, seed, target, grasp)
+        centre = jnp.sum(points * surface[..., None], (0, 1)) / jnp.maximum(jnp.sum(surface), 1)
+
+        # Its most central valid placements, checked at full resolution.
+        cands = grasp.candidates
+        offset = jnp.linalg.norm(cands.center[:, :2] - centre[:2], axis=-1)
+        _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), per)
+        placed = cands.valid[index] & has_target & grasp.found
+        position = cands.center[index] @ rotation.T
+        axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
+        jaws = check(full, camera, position, axis, approach, cands.width[index], config.detect,
+                     config.gripper, image)
+        passed = placed & (jaws.reason == GraspReason.FOUND)
+        rank = jnp.where(passed, _score(jaws, cands.width[index], offset[index], config.detect,
+                                        config.gripper, image), -jnp.inf)
+        reason = jnp.where(jnp.any(passed), GraspReason.FOUND,
+                           _furthest(jaws.reason, placed, grasp.reason))
+        placements = dict(passed=passed, score=rank, attempt=jnp.full(per, k, jnp.int32),
+                          index=index.astype(jnp.int32), position=position, axis=axis,
+                          width=cands.width[index], distance=offset[index], jaws=jaws)
+        own = dict(reasons=reason, pixels=target, window=window, window_camera=window_camera,
+                   seed=seed, grasp=grasp)
+        return tried | surface | chosen, placements, own
+
+    def attempt(k, tried, pool):
+        tried, placements, own = examine(k, tried)
+        pool = dict(pool)
+        for key, value in placements.items():
+            pool[key] = jax.tree.map(
+                lambda whole, part: lax.dynamic_update_slice_in_dim(whole, part, k * per, 0),
+                pool[key], value)
+        for key, value in own.items():
+            pool[key] = jax.tree.map(lambda whole, part: whole.at[k].set(part), pool[key], value)
+        return k + 1, tried, pool
+
+    def distinct(pool):
+        return _select(pool["passed"], pool["score"], pool["position"], pool["axis"],
+                       image.top_k, image.duplicate_distance)
 
     def more(state):
-        k, tried, *_, grasp = state
-        return (k < image.max_targets) & ~grasp.found & jnp.any(candidate & ~tried)
+        k, tried, pool = state
+        return ((k < n) & jnp.any(candidate & ~tried)
+                & (jnp.sum(distinct(pool)[1]) < image.top_k))
 
-    n = image.max_targets
-    first = attempt(0, jnp.zeros(candidate.shape, bool), jnp.full(n, -1, jnp.int32),
-                    jnp.zeros((n, 2), jnp.int32))
-    attempts, _, reasons, pixels, window, window_camera, seed, target, grasp = lax.while_loop(
-        more, lambda state: attempt(*state[:4]), first)
+    _, placements, own = jax.eval_shape(examine, 0, jax.ShapeDtypeStruct(candidate.shape, bool))
+    pool = {key: jax.tree.map(lambda x: jnp.zeros((n * per, *x.shape[1:]), x.dtype), value)
+            for key, value in placements.items()}
+    pool.update({key: jax.tree.map(lambda x: jnp.zeros((n, *x.shape), x.dtype), value)
+                 for key, value in own.items()})
+    pool["score"] = jnp.full(n * per, -jnp.inf, jnp.float32)
+    pool["reasons"] = jnp.full(n, -1, jnp.int32)
+    attempts, _, pool = lax.while_loop(more, lambda state: attempt(*state),
+                                       attempt(0, jnp.zeros(candidate.shape, bool), pool))
+    chosen, ranked_ok = distinct(pool)
+    pick = jnp.clip(chosen, 0)
+    best = jnp.where(ranked_ok[0], pool["attempt"][pick[0]], attempts - 1)
+    window, window_camera, seed = (jax.tree.map(lambda x: x[best], pool[key])
+                                   for key in ("window", "window_camera", "seed"))
     alignment = align_tool(window, window_camera, config.align, jax.random.key(image.seed),
                            seed_mask=seed)
 
+    def ranked(x, fill):
+        x = x[pick]
+        return jnp.where(ranked_ok.reshape(-1, *[1] * (x.ndim - 1)), x, fill)
+
+    jaws = pool["jaws"]
+    position = ranked(pool["position"], jnp.nan)
+    top = RankedGrasps(
+        valid=ranked_ok, score=ranked(pool["score"], jnp.nan),
+        attempt=ranked(pool["attempt"], -1), index=ranked(pool["index"], -1),
+        position=position, closing_axis=ranked(pool["axis"], jnp.nan),
+        pixel=camera.project(position), width=ranked(pool["width"], jnp.nan),
+        contact_width=ranked(jaws.contact_width, jnp.nan), depth=ranked(jaws.depth, jnp.nan),
+        clearance=ranked(jaws.clearance, jnp.nan), unknown=ranked(jaws.unknown, jnp.nan),
+        centre_distance=ranked(pool["distance"], jnp.nan))
+    grasp = _as_chosen(jax.tree.map(lambda x: x[best], pool["grasp"]), top, pool["reasons"][best])
+
+    target = pool["pixels"][best]
     has_target = jnp.any(seed)
+    found = ranked_ok[0] & has_target
     target_point = jnp.where(has_target, rotation @ points[target[1], target[0]], jnp.nan)
-    position = rotation @ grasp.position
     views = RealImageViews(work=prep.work, work_camera=prep.work_camera, depth=view_depth,
                            camera=prep.view, height=height, window=window,
                            window_camera=window_camera)
     return RealImageDetection(
-        found=grasp.found & has_target,
+        found=found,
         support=prep.support,
         virtual=prep.virtual,
         rotation=rotation,
         view=window_camera,
         target_reason=prep.reason,
-        attempts=jnp.where(has_target, attempts, 0).astype(jnp.int32),
-        attempt_reasons=jnp.where(has_target, reasons, -1),
-        attempt_pixels=pixels,
+        attempts=jnp.where(jnp.any(candidate), attempts, 0).astype(jnp.int32),
+        attempt_reasons=jnp.where(jnp.any(candidate) & (jnp.arange(n) < attempts),
+                                  pool["reasons"], -1),
+        attempt_pixels=pool["pixels"],
         target=target,
         target_height=jnp.where(has_target, height[target[1], target[0]], jnp.nan),
         target_point=target_point,
         target_pixel=camera.project(target_point),
-        position=position,
-        closing_axis=rotation @ grasp.closing_axis,
-        approach=rotation @ grasp.approach,
-        pixel=camera.project(position),
+        position=top.position[0],
+        closing_axis=top.closing_axis[0],
+        approach=approach,
+        pixel=top.pixel[0],
         plane_normal=rotation @ alignment.normal,
         plane_point=rotation @ alignment.point,
         grasp=grasp,
         alignment=alignment,
+        ranked=top,
         views=views,
     )
 
 
+def _as_chosen(grasp: Grasp, top: RankedGrasps, reason: jax.Array) -> Grasp:
+    """The detector's result on the best grasp's target (its window frame) with the best grasp
+    as its choice, for figures and records."""
+    index = top.index[0]
+    ok = top.valid[0]
+    cands = grasp.candidates
+    i = jnp.clip(index, 0)
+    nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    return dataclasses.replace(
+        grasp, found=ok, reason=jnp.where(ok, GraspReason.FOUND, reason).astype(jnp.int32),
+        position=jnp.where(ok, cands.center[i], nan3),
+        closing_axis=jnp.where(ok, jnp.append(cands.axis[i], 0.0), nan3),
+        width=jnp.where(ok, cands.width[i], jnp.nan),
+        depth=jnp.where(ok, top.depth[0], jnp.nan),
+        pixel=jnp.where(ok, cands.pixel[i], jnp.nan),
+        index=jnp.where(ok, index, -1).astype(jnp.int32))

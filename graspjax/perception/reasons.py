@@ -2,6 +2,8 @@
 
 from enum import IntEnum
 
+import numpy as np
+
 
 class GraspReason(IntEnum):
     """Why `detect_grasp` found (0) or did not find a grasp.
@@ -22,6 +24,7 @@ class GraspReason(IntEnum):
     COLLISION = 8  # a T-beam corner lies inside the surface cluster
     NO_ROOM = 9  # the depth at the fingers leaves no room to reach grasp depth
     NO_WALL = 10  # beyond an edge the surface falls too gently for a finger to hold it
+    JAWS_BLOCKED = 11  # real images: a jaw's path on the full-resolution image stands above its tips
 
 
 # Stage order of the candidate checks: a larger stage got further.
@@ -32,9 +35,14 @@ CANDIDATE_STAGE = {
     GraspReason.OUT_OF_VIEW: 3,
     GraspReason.COLLISION: 4,
     GraspReason.NO_ROOM: 5,
-    GraspReason.NO_WALL: 6,
-    GraspReason.FOUND: 7,
+    GraspReason.JAWS_BLOCKED: 6,
+    GraspReason.NO_WALL: 7,
+    GraspReason.FOUND: 8,
 }
+STAGE = np.zeros(max(GraspReason) + 1, np.int32)  # each GraspReason's stage (0 if not a candidate's)
+for _reason, _stage in CANDIDATE_STAGE.items():
+    STAGE[_reason] = _stage
+BY_STAGE = np.array(sorted(CANDIDATE_STAGE, key=CANDIDATE_STAGE.get), np.int32)  # stage -> reason
 
 
 class AlignReason(IntEnum):

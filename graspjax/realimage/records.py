@@ -19,7 +19,7 @@ from graspjax.realimage.inputs import Inputs
 def record(d: Detection, inputs: Inputs) -> dict:
     """The record of one image's `Detection` (JSON values: lists, numbers, strings, None)."""
     r, camera = d.result, d.camera
-    g, a, s = r.grasp, r.alignment, r.support
+    g, a, s, ranked = r.grasp, r.alignment, r.support, r.ranked
     target_ok = int(r.target_reason) == TargetReason.FOUND
     reason = (GraspReason(int(g.reason)).name if target_ok
               else TargetReason(int(r.target_reason)).name)
@@ -52,9 +52,12 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "grasp": {"found": bool(r.found), "reason": GraspReason(int(g.reason)).name,
                   "position": r.position, "closing_axis": r.closing_axis,
                   "approach": r.approach, "width": g.width, "depth": g.depth,
-                  "surface_depth": g.surface_depth, "pixel": r.pixel,
+                  "contact_width": ranked.contact_width[0], "clearance": ranked.clearance[0],
+                  "score": ranked.score[0], "surface_depth": g.surface_depth, "pixel": r.pixel,
                   "surface_pixels": int(g.surface_pixels),
                   "valid_candidates": int(g.candidates.valid.sum())},
+        "candidates": [_candidate(ranked, k) for k in range(len(ranked.valid))
+                       if ranked.valid[k]],
         "alignment": {"found": bool(a.found), "reason": AlignReason(int(a.reason)).name,
                       "normal": r.plane_normal, "point": r.plane_point,
                       "inliers": int(a.inliers), "counts": a.counts},
@@ -62,30 +65,49 @@ def record(d: Detection, inputs: Inputs) -> dict:
     })
 
 
+def _candidate(ranked, k: int) -> dict:
+    """The record of the grasp ranked k + 1 (JSON values)."""
+    return {"rank": k + 1, "score": ranked.score[k], "target": int(ranked.attempt[k]) + 1,
+            "position": ranked.position[k], "closing_axis": ranked.closing_axis[k],
+            "pixel": ranked.pixel[k], "width": ranked.width[k],
+            "contact_width": ranked.contact_width[k], "depth": ranked.depth[k],
+            "clearance": ranked.clearance[k], "no_depth_fraction": ranked.unknown[k],
+            "centre_distance": ranked.centre_distance[k]}
+
+
 CSV_COLUMNS = [
-    "image", "found", "reason", "x", "y", "z", "axis_x", "axis_y", "axis_z", "approach_x",
-    "approach_y", "approach_z", "width", "grasp_depth", "u", "v", "target_u", "target_v",
-    "target_height", "attempts", "view", "support", "support_nx", "support_ny", "support_nz",
-    "support_distance", "support_tilt_deg", "support_inlier_fraction", "alignment",
-    "align_nx", "align_ny", "align_nz", "load_ms", "compute_ms",
+    "image", "found", "reason", "rank", "score", "target", "x", "y", "z", "axis_x", "axis_y",
+    "axis_z", "approach_x", "approach_y", "approach_z", "width", "contact_width", "grasp_depth",
+    "clearance", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
+    "support", "support_nx", "support_ny", "support_nz", "support_distance", "support_tilt_deg",
+    "support_inlier_fraction", "alignment", "align_nx", "align_ny", "align_nz", "load_ms",
+    "compute_ms",
 ]
 
 
-def csv_row(rec: dict) -> list:
-    """One CSV row (`CSV_COLUMNS`) of a record."""
-    g, s, t, a = rec["grasp"], rec["support_plane"], rec["target"], rec["alignment"]
-    return [rec["image"], rec["found"], rec["reason"], *g["position"], *g["closing_axis"],
-            *g["approach"], g["width"], g["depth"], *g["pixel"], *t["pixel"], t["height"],
-            t["attempts"], rec["view"], s["reason"], *s["normal"], s["distance"], s["tilt_deg"],
-            s["inlier_fraction"], a["reason"], *a["normal"], rec["timing"]["load_ms"],
-            rec["timing"]["compute_ms"]]
+def csv_rows(rec: dict) -> list[list]:
+    """The CSV rows (`CSV_COLUMNS`) of a record: one per ranked grasp, or one saying why none."""
+    s, t, a = rec["support_plane"], rec["target"], rec["alignment"]
+    nan3 = [None] * 3
+    image = [rec["image"], rec["found"], rec["reason"]]
+    rest = [*t["pixel"], t["height"], t["attempts"], rec["view"], s["reason"], *s["normal"],
+            s["distance"], s["tilt_deg"], s["inlier_fraction"], a["reason"], *a["normal"],
+            rec["timing"]["load_ms"], rec["timing"]["compute_ms"]]
+    approach = rec["grasp"]["approach"]
+    rows = [image + [c["rank"], c["score"], c["target"], *c["position"], *c["closing_axis"],
+                     *approach, c["width"], c["contact_width"], c["depth"], c["clearance"],
+                     *c["pixel"]] + rest for c in rec["candidates"]]
+    return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 4 + [None, None] + rest]
 
 
 def csv_bytes(records: Sequence[dict]) -> bytes:
-    """The results table: one row per image, nan as an empty cell."""
+    """The results table: a row per ranked grasp of each image (one if none), nan as an empty
+    cell."""
     import pandas as pd
 
-    frame = pd.DataFrame([csv_row(r) for r in records], columns=CSV_COLUMNS)
+    frame = pd.DataFrame([row for r in records for row in csv_rows(r)], columns=CSV_COLUMNS)
+    frame["rank"] = frame["rank"].astype("Int64")
+    frame["target"] = frame["target"].astype("Int64")
     return frame.to_csv(index=False, float_format="%.6g").encode()
 
 
@@ -101,6 +123,8 @@ def line(rec: dict) -> str:
         x, y, z = rec["grasp"]["position"]
         text += (f", width {100 * rec['grasp']['width']:.1f} cm at ({x:+.3f}, {y:+.3f}, {z:.3f}) m"
                  f", pixel ({rec['grasp']['pixel'][0]:.0f}, {rec['grasp']['pixel'][1]:.0f})")
+        if len(rec["candidates"]) > 1:
+            text += f" (best of {len(rec['candidates'])} ranked)"
     support = rec["support_plane"]
     if support["found"]:
         text += f"; {rec['view']} view, support tilt {support['tilt_deg']:.1f} deg"

@@ -1,0 +1,104 @@
+"""Judge `graspjax detect`'s ranked grasps on real captures, on the raw depth, independently of
+the detector's own code (issue 19's rule).
+
+A grasp "straddles a real object" when its centre stands at least 8 mm above the support plane
+(fitted here by a RANSAC of our own on the workspace's raw pixels) and both finger places,
+centre +/- closing axis x (width / 2 + 6 mm), lie at least 8 mm below the centre (measured
+along the plane's normal) or have no depth.
+
+    python experiments/judge_real_depth.py results/real_depth/*/results.json
+
+prints one line per ranked grasp and a summary per file. Reads the images named in the
+records (they are not part of the repository).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+MIN_HEIGHT = 0.008  # the centre above the support plane (m)
+MIN_DROP = 0.008  # each finger place below the centre (m)
+FINGER_OFFSET = 0.006  # finger places beyond the band's half width (m)
+
+
+def _unproject(u, v, z, cam):
+    return np.stack([(u - cam["cx"]) * z / cam["fx"], (v - cam["cy"]) * z / cam["fy"], z], -1)
+
+
+def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int = 0):
+    """(unit normal toward the camera, offset d: n . p + d = height) of the largest plane."""
+    v, u = np.nonzero(workspace & (depth > 0) & np.isfinite(depth))
+    points = _unproject(u, v, depth[v, u], cam)[:: max(1, len(u) // 20000)]
+    rng = np.random.default_rng(seed)
+    best, best_count = None, -1
+    for _ in range(500):
+        a, b, c = points[rng.choice(len(points), 3, replace=False)]
+        n = np.cross(b - a, c - a)
+        if np.linalg.norm(n) < 1e-9:
+            continue
+        n /= np.linalg.norm(n)
+        n = -n if n[2] > 0 else n  # toward the camera
+        if -n[2] < np.cos(np.deg2rad(45)):
+            continue
+        count = int(np.sum(np.abs((points - a) @ n) < 0.005))
+        if count > best_count:
+            best, best_count = (n, -a @ n), count
+    return best
+
+
+def judge(rec: dict, candidate: dict) -> tuple[bool, str]:
+    depth = np.load(rec["image"]).astype(np.float64).squeeze()
+    cam = rec["camera"]
+    height, width = depth.shape
+    workspace = np.zeros_like(depth, bool)
+    roi = rec["workspace"]["roi"] or [0, 0, width, height]
+    workspace[roi[1]:roi[3], roi[0]:roi[2]] = True
+    normal, offset = support_plane(depth, workspace, cam)
+    centre = np.asarray(candidate["position"])
+    axis = np.asarray(candidate["closing_axis"])
+    h_centre = centre @ normal + offset
+    drops = []
+    for side in (1, -1):
+        place = centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET)
+        u, v = (np.array([cam["fx"] * place[0] / place[2] + cam["cx"],
+                          cam["fy"] * place[1] / place[2] + cam["cy"]])).round().astype(int)
+        z = depth[v, u] if (0 <= u < width and 0 <= v < height) else 0.0
+        if not (z > 0 and np.isfinite(z)):
+            drops.append(None)
+            continue
+        drops.append(h_centre - (_unproject(u, v, z, cam) @ normal + offset))
+    ok = h_centre >= MIN_HEIGHT and all(d is None or d >= MIN_DROP for d in drops)
+    text = ", ".join("no depth" if d is None else f"{1000 * d:.0f} mm" for d in drops)
+    return ok, f"centre {1000 * h_centre:.0f} mm up, fingers drop {text}"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("results", nargs="+", help="results.json files of graspjax detect")
+    args = parser.parse_args(argv)
+    for path in args.results:
+        records = json.loads(Path(path).read_text())
+        records = records if isinstance(records, list) else [records]
+        good = 0
+        for rec in records:
+            name = Path(rec["image"]).name
+            if not rec["candidates"]:
+                print(f"{path} {name}: no grasp ({rec['reason']})")
+                continue
+            for c in rec["candidates"]:
+                ok, text = judge(rec, c)
+                good += ok and c["rank"] == 1
+                print(f"{path} {name} rank {c['rank']}: {'straddles' if ok else 'QUESTIONABLE'}"
+                      f" (width {100 * c['width']:.1f} cm, contact {100 * c['contact_width']:.1f}"
+                      f" cm; {text})")
+        print(f"{path}: {good} of {len(records)} best grasps straddle an object")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,138 @@
+"""The jaws of one grasp checked on the full-resolution real image (one candidate).
+
+The double T-beam is checked on the detection grid: its finger footprints
+at the open width leave room to reach the grasp depth. A real capture asks
+more of a grasp before a robot tries it, and the full-resolution image can
+answer, sample by sample along each jaw's path:
+
+* The gripped part is at least `RealImageConfig.min_width` wide (a 5 mm
+  band on a ridge is not a part to grasp): `TOO_NARROW`.
+* Each opened jaw's footprint (finger width x thickness, at the open width)
+  is free from the top of the object down to the finger tips, and the
+  gripped band has sides: within friction x the shallowest grasp depth of
+  its edge the part falls at least that depth, on average steeper than the
+  pads' friction cone (else the jaws land on the object's own top or on a
+  shoulder of it, not beside it). Closing at the
+  tips' level, each jaw touches the part where it first stands higher than
+  the tips, so the jaws may hold a part wider below its top, as a rounded
+  one; between the band and the contact there is no gap (a gap means the
+  jaw closes on something else), and the contact width fits the opening.
+  Else `JAWS_BLOCKED`.
+* With the wall check on (`detect.wall_check`, the realistic preset), the
+  side is judged where the jaw touches it, not at the band's top edge: it
+  must fall steeper than 90 deg - atan(friction) there (else `NO_WALL`).
+
+A sample is a point at the finger tips' level; the camera ray through it
+meets the surface at the pixel it projects to, and the sample's height is
+that surface point's distance below the grasp centre along the approach.
+Pixels without depth count as free (a real sensor loses edges; the record
+says how many there were).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from graspjax.camera import Camera
+from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
+from graspjax.perception.cluster import valid_mask
+from graspjax.perception.reasons import GraspReason
+from graspjax.tree import pytree_dataclass
+
+
+@pytree_dataclass
+class JawCheck:
+    """The full-resolution verdict on one grasp (metres)."""
+
+    reason: jax.Array  # () int32 GraspReason: FOUND, TOO_NARROW, JAWS_BLOCKED or NO_WALL
+    depth: jax.Array  # () finger-tip depth below the grasp centre the jaws can reach
+    clearance: jax.Array  # () free height below the finger tips in the checked path (inf: all free)
+    contact_width: jax.Array  # () distance between the jaws where they touch the part
+    unknown: jax.Array  # () share of the path's samples without depth
+
+
+def _path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
+                  approach: jax.Array, across: jax.Array, lateral: jax.Array,
+                  level: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Depth below `center` along `approach` of the surface seen through points at `level` below
+    it, `across` (A,) along the closing axis on both sides and `lateral` (L,) along the edge:
+    heights (2, A, L) (inf: no depth), how far out along the closing axis the ray met the
+    surface (2, A, L) (inf: no depth), and which samples had depth (2, A, L)."""
+    along = jnp.cross(approach, axis)
+    side = jnp.array([1.0, -1.0], jnp.float32)
+    points = (center + level * approach
+              + side[:, None, None, None] * across[None, :, None, None] * axis
+              + lateral[None, None, :, None] * along)  # (2, A, L, 3)
+    uv = jnp.round(camera.project(points))
+    inside = ((uv[..., 0] >= 0) & (uv[..., 0] < camera.width)
+              & (uv[..., 1] >= 0) & (uv[..., 1] < camera.height))
+    iu = jnp.clip(uv[..., 0], 0, camera.width - 1).astype(jnp.int32)
+    iv = jnp.clip(uv[..., 1], 0, camera.height - 1).astype(jnp.int32)
+    z = depth[iv, iu]
+    seen = inside & valid_mask(z)
+    surface = camera.unproject(uv, jnp.where(seen, z, 1.0)) - center
+    height = jnp.sum(surface * approach, -1)
+    out = side[:, None, None] * jnp.sum(surface * axis, -1)  # where the ray met it, across
+    return jnp.where(seen, height, jnp.inf), jnp.where(seen, out, jnp.inf), seen
+
+
+def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
+               approach: jax.Array, width: jax.Array, detect: DetectorConfig,
+               gripper: GripperConfig, image: RealImageConfig) -> JawCheck:
+    """Check one grasp's jaws on the full-resolution image.
+
+    depth: metric depth (H, W) of `camera`, 0 or nan = invalid; center: grasp centre G on the
+    top surface (3,), camera frame; axis: unit closing axis (3,); approach: unit approach (3,),
+    into the scene; width: the gripped band's width c (m). Pure; vmap it over candidates.
+    """
+    samples, lanes = image.jaw_samples, image.jaw_lanes
+    wanted = jnp.minimum(detect.grasp_depth, gripper.finger_length)
+    outer = gripper.opening / 2 + gripper.finger_thickness
+    fraction = jnp.asarray(np.linspace(0.0, 1.0, samples), jnp.float32)
+    across = width / 2 + fraction * (outer - width / 2)  # (A,) band edge -> outer jaw face
+    step = (outer - width / 2) / (samples - 1)
+    lateral = jnp.asarray(np.linspace(-0.5, 0.5, lanes), jnp.float32) * gripper.finger_width
+    height, out, seen = _path_heights(depth, camera, center, axis, approach, across, lateral, wanted)
+    top = jnp.min(height, -1)  # (2, A) the highest surface across the finger
+
+    # Down: the open jaws' footprints free to below the finger tips.
+    footprint = across >= gripper.opening / 2
+    free = jnp.min(jnp.where(footprint, top, jnp.inf))
+    reach = jnp.minimum(wanted, free - detect.depth_clearance)
+    # The band has sides: the part falls at least the shallowest grasp depth within
+    # friction x that depth of the band's edge (on average steeper than the pads' friction
+    # cone); else the band tops a mound or a shoulder, and the jaws land on the part.
+    # Judged where each ray met the surface (a tilted ray meets it nearer or farther out than
+    # its sample); a sample near the edge without depth counts as a drop.
+    reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
+    dropped = (out <= reach_out) & (height >= detect.min_grasp_depth)
+    lost = (across[None, :, None] <= reach_out) & ~seen
+    sides = jnp.all(jnp.any(dropped | lost, (1, 2)))
+    # Closing at the tips' level: each jaw touches the part where it first stands higher than
+    # the tips, with no gap between the band and the contact (else it closes on something else).
+    above = top < reach  # (2, A)
+    index = jnp.arange(samples)
+    last = jnp.max(jnp.where(above, index, 0), -1)  # (2,) the outermost sample above the tips
+    contact_width = width + jnp.sum(last) * step
+    gap = jnp.any((index < last[:, None]) & (top > reach + detect.surface_tolerance))
+    fits = contact_width <= gripper.opening - 2 * detect.clearance
+    # The wall where the jaws touch (`wall_check`): over `run` samples each side of the contact
+    # the side falls at least 1 / friction per unit of run (its normal in the pads' cone).
+    run = 2
+    outside = jnp.clip(last + run, 0, samples - 1)
+    inside = jnp.clip(last - run, 0, samples - 1)
+    lower = jnp.take_along_axis(top, outside[:, None], -1)[:, 0]
+    upper = jnp.take_along_axis(top, inside[:, None], -1)[:, 0]
+    touches = jnp.any(above, -1)  # (2,) else the side falls away inside the band's edge
+    steep = ~touches | jnp.isinf(lower) | ((lower - upper) >= (outside - inside) * step
+                                           / gripper.friction)
+
+    blocked = (reach < detect.min_grasp_depth) | ~sides | gap | ~fits
+    no_wall = detect.wall_check & ~jnp.all(steep)
+    reason = jnp.select([width < image.min_width, blocked, no_wall],
+                        [GraspReason.TOO_NARROW, GraspReason.JAWS_BLOCKED, GraspReason.NO_WALL],
+                        GraspReason.FOUND).astype(jnp.int32)
+    return JawCheck(reason=reason, depth=reach, clearance=free - reach,
+                    contact_width=contact_width, unknown=jnp.mean(~seen))

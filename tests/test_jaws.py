@@ -1,0 +1,117 @@
+"""The jaws checked on the full-resolution image (`perception/jaws.py`), and the ranked search of
+`detect_real_image`, on analytic scenes: parts whose jaws would land on their own top or on a
+step, a rounded part the realistic checks accept, and a workspace where only one part can be
+grasped."""
+
+import jax
+import numpy as np
+import pytest
+from real_scenes import table_centre, table_with
+
+from graspjax.config import Config, RealImageConfig, preset
+from graspjax.perception import GraspReason
+from graspjax.perception.jaws import check_jaws
+from graspjax.realimage.detect import detect_batch, stack_cameras
+from graspjax.synthetic import box, regular_prism, rot_y
+
+CENTRE = table_centre()
+check = jax.jit(check_jaws)
+
+
+def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig()):
+    """check_jaws for a grasp at world point `top` closing along `axis_world`."""
+    depth, camera, workspace, rotation, eye = table_with(solids)
+    depth = np.where(workspace, depth, 0.0).astype(np.float32)
+    centre = rotation.T @ (np.asarray(top, float) - eye)
+    axis = rotation.T @ np.asarray(axis_world, float)
+    approach = rotation.T @ np.array([0.0, 0.0, -1.0])
+    result = check(depth, camera, centre.astype(np.float32), axis.astype(np.float32),
+                   approach.astype(np.float32), np.float32(width), config.detect,
+                   config.gripper, image)
+    return jax.tree.map(np.asarray, result)
+
+
+def _at(x=0.0, y=0.0, z=0.0):
+    return (CENTRE[0] + x, CENTRE[1] + y, z)
+
+
+X, Y = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+
+
+def test_a_thin_rib_is_too_narrow_and_a_low_one_lands_the_jaws_on_the_part():
+    """A 5 x 5 x 1.2 cm part with a rib along y on top: 9 mm wide it is narrower than
+    `min_width`; 12 mm wide but 6 mm high, the jaws across it land on the part's own top (the
+    rib falls less than the 8 mm shallowest grasp); along the rib they close on the part."""
+    body = box((0.05, 0.05, 0.012), _at())
+    narrow = [body, box((0.009, 0.05, 0.006), _at(z=0.012))]
+    low = [body, box((0.012, 0.05, 0.006), _at(z=0.012))]
+    assert _jaws(narrow, _at(z=0.018), X, 0.009).reason == GraspReason.TOO_NARROW
+    assert _jaws(low, _at(z=0.018), X, 0.012).reason == GraspReason.JAWS_BLOCKED
+    along = _jaws(low, _at(z=0.018), Y, 0.05)
+    assert along.reason == GraspReason.FOUND
+    # The part's own 5 cm, seen through tip-level rays of a camera tilted 13 degrees: on the
+    # far side the part's top edge hides the ray's point, ~tan(15 deg) x 15 mm wider.
+    assert 0.05 - 0.002 < float(along.contact_width) < 0.05 + 0.006
+    assert abs(float(along.depth) - 0.015) < 0.002  # the table 18 mm down, less 3 mm
+
+
+def test_jaws_beside_a_step_are_refused_and_beside_a_wall_are_not():
+    """A 2.5 cm block 6 mm high on a 6.5 x 4 x 4 cm base: across x the jaws land on the step;
+    the same grasp on a plain 2.5 cm wide block passes, jaws free to the 2 cm grasp depth."""
+    step = [box((0.065, 0.04, 0.04), _at()), box((0.025, 0.04, 0.006), _at(z=0.04))]
+    assert _jaws(step, _at(z=0.046), X, 0.025).reason == GraspReason.JAWS_BLOCKED
+    plain = _jaws([box((0.025, 0.04, 0.046), _at())], _at(z=0.046), X, 0.025)
+    assert plain.reason == GraspReason.FOUND
+    assert abs(float(plain.depth) - 0.02) < 1e-4
+    assert 0.025 - 0.002 < float(plain.contact_width) < 0.025 + 0.008  # tilt: as above
+    assert float(plain.clearance) > 0.02  # the table, 46 mm below the top
+
+
+def test_a_rounded_top_is_held_where_the_jaws_touch_it():
+    """A cylinder (r = 2.5 cm) lying along x: its top band is 3 cm wide, the jaws close 2 cm
+    below the top on its flanks, 2 sqrt(r^2 - (r - 2 cm)^2) = 4.9 cm apart, where the side is
+    steep enough for the pads (realistic checks)."""
+    radius = 0.025
+    cylinder = regular_prism(48, radius, 0.08).moved(rot_y(np.pi / 2),
+                                                     _at(x=-0.04, z=radius))
+    realistic = preset("realistic")
+    result = _jaws([cylinder], _at(z=2 * radius), Y, 0.03, realistic)
+    assert result.reason == GraspReason.FOUND, GraspReason(int(result.reason)).name
+    assert abs(float(result.contact_width) - 2 * np.sqrt(radius**2 - 0.005**2)) < 0.004
+
+
+def test_only_the_graspable_part_of_a_workspace_is_returned():
+    """The highest part is 12 cm square (wider than the opening both ways), the next a flat
+    10 cm plate; the third, a 3 x 5 x 3 cm box, is the one grasp: found on a later target,
+    closing across its 3 cm, and ranked with the tried targets' reasons."""
+    solids = [box((0.12, 0.12, 0.08), _at(x=-0.1)), box((0.1, 0.1, 0.05), _at(x=0.1, y=0.06)),
+              box((0.03, 0.05, 0.03), _at(x=0.07, y=-0.08))]
+    depth, camera, workspace, rotation, eye = table_with(solids)
+    result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(),
+                          RealImageConfig())
+    r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+    assert bool(r.found)
+    assert int(r.attempts) >= 2
+    assert r.attempt_reasons[0] == GraspReason.TOO_WIDE
+    top = rotation.T @ (np.array(_at(x=0.07, y=-0.08, z=0.03)) - eye)
+    assert np.linalg.norm(r.position - top) < 0.02
+    assert abs(float(r.ranked.width[0]) - 0.03) < 0.003
+    assert bool(r.ranked.valid[0]) and np.isfinite(r.ranked.score[0])
+
+
+@pytest.mark.parametrize("top_k", [3])
+def test_ranked_grasps_are_distinct_and_best_first(top_k):
+    """On one 4 x 7 x 4 cm box: several distinct grasps, scores falling, none a mirror of
+    another (the same centre and axis)."""
+    depth, camera, workspace, rotation, eye = table_with([box((0.04, 0.07, 0.04), _at())])
+    result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(),
+                          RealImageConfig(top_k=top_k))
+    ranked = jax.tree.map(lambda x: np.asarray(x)[0], result.ranked)
+    assert ranked.valid.sum() >= 2
+    scores = ranked.score[ranked.valid]
+    assert np.all(np.diff(scores) <= 1e-6)
+    pos, axes = ranked.position[ranked.valid], ranked.closing_axis[ranked.valid]
+    for i in range(len(pos)):
+        for j in range(i):
+            same = (np.linalg.norm(pos[i] - pos[j]) <= 0.01) and abs(axes[i] @ axes[j]) > 0.94
+            assert not same
