@@ -135,9 +135,9 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     results["single_compile_s"] = time.perf_counter() - t0
     latencies = []
     for i in range(max(repeats * 5, 20)):  # a different scene each time, NumPy in
-        image = scenes[i % unique]
+        scene = scenes[i % unique]
         start = time.perf_counter()
-        jax.block_until_ready(single(image, workspace, camera, config, image))
+        jax.block_until_ready(single(scene, workspace, camera, config, image))
         latencies.append(time.perf_counter() - start)
     results["single_latency_ms"] = 1e3 * statistics.median(latencies)
     results["single_latency_p90_ms"] = 1e3 * float(np.percentile(latencies, 90))

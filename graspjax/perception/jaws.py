@@ -105,10 +105,14 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # friction x that depth of the band's edge (on average steeper than the pads' friction
     # cone); else the band tops a mound or a shoulder, and the jaws land on the part.
     # Judged where each ray met the surface (a tilted ray meets it nearer or farther out than
-    # its sample); a sample near the edge without depth counts as a drop.
+    # its sample). A sample near the edge that is not seen counts as a drop: no depth, or hidden
+    # by the part's own top (its ray met the band, not the side: the far side of a tall part
+    # seen by a tilted camera).
     reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
     dropped = (out <= reach_out) & (height >= detect.min_grasp_depth)
-    lost = (across[None, :, None] <= reach_out) & ~seen
+    near = across[None, :, None]
+    hidden = seen & (out <= width / 2 + step) & (near > width / 2 + step)
+    lost = (near <= reach_out) & (~seen | hidden)
     sides = jnp.all(jnp.any(dropped | lost, (1, 2)))
     # Closing at the tips' level: each jaw touches the part where it first stands higher than
     # the tips, with no gap between the band and the contact (else it closes on something else).
