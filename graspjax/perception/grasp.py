@@ -26,7 +26,7 @@ from graspjax.camera import Camera
 from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.cluster import nearest_pixel, target_surface, valid_mask
 from graspjax.perception.contour import Contour, Edges, fit_edges, trace_contour
-from graspjax.perception.reasons import BY_STAGE, STAGE, GraspReason
+from graspjax.perception.reasons import GraspReason, furthest_reason
 from graspjax.tree import pytree_dataclass
 
 
@@ -214,8 +214,7 @@ def _assemble(found: jax.Array, overall: jax.Array, best: jax.Array, image_faile
 def _overall_reason(reason: jax.Array, image_checks: list, image_reasons: list):
     """The image's `GraspReason`: the first image-level failure, else the furthest stage any
     placement reached; and whether an image-level check failed."""
-    stage = jnp.asarray(STAGE)[reason.reshape(-1)]
-    furthest = jnp.asarray(BY_STAGE)[jnp.max(stage)]
+    furthest = furthest_reason(reason)
     image_failed = image_checks[0]
     for check in image_checks[1:]:
         image_failed = image_failed | check

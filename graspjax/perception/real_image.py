@@ -48,7 +48,7 @@ from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.grasp import Grasp, detect_grasp
 from graspjax.perception.jaws import JawCheck, check_jaws
-from graspjax.perception.reasons import BY_STAGE, STAGE, GraspReason, SupportReason
+from graspjax.perception.reasons import GraspReason, SupportReason, furthest_reason
 from graspjax.perception.support import SupportPlane, plane_height, support_plane
 from graspjax.perception.target import best_candidate, target_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
@@ -211,13 +211,6 @@ def _select(passed, score, position, axis, count: int, distance: float) -> tuple
     return jnp.where(ok, chosen, -1).astype(jnp.int32), ok
 
 
-def _furthest(reasons: jax.Array, among: jax.Array, otherwise: jax.Array) -> jax.Array:
-    """The furthest candidate stage of `reasons` where `among`, else `otherwise` (GraspReason)."""
-    stage = jnp.where(among, jnp.asarray(STAGE)[reasons], -1)
-    return jnp.where(jnp.any(among), jnp.asarray(BY_STAGE)[jnp.max(stage).clip(0)],
-                     otherwise).astype(jnp.int32)
-
-
 def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                       config: Config = Config(), image: RealImageConfig = RealImageConfig()
                       ) -> RealImageDetection:
@@ -274,7 +267,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         rank = jnp.where(passed, _score(jaws, cands.width[index], offset[index], config.detect,
                                         config.gripper, image), -jnp.inf)
         reason = jnp.where(jnp.any(passed), GraspReason.FOUND,
-                           _furthest(jaws.reason, placed, grasp.reason))
+                           jnp.where(jnp.any(placed), furthest_reason(jaws.reason, placed),
+                                     grasp.reason))
         placements = dict(passed=passed, score=rank, attempt=jnp.full(per, k, jnp.int32),
                           index=index.astype(jnp.int32), position=position, axis=axis,
                           width=cands.width[index], distance=offset[index], jaws=jaws)

@@ -2,6 +2,7 @@
 
 from enum import IntEnum
 
+import jax.numpy as jnp
 import numpy as np
 
 
@@ -43,6 +44,15 @@ STAGE = np.zeros(max(GraspReason) + 1, np.int32)  # each GraspReason's stage (0 
 for _reason, _stage in CANDIDATE_STAGE.items():
     STAGE[_reason] = _stage
 BY_STAGE = np.array(sorted(CANDIDATE_STAGE, key=CANDIDATE_STAGE.get), np.int32)  # stage -> reason
+
+
+def furthest_reason(reasons, among=None):
+    """The `GraspReason` of the furthest candidate stage that `reasons` (int array) reached,
+    counting only those where `among` (bool, same shape) when it is given."""
+    stage = jnp.asarray(STAGE)[reasons]
+    if among is not None:
+        stage = jnp.where(among, stage, 0)
+    return jnp.asarray(BY_STAGE)[jnp.max(stage)]
 
 
 class AlignReason(IntEnum):
