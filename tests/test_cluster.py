@@ -31,18 +31,40 @@ def test_nearest_pixel_is_the_smallest_valid_depth():
 
 def test_flood_fill_matches_connected_component_labelling():
     rng = np.random.default_rng(0)
-    for _ in range(20):
-        depth = (ndimage.gaussian_filter(rng.random((40, 50)), 3) * 2).astype(np.float32)
-        depth[rng.random(depth.shape) < 0.02] = 0.0  # invalid pixels break connectivity
-        valid = depth > 0
-        seed = np.array([rng.integers(50), rng.integers(40)])
-        low, high = depth[seed[1], seed[0]] - 0.05, depth[seed[1], seed[0]] + 0.05
-        got = np.asarray(_cluster(jnp.asarray(depth), jnp.asarray(valid), jnp.asarray(seed),
-                                  low, high))
-        band = valid & (depth >= low) & (depth <= high)
-        labels, _ = ndimage.label(band)  # 4-connectivity by default
-        expected = labels == labels[seed[1], seed[0]] if band[seed[1], seed[0]] else 0 * band
-        np.testing.assert_array_equal(got, expected)
+    # Widths around the 32-pixel words the rows are packed into, and a single column.
+    for height, width in [(40, 50), (40, 50), (33, 31), (20, 32), (25, 33), (30, 64), (17, 70),
+                          (12, 1), (1, 40), (45, 97)]:
+        for _ in range(3):
+            depth = (ndimage.gaussian_filter(rng.random((height, width)), 3) * 2).astype(np.float32)
+            depth[rng.random(depth.shape) < 0.02] = 0.0  # invalid pixels break connectivity
+            valid = depth > 0
+            seed = np.array([rng.integers(width), rng.integers(height)])
+            low, high = depth[seed[1], seed[0]] - 0.05, depth[seed[1], seed[0]] + 0.05
+            got = np.asarray(_cluster(jnp.asarray(depth), jnp.asarray(valid), jnp.asarray(seed),
+                                      low, high))
+            band = valid & (depth >= low) & (depth <= high)
+            labels, _ = ndimage.label(band)  # 4-connectivity by default
+            expected = labels == labels[seed[1], seed[0]] if band[seed[1], seed[0]] else 0 * band
+            np.testing.assert_array_equal(got, expected)
+
+
+def test_flood_fill_follows_a_serpentine_across_word_boundaries():
+    # A one-pixel path that snakes through every row, crossing the 32-pixel words both ways;
+    # a strip two columns away (not 4-connected to it) stays out.
+    height, width = 21, 70
+    path = np.zeros((height, width), bool)
+    path[::2, 2:-2] = True  # full rows, joined alternately at the right and the left end
+    path[1::4, -3] = True
+    path[3::4, 2] = True
+    strip = np.zeros_like(path)
+    strip[:, 0] = True
+    depth = np.where(path | strip, 0.5, 0.9).astype(np.float32)
+    got = np.asarray(_cluster(jnp.asarray(depth), jnp.asarray(depth > 0), jnp.array([5, 0]),
+                              0.45, 0.55))
+    labels, _ = ndimage.label(path)
+    assert labels[0, 5] == labels[height - 1, 5]  # one path from the first row to the last
+    np.testing.assert_array_equal(got, labels == labels[0, 5])
+    assert got[height - 1, 2:-2].all() and not got[:, 0].any()
 
 
 def test_boundary_is_the_complement_of_the_4_erosion():

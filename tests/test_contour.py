@@ -123,3 +123,24 @@ def test_regular_polygon_sides_are_the_longest_edges(sides):
     assert len({int(i) for i in (normals @ expected.T).argmax(axis=1)}) == sides
     side_length = 2 * 30 * np.sin(np.pi / sides) / SQUARE.fx
     assert (length[order[sides:]] < side_length / 3).all()
+
+
+@pytest.mark.parametrize("shape", ["disc", "ellipse", "octagon"])
+def test_edges_do_not_depend_on_the_contour_buffer_length(shape):
+    """The edge walk stops at the contour's end: a longer buffer (more padding after the
+    points) gives the same edges, including where the walk's last run joins its first."""
+    yy, xx = np.mgrid[0:120, 0:160]
+    if shape == "disc":
+        mask = (xx - 80.4) ** 2 + (yy - 60.2) ** 2 <= 27.0 ** 2
+    elif shape == "ellipse":
+        mask = ((xx - 80.4) / 40.0) ** 2 + ((yy - 60.2) / 18.0) ** 2 <= 1.0
+    else:
+        angles = 2 * np.pi * np.arange(8) / 8 + 0.2
+        mask = _polygon_mask(np.column_stack([80 + 35 * np.cos(angles),
+                                              60 + 35 * np.sin(angles)]))
+    short, long = (_trace(jnp.asarray(mask), size) for size in (400, 1600))
+    assert int(short.length) == int(long.length) and bool(short.closed)
+    a, b = _fit(short), _fit(long)
+    for name in ("center", "direction", "normal", "length", "count", "valid"):
+        np.testing.assert_array_equal(np.asarray(getattr(a, name)),
+                                      np.asarray(getattr(b, name)), err_msg=name)

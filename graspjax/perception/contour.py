@@ -37,6 +37,7 @@ _DV = np.array([0, 1, 1, 1, 0, -1, -1, -1], np.int32)
 # Direction index of an offset (du, dv), indexed [dv + 1, du + 1] (centre unused).
 _DIRECTION_OF = np.array([[5, 6, 7], [4, 0, 0], [3, 2, 1]], np.int32)
 _WEST = 4
+_WALK_UNROLL = 8  # edge-walk steps per loop iteration: each iteration costs a launch on a GPU
 
 
 @pytree_dataclass
@@ -95,7 +96,7 @@ def trace_contour(mask: jax.Array, max_points: int, steps_per_iteration: int = 8
         closing = jnp.all(p == start) & jnp.all(nxt == second)  # Jacob's stopping rule
         moving = ~done & (i < max_points)
         record = moving & ~closing
-        pts = jnp.where(record, pts.at[jnp.minimum(i, max_points - 1)].set(p), pts)
+        pts = pts.at[jnp.where(record, i, max_points)].set(p, mode="drop")  # one row, or none
         return (jnp.where(record, i + 1, i), jnp.where(record, nxt, p),
                 jnp.where(record, nxt_back, back), pts, done | (moving & closing))
 
@@ -153,17 +154,26 @@ def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window:
 
     cos_split = jnp.cos(jnp.deg2rad(split_angle_deg))
 
-    def walk(carry, inputs):
-        edge, total = carry
-        t, ok = inputs
+    def walk(i, carry):
+        edge, total, ids = carry
+        t, ok = walk_t[jnp.minimum(i, size - 1)], i < contour.length
         norm = jnp.linalg.norm(total)
         new = ok & (norm > 0) & (jnp.dot(total / jnp.maximum(norm, 1e-12), t) < cos_split)
         edge = edge + new.astype(jnp.int32)
         total = jnp.where(ok, jnp.where(new, t, total + t), total)
-        return (edge, total), edge
+        return edge, total, ids.at[i].set(edge, mode="drop")
 
-    _, edge_id = lax.scan(walk, (jnp.int32(0), jnp.zeros(2, jnp.float32)), (walk_t, in_contour),
-                          unroll=8)  # fewer loop iterations: each costs a launch on a GPU
+    def walk_steps(state):
+        i, carry = state
+        for step in range(_WALK_UNROLL):
+            carry = walk(i + step, carry)
+        return i + _WALK_UNROLL, carry
+
+    # Only the contour's own points: a batch walks as far as its longest contour.
+    _, (last_edge, _, edge_id) = lax.while_loop(
+        lambda state: state[0] < contour.length, walk_steps,
+        (jnp.int32(0), (jnp.int32(0), jnp.zeros(2, jnp.float32), jnp.zeros(size, jnp.int32))))
+    edge_id = jnp.where(in_contour, edge_id, last_edge)  # past the end the last edge goes on
     # The walk is closed: its last run continues the first when their directions agree.
     last = edge_id[n - 1]
     first_dir = jnp.sum(jnp.where((edge_id == 0)[:, None], walk_t, 0.0), 0)

@@ -241,15 +241,15 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     valid = valid_mask(view_depth)
 
     def examine(k, tried):
-        """Target k: the surfaces tried after it, its checked placements (`per` each), and the
-        target's own results."""
+        """Target k: the surfaces tried after it, its checked placements (`per` each), its own
+        results and its detector result."""
         chosen, target = best_candidate(candidate & ~tried, score)
         has_target = jnp.any(chosen)
         point = jnp.where(has_target, rotation @ points[target[1], target[0]], 0.0)
         window, window_camera, seed = _window(fine, fine_camera, fine_view, rotation, point,
                                               image.crop_px)
-        seed = seed & has_target
-        grasp = detect_grasp(window, window_camera, window_detect, config.gripper, seed_mask=seed)
+        grasp = detect_grasp(window, window_camera, window_detect, config.gripper,
+                             seed_mask=seed & has_target)
         surface, _ = target_surface(view_depth, valid & has_target, target,
                                     view_depth[target[1], target[0]], tolerance)
         centre = jnp.sum(points * surface[..., None], (0, 1)) / jnp.maximum(jnp.sum(surface), 1)
@@ -272,44 +272,53 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         placements = dict(passed=passed, score=rank, attempt=jnp.full(per, k, jnp.int32),
                           index=index.astype(jnp.int32), position=position, axis=axis,
                           width=cands.width[index], distance=offset[index], jaws=jaws)
-        own = dict(reasons=reason, pixels=target, window=window, window_camera=window_camera,
-                   seed=seed, grasp=grasp)
-        return tried | surface | chosen, placements, own
+        own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
+        return tried | surface | chosen, placements, own, grasp
 
-    def attempt(k, tried, pool):
-        tried, placements, own = examine(k, tried)
+    # The loop carries the targets' small results (a batch's loop selects its whole carry at
+    # every step) and the detector result of one target: the best grasp's so far (the last
+    # target's while none passed). Its window is cut again after the loop.
+    def attempt(k, tried, pool, best):
+        tried, placements, own, grasp = examine(k, tried)
         pool = dict(pool)
         for key, value in placements.items():
             pool[key] = jax.tree.map(
                 lambda whole, part: lax.dynamic_update_slice_in_dim(whole, part, k * per, 0),
                 pool[key], value)
         for key, value in own.items():
-            pool[key] = jax.tree.map(lambda whole, part: whole.at[k].set(part), pool[key], value)
-        return k + 1, tried, pool
+            pool[key] = pool[key].at[k].set(value)
+        best_score, best_k, best_grasp = best
+        own_score = jnp.max(placements["score"])
+        better = (own_score > best_score) | (best_score == -jnp.inf)  # ties keep the first
+        best = (jnp.where(better, own_score, best_score), jnp.where(better, k, best_k),
+                jax.tree.map(lambda new, old: jnp.where(better, new, old), grasp, best_grasp))
+        return k + 1, tried, pool, best
 
     def distinct(pool):
         return _select(pool["passed"], pool["score"], pool["position"], pool["axis"],
                        image.top_k, image.duplicate_distance)
 
     def more(state):
-        k, tried, pool = state
+        k, tried, pool, _ = state
         return ((k < n) & jnp.any(candidate & ~tried)
                 & (jnp.sum(distinct(pool)[1]) < image.top_k))
 
-    _, placements, own = jax.eval_shape(examine, 0, jax.ShapeDtypeStruct(candidate.shape, bool))
+    nothing_tried = jnp.zeros(candidate.shape, bool)
+    _, placements, own, grasp0 = jax.eval_shape(examine, 0, nothing_tried)
     pool = {key: jax.tree.map(lambda x: jnp.zeros((n * per, *x.shape[1:]), x.dtype), value)
             for key, value in placements.items()}
-    pool.update({key: jax.tree.map(lambda x: jnp.zeros((n, *x.shape), x.dtype), value)
-                 for key, value in own.items()})
+    pool.update({key: jnp.zeros((n, *x.shape), x.dtype) for key, x in own.items()})
     pool["score"] = jnp.full(n * per, -jnp.inf, jnp.float32)
     pool["reasons"] = jnp.full(n, -1, jnp.int32)
-    attempts, _, pool = lax.while_loop(more, lambda state: attempt(*state),
-                                       attempt(0, jnp.zeros(candidate.shape, bool), pool))
+    best = (jnp.float32(-jnp.inf), jnp.int32(0),
+            jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), grasp0))
+    attempts, _, pool, (_, best, best_grasp) = lax.while_loop(
+        more, lambda state: attempt(*state), attempt(0, nothing_tried, pool, best))
     chosen, ranked_ok = distinct(pool)
     pick = jnp.clip(chosen, 0)
-    best = jnp.where(ranked_ok[0], pool["attempt"][pick[0]], attempts - 1)
-    window, window_camera, seed = (jax.tree.map(lambda x: x[best], pool[key])
-                                   for key in ("window", "window_camera", "seed"))
+    window, window_camera, seed = _window(fine, fine_camera, fine_view, rotation,
+                                          pool["points"][best], image.crop_px)
+    seed = seed & pool["has_target"][best]
     alignment = align_tool(window, window_camera, config.align, jax.random.key(image.seed),
                            seed_mask=seed)
 
@@ -327,7 +336,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         contact_width=ranked(jaws.contact_width, jnp.nan), depth=ranked(jaws.depth, jnp.nan),
         clearance=ranked(jaws.clearance, jnp.nan), unknown=ranked(jaws.unknown, jnp.nan),
         centre_distance=ranked(pool["distance"], jnp.nan))
-    grasp = _as_chosen(jax.tree.map(lambda x: x[best], pool["grasp"]), top, pool["reasons"][best])
+    grasp = _as_chosen(best_grasp, top, pool["reasons"][best])
 
     target = pool["pixels"][best]
     has_target = jnp.any(seed)
