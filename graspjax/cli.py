@@ -126,10 +126,10 @@ def _detect_settings(args) -> list[str]:
     """`--set` items of a detect command: its preset's, then --top, then the user's own."""
     from graspjax.config import PRESETS
 
-    if args.top is not None and args.top < 1:
+    if getattr(args, "top", None) is not None and args.top < 1:
         raise UsageError(f"--top must be >= 1, got {args.top}")
-    items = [f"{k}={v}" for k, v in PRESETS[args.preset].items()]
-    items += [f"image.top_k={args.top}"] if args.top is not None else []
+    items = [f"{k}={v}" for k, v in PRESETS[args.preset or "paper"].items()]
+    items += [f"image.top_k={args.top}"] if getattr(args, "top", None) is not None else []
     return items + (args.set or [])
 
 
@@ -143,11 +143,8 @@ def cmd_bench(args) -> int:
     check_writable(args.out, "--out")
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
-    if args.what == "detect" and args.preset is not None:
-        raise UsageError("bench detect runs the real-image pipeline, which has no preset: give "
-                         "its settings with --set (e.g. --set detect.wall_check=true)")
     if args.what == "detect":
-        config, image = split_overrides(args.set or [])
+        config, image = split_overrides(_detect_settings(args))  # as graspjax detect
     else:
         config, image = override(preset(args.preset or "paper"), args.set or []), None
     try:
@@ -488,8 +485,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write the full record to this JSON file")
     p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")
     p.add_argument("--preset", choices=["paper", "realistic"],
-                   help="perception, physics, pipeline: configuration preset (default paper; "
-                        "see graspjax run --help); detect takes --set only")
+                   help="configuration preset (default paper; see graspjax run --help; "
+                        "detect: as graspjax detect --preset)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
     p.set_defaults(func=cmd_bench)
     return parser

@@ -194,9 +194,35 @@ print(os.environ["XLA_FLAGS"])
     assert done.stdout.strip() == "--xla_gpu_deterministic_ops=true"
 
 
-def test_bench_detect_refuses_a_preset(tmp_path, capsys):
-    """The real-image pipeline has no preset: asking for one is a one-line error, not ignored."""
+def test_bench_detect_takes_the_preset_as_detect_does(tmp_path, monkeypatch):
+    """`bench detect --preset realistic --set ...` measures the configuration that `detect
+    --preset realistic --set ...` runs (the measurement itself is replaced: not timed here)."""
+    import graspjax.bench
+    import graspjax.realimage.inputs as inputs
+    from graspjax.config import Config, RealImageConfig
+
+    seen = {}
+
+    def fake_measure(what, *, config, image, **_):
+        seen["bench"] = (config, image)
+        return {"what": what}, "measured"
+
+    def fake_prepare(*args, overrides=(), **kwargs):
+        seen["detect"] = inputs.split_overrides(overrides)
+        raise SystemExit(0)  # stop before any image is read
+
+    monkeypatch.setattr(graspjax.bench, "measure", fake_measure)
+    monkeypatch.setattr(inputs, "prepare", fake_prepare)
+    extra = ["--set", "image.max_targets=3"]
     out = tmp_path / "bench.json"
-    assert main(["bench", "detect", "--preset", "realistic", "--out", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert "has no preset" in err and err.count("\n") == 1 and not out.exists()
+    assert main(["bench", "detect", "--preset", "realistic", *extra, "--out", str(out)]) == 0
+    assert json.loads(out.read_text()) == {"what": "detect"}
+    depth = tmp_path / "d.npy"
+    np.save(depth, np.full((8, 8), 0.5, np.float32))
+    with pytest.raises(SystemExit):
+        main(["detect", str(depth), "--intrinsics", "8,8,5,5,3.5,3.5", "--preset", "realistic",
+              *extra, "--out", str(tmp_path / "det")])
+    assert seen["bench"] == seen["detect"]
+    config, image = seen["bench"]
+    assert config.detect.wall_check and not Config().detect.wall_check
+    assert image.max_targets == 3 != RealImageConfig().max_targets
