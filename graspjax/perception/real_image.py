@@ -98,7 +98,7 @@ class RealImageDetection:
     rotation: jax.Array  # (3, 3) view-to-camera rotation (identity if not virtual)
     view: Camera  # intrinsics of the reported detection window (view frame)
     target_reason: jax.Array  # () int32 TargetReason
-    attempts: jax.Array  # () int32 targets tried (the reported one is the last)
+    attempts: jax.Array  # () int32 targets tried (the reported one is the best grasp's, else the last)
     attempt_reasons: jax.Array  # (max_targets,) int32 GraspReason of each target tried, -1 after
     attempt_pixels: jax.Array  # (max_targets, 2) int32 each target's pixel in the support view
     target: jax.Array  # (2,) int32 reported target's pixel in the support view (u, v)
