@@ -1,0 +1,56 @@
+"""Save `graspjax detect`'s ranked grasps on 64 benchmark images, to compare two versions.
+
+    python3 experiments/detect_same_grasps.py OUT.npz        # run once per version
+    python3 experiments/detect_same_grasps.py A.npz B.npz    # compare
+
+Images: `synthetic.random_real_scene` at 640 x 480 (seed 0, as `graspjax bench detect`),
+`detect_batch` with the default settings and `image.top_k=5`. Saves the ranked positions,
+their validity and each image's target pixel; comparing prints how many images agree.
+Run each version from its own folder (`python3 -c` and scripts put their folder first on
+`sys.path`; the printed package path says which ran).
+"""
+
+import sys
+
+import numpy as np
+
+
+def save(path: str) -> None:
+    import jax
+    import jax.numpy as jnp
+
+    import graspjax
+    from graspjax.camera import Camera
+    from graspjax.config import Config, RealImageConfig
+    from graspjax.realimage.detect import detect_batch, stack_cameras
+    from graspjax.synthetic import random_real_scene
+
+    width, height = 640, 480
+    camera = Camera(width, height, 525.0, 525.0, (width - 1) / 2, (height - 1) / 2)
+    workspace = np.zeros((height, width), bool)
+    workspace[: int(0.85 * height)] = True
+    rng = np.random.default_rng(0)
+    scenes = np.stack([random_real_scene(rng, camera) for _ in range(64)])
+    result = jax.jit(lambda d, c: detect_batch(d, workspace, c, Config(),
+                                               RealImageConfig(top_k=5)))(
+        jnp.asarray(scenes), stack_cameras([camera] * 64))
+    np.savez(path, position=np.asarray(result.ranked.position),
+             valid=np.asarray(result.ranked.valid), target=np.asarray(result.target))
+    print(f"{graspjax.__file__}: saved {path}")
+
+
+def compare(first: str, second: str) -> None:
+    a, b = np.load(first), np.load(second)
+    valid = (a["valid"] == b["valid"]).all(axis=1)
+    identical = np.array([np.array_equal(x, y, equal_nan=True)
+                          for x, y in zip(a["position"], b["position"], strict=True)])
+    target = (a["target"] == b["target"]).all(axis=1)
+    print(f"{len(valid)} images, top 5: same validity {valid.sum()}, bit-identical positions "
+          f"{identical.sum()}, same target {target.sum()}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 2:
+        save(sys.argv[1])
+    else:
+        compare(sys.argv[1], sys.argv[2])
