@@ -2,6 +2,8 @@
 
 import gc
 import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -24,6 +26,22 @@ jax.config.update("jax_compilation_cache_dir", os.environ["GRASPJAX_CACHE"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 CAMERA_HEIGHT = 0.5  # metres above the table
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _warm_late_programs(tmp_path_factory):
+    """`warm_cache.py` in a second process from the session's start: it compiles the a-f
+    scene's physics program into the persistent cache while the first modules leave a core idle
+    (XLA compiles mostly on one). Killed at the session's end if not done."""
+    log = tmp_path_factory.mktemp("warm") / "stderr.txt"
+    with open(log, "w") as err:  # a file: a full pipe would stall it
+        proc = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__),
+                                                              "warm_cache.py")],
+                                stdout=subprocess.DEVNULL, stderr=err)
+    yield
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
 
 
 def _memory_maps() -> int:

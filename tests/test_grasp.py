@@ -59,11 +59,11 @@ def test_box_wider_than_the_opening_in_both_directions(camera, detect, render, y
     assert np.isnan(float(g.width)) and int(g.index) == -1
 
 
-def test_opening_decides_what_fits(camera, render):
+def test_opening_decides_what_fits(camera, detect, render):
     """The same 6 cm box fits an 8 cm gripper but not a 6 cm one."""
     depth = jnp.asarray(render([box((0.06, 0.11, 0.04))]))
-    assert bool(detect_grasp(depth, camera, gripper=GripperConfig(opening=0.08)).found)
-    small = detect_grasp(depth, camera, gripper=GripperConfig(opening=0.06))
+    assert bool(detect(depth, camera, DetectorConfig(), GripperConfig(opening=0.08)).found)
+    small = detect(depth, camera, DetectorConfig(), GripperConfig(opening=0.06))
     assert _reason(small) == GraspReason.TOO_WIDE
 
 
