@@ -1,12 +1,13 @@
 """Compile, beside the suite, the physics program its late tests would otherwise compile first.
 
 conftest starts this in a second process when the session starts. It builds the a-f scene's
-physics program as `test_procedure._world` does (the first use of the `basic_sim` fixture in
-`test_physics` and `test_procedure`) and leaves it in the persistent compilation cache while the
-suite's first modules leave a core idle; those tests then load it (about 45 s of compile on the
-2-core machine). The g-l scene and `select_target` were left out: built here, their programs
-missed the tests' cache entries (not explained yet). It checks nothing: a failure here only
-costs the tests their own compile.
+physics program as `test_procedure._world` does and leaves it in the persistent compilation
+cache while the suite's first modules leave a core idle; `test_physics`, its first user, then
+loads it (about 45 s of compile on the 2-core machine; a cold suite took 877 s with this, 892 and
+903 s without). A program's cache key is not only its computation: the same program traced
+after other compiles (the g-l scene, `select_target`, or the a-f scene again in
+`test_procedure` after a module's `jax.clear_caches`) got other keys, and missed. It checks
+nothing: a failure here only costs the tests their own compile.
 """
 
 import os
