@@ -64,7 +64,7 @@ class Grasp:
     candidates: TBeams  # every T-beam placement (K*K)
 
 
-def _sample(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
+def sample_nearest(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
     """Nearest-pixel lookup of `image` at float pixel coordinates `(..., 2)`; returns (value, inside)."""
     height, width = image.shape
     iuv = jnp.round(uv).astype(jnp.int32)
@@ -146,9 +146,9 @@ def _check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_
     wide_enough = c >= config.min_width
     fits = c <= gripper.opening - 2 * config.clearance
     corners, footprint = _finger_points(g_xy, axis, gripper, config.finger_samples)
-    corner_in_cluster, corner_inside = _sample(cluster, _to_pixels(corners, camera, z_s), False)
+    corner_in_cluster, corner_inside = sample_nearest(cluster, _to_pixels(corners, camera, z_s), False)
     below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
-    free, foot_inside = _sample(below_surface, _to_pixels(footprint, camera, z_s), jnp.inf)
+    free, foot_inside = sample_nearest(below_surface, _to_pixels(footprint, camera, z_s), jnp.inf)
     in_view = jnp.all(corner_inside, -1) & jnp.all(foot_inside, -1)
     collision = jnp.any(corner_in_cluster, -1)
     wanted = jnp.minimum(config.grasp_depth, gripper.finger_length)  # no deeper than the fingers
@@ -167,7 +167,7 @@ def _check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_
     half_pixel = 0.5 * z_s * (jnp.abs(axis[..., 0]) / camera.fx + jnp.abs(axis[..., 1]) / camera.fy)
     beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
     wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
-    wall_free, _ = _sample(below_surface, _to_pixels(wall_points, camera, z_s), jnp.inf)
+    wall_free, _ = sample_nearest(below_surface, _to_pixels(wall_points, camera, z_s), jnp.inf)
     needed = edge + (beyond + half_pixel) * slope
     walls = ~config.wall_check | jnp.all(wall_free >= needed[..., None], -1)
 

@@ -38,6 +38,7 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
+from graspjax.perception.grasp import sample_nearest
 from graspjax.perception.reasons import GraspReason
 from graspjax.tree import pytree_dataclass
 
@@ -66,11 +67,7 @@ def _path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax
               + side[:, None, None, None] * across[None, :, None, None] * axis
               + lateral[None, None, :, None] * along)  # (2, A, L, 3)
     uv = jnp.round(camera.project(points))
-    inside = ((uv[..., 0] >= 0) & (uv[..., 0] < camera.width)
-              & (uv[..., 1] >= 0) & (uv[..., 1] < camera.height))
-    iu = jnp.clip(uv[..., 0], 0, camera.width - 1).astype(jnp.int32)
-    iv = jnp.clip(uv[..., 1], 0, camera.height - 1).astype(jnp.int32)
-    z = depth[iv, iu]
+    z, inside = sample_nearest(depth, uv, 0.0)
     seen = inside & valid_mask(z)
     surface = camera.unproject(uv, jnp.where(seen, z, 1.0)) - center
     height = jnp.sum(surface * approach, -1)
