@@ -29,15 +29,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.camera import Camera
+from graspjax.bench import detect_workload
 from graspjax.config import Config, RealImageConfig
 from graspjax.realimage.detect import detect_batch, stack_cameras
-from graspjax.synthetic import random_real_scene
 
 W, H = 640, 480
-CAMERA = Camera(W, H, 525.0, 525.0, (W - 1) / 2, (H - 1) / 2)
-WORKSPACE = np.zeros((H, W), bool)
-WORKSPACE[: int(0.85 * H)] = True
+CAMERA, WORKSPACE, SCENES = detect_workload(W, H)  # graspjax bench detect's images
 _META = re.compile(r"^\s*(?:ROOT )?%?([\w.\-]+) = .*?metadata=\{([^}]*)\}")
 
 
@@ -101,13 +98,11 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     batch = int(sys.argv[2]) if len(sys.argv) > 2 else 1024
     scaling = "--trace-only" not in sys.argv
-    rng = np.random.default_rng(0)
-    scenes = np.stack([random_real_scene(rng, CAMERA) for _ in range(64)])
     config = Config()
     print(f"{jax.devices()[0].device_kind}, jax {jax.__version__}", flush=True)
 
     def program(size, image):
-        depth = jnp.asarray(scenes[np.arange(size) % 64])
+        depth = jnp.asarray(SCENES[np.arange(size) % 64])
         cameras = stack_cameras([CAMERA] * size)
         run = jax.jit(lambda d, c: detect_batch(d, WORKSPACE, c, config, image))
         return run, depth, cameras

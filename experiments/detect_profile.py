@@ -17,6 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from graspjax.bench import detect_workload
 from graspjax.camera import Camera
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception.align import align_tool
@@ -24,12 +25,9 @@ from graspjax.perception.grasp import detect_grasp
 from graspjax.perception.real_image import _targets, detect_real_image
 from graspjax.perception.support import support_plane
 from graspjax.perception.workspace import working_views
-from graspjax.synthetic import random_real_scene
 
 W, H, WINDOW = 640, 480, 192
-CAMERA = Camera(W, H, 525.0, 525.0, (W - 1) / 2, (H - 1) / 2)
-WORKSPACE = np.zeros((H, W), bool)
-WORKSPACE[: int(0.85 * H)] = True
+CAMERA, WORKSPACE, SCENES = detect_workload(W, H)  # graspjax bench detect's images
 CONFIG, SCENE = Config(), RealImageConfig()
 
 
@@ -64,9 +62,7 @@ def timed(name: str, fn, x) -> None:
 
 def main() -> None:
     batch = int(sys.argv[1]) if len(sys.argv) > 1 else 16
-    rng = np.random.default_rng(0)
-    scenes = np.stack([random_real_scene(rng, CAMERA) for _ in range(64)])
-    depth = jnp.asarray(scenes[np.arange(batch) % 64])
+    depth = jnp.asarray(SCENES[np.arange(batch) % 64])
     one_target = dataclasses.replace(SCENE, max_targets=1)
     top, left = (H - WINDOW) // 2, (W - WINDOW) // 2
     window = depth[:, top:top + WINDOW, left:left + WINDOW]

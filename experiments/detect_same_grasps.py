@@ -3,7 +3,7 @@
     python3 experiments/detect_same_grasps.py OUT.npz        # run once per version
     python3 experiments/detect_same_grasps.py A.npz B.npz    # compare
 
-Images: `synthetic.random_real_scene` at 640 x 480 (seed 0, as `graspjax bench detect`),
+Images: `bench.detect_workload` (640 x 480, seed 0, as `graspjax bench detect`),
 `detect_batch` with the default settings and `image.top_k=5`. Saves the ranked positions,
 their validity and each image's target pixel; comparing prints how many images agree.
 Run each version from its own folder (`python3 -c` and scripts put their folder first on
@@ -20,17 +20,11 @@ def save(path: str) -> None:
     import jax.numpy as jnp
 
     import graspjax
-    from graspjax.camera import Camera
+    from graspjax.bench import detect_workload
     from graspjax.config import Config, RealImageConfig
     from graspjax.realimage.detect import detect_batch, stack_cameras
-    from graspjax.synthetic import random_real_scene
 
-    width, height = 640, 480
-    camera = Camera(width, height, 525.0, 525.0, (width - 1) / 2, (height - 1) / 2)
-    workspace = np.zeros((height, width), bool)
-    workspace[: int(0.85 * height)] = True
-    rng = np.random.default_rng(0)
-    scenes = np.stack([random_real_scene(rng, camera) for _ in range(64)])
+    camera, workspace, scenes = detect_workload()
     result = jax.jit(lambda d, c: detect_batch(d, workspace, c, Config(),
                                                RealImageConfig(top_k=5)))(
         jnp.asarray(scenes), stack_cameras([camera] * 64))

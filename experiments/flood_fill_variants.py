@@ -30,16 +30,13 @@ import graspjax.perception.align as align_module
 import graspjax.perception.cluster as cluster_module
 import graspjax.perception.real_image as real_image_module
 import graspjax.perception.virtual as virtual_module
-from graspjax.camera import Camera
+from graspjax.bench import detect_workload
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception.real_image import detect_real_image
 from graspjax.realimage.detect import detect_batch, stack_cameras
-from graspjax.synthetic import random_real_scene
 
 W, H = 640, 480
-CAMERA = Camera(W, H, 525.0, 525.0, (W - 1) / 2, (H - 1) / 2)
-WORKSPACE = np.zeros((H, W), bool)
-WORKSPACE[: int(0.85 * H)] = True
+CAMERA, WORKSPACE, SCENES = detect_workload(W, H)  # graspjax bench detect's images
 
 
 def _grow4_bool(region):
@@ -116,9 +113,7 @@ def median_s(fn, repeats: int) -> float:
 
 def main() -> None:
     batch = int(sys.argv[1]) if len(sys.argv) > 1 else (1024 if jax.default_backend() == "gpu" else 32)
-    rng = np.random.default_rng(0)
-    scenes = np.stack([random_real_scene(rng, CAMERA) for _ in range(64)])
-    depth = jnp.asarray(scenes[np.arange(batch) % 64])
+    depth = jnp.asarray(SCENES[np.arange(batch) % 64])
     cameras = stack_cameras([CAMERA] * batch)
     config = Config()
     print(f"{jax.devices()[0].device_kind}, jax {jax.__version__}, batch {batch}", flush=True)
@@ -135,11 +130,11 @@ def main() -> None:
             batch_s = median_s(lambda run=run: run(depth, cameras), 5)
             single = jax.jit(lambda d, image=image: detect_real_image(d, WORKSPACE, CAMERA,
                                                                        config, image))
-            jax.block_until_ready(single(scenes[0]))
+            jax.block_until_ready(single(SCENES[0]))
             latency = []
             for i in range(64):
                 t0 = time.perf_counter()
-                jax.block_until_ready(single(scenes[i]))
+                jax.block_until_ready(single(SCENES[i]))
                 latency.append(time.perf_counter() - t0)
             grasps = np.asarray(result.ranked.position)
             same = (np.array_equal(grasps, reference[top], equal_nan=True)

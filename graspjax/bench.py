@@ -90,28 +90,37 @@ def format_perception(r: dict) -> str:
     return "\n".join(lines)
 
 
+def detect_workload(width: int = 640, height: int = 480, unique: int = 64, seed: int = 0
+                    ) -> tuple[Camera, np.ndarray, np.ndarray]:
+    """`graspjax bench detect`'s images, for it and the experiments that profile it: the camera
+    (PrimeSense-like intrinsics scaled to `width`), the workspace (H, W) bool (the bottom 15% of
+    the rows left out) and `unique` `synthetic.random_real_scene` depth images (unique, H, W)."""
+    from graspjax.synthetic import random_real_scene
+
+    camera = Camera(width, height, 525.0 * width / 640, 525.0 * width / 640, (width - 1) / 2,
+                    (height - 1) / 2)
+    rng = np.random.default_rng(seed)
+    scenes = np.stack([random_real_scene(rng, camera) for _ in range(unique)])
+    workspace = np.zeros((height, width), bool)
+    workspace[: int(0.85 * height)] = True
+    return camera, workspace, scenes
+
+
 def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, repeats: int = 10,
                      unique: int = 64, seed: int = 0, config: Config = Config(),
                      image: RealImageConfig = RealImageConfig(), progress=print) -> dict:
     """`graspjax detect` end to end on real-looking images (workspace, support plane, virtual
     view, detect, align): single-image latency and batched images/s, compile time apart.
 
-    Images are `synthetic.random_real_scene` at `width` x `height` (PrimeSense-like
-    intrinsics scaled to that size), the workspace leaves out the bottom 15% of the rows.
-    The single image goes in as a NumPy array (the transfer is timed); the batch is on the
+    Images: `detect_workload` (`synthetic.random_real_scene` at `width` x `height`). The
+    single image goes in as a NumPy array (the transfer is timed); the batch is on the
     device already.
     """
     from graspjax.perception.real_image import detect_real_image
     from graspjax.realimage.detect import detect_batch, stack_cameras
-    from graspjax.synthetic import random_real_scene
 
-    camera = Camera(width, height, 525.0 * width / 640, 525.0 * width / 640, (width - 1) / 2,
-                    (height - 1) / 2)
-    rng = np.random.default_rng(seed)
     progress(f"rendering {unique} real-looking scenes at {width}x{height} ...")
-    scenes = np.stack([random_real_scene(rng, camera) for _ in range(unique)])
-    workspace = np.zeros((height, width), bool)
-    workspace[: int(0.85 * height)] = True
+    camera, workspace, scenes = detect_workload(width, height, unique, seed)
     depth = jnp.asarray(scenes[np.arange(batch) % unique])
     cameras = stack_cameras([camera] * batch)
     results = {"batch": batch, "width": width, "height": height, "unique_scenes": unique,
