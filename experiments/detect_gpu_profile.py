@@ -93,6 +93,51 @@ def _timed(fn, repeats: int = 5) -> float:
     return statistics.median(times)
 
 
+def print_profile(run, args, hlo: str, trace_dir: pathlib.Path, what: str, top: int = 40) -> None:
+    """Trace one call of `run(*args)` (compiled and warm) with `jax.profiler` and print its device
+    time by source line, by innermost function and by source file (`hlo`: the compiled text)."""
+    sources = _source_lines(hlo)
+    t0 = time.perf_counter()
+    with jax.profiler.trace(str(trace_dir), create_perfetto_trace=True):
+        jax.block_until_ready(run(*args))
+    wall = time.perf_counter() - t0
+    trace_file = next(trace_dir.rglob("perfetto_trace.json.gz"))
+    events = json.loads(gzip.decompress(trace_file.read_bytes()))
+    events = events["traceEvents"] if isinstance(events, dict) else events
+    threads = {(e.get("pid"), e.get("tid")): e.get("args", {}).get("name", "")
+               for e in events if e.get("ph") == "M" and e.get("name") == "thread_name"}
+    on_gpu = any("stream" in name.lower() for name in threads.values())
+    by_source = collections.Counter()
+    calls = collections.Counter()
+    busy = 0.0
+    for e in events:
+        if e.get("ph") != "X" or "dur" not in e:
+            continue
+        thread = threads.get((e.get("pid"), e.get("tid")), "")
+        info = e.get("args", {})
+        if "stream" not in thread.lower() and (on_gpu or "hlo_op" not in info):
+            continue  # on the CPU: the XLA operations themselves
+        op = info.get("hlo_op") or e.get("name", "?")
+        key = sources.get(op, op)
+        by_source[key] += e["dur"]
+        calls[key] += 1
+        busy += e["dur"]
+    print(f"\n{what} traced: {1e3 * wall:.1f} ms wall (traced), "
+          f"device kernels {busy / 1e3:.1f} ms in all")
+    print(f"{'ms':>8} {'share':>6} {'calls':>7}  source")
+    for key, micros in by_source.most_common(top):
+        print(f"{micros / 1e3:8.2f} {micros / max(busy, 1):6.1%} {calls[key]:7d}  {key}")
+    by_function, by_file = collections.Counter(), collections.Counter()
+    for key, micros in by_source.items():
+        match = re.match(r"^(\S+?):\d+ (\S+)", key)
+        by_function[f"{match.group(1)} {match.group(2)}" if match else key] += micros
+        by_file[match.group(1) if match else "?"] += micros
+    for title, counter, rows in (("function (innermost)", by_function, 25),
+                                 ("file", by_file, 15)):
+        print(f"\n{'ms':>8} {'share':>6}  {title}")
+        for key, micros in counter.most_common(rows):
+            print(f"{micros / 1e3:8.2f} {micros / max(busy, 1):6.1%}  {key}")
+
 def main() -> None:
     out = pathlib.Path(sys.argv[1])
     out.mkdir(parents=True, exist_ok=True)
@@ -117,46 +162,8 @@ def main() -> None:
     run, depth, cameras = program(batch, RealImageConfig(top_k=5))
     hlo = run.lower(depth, cameras).compile().as_text()
     (out / "detect_hlo.txt.gz").write_bytes(gzip.compress(hlo.encode()))
-    sources = _source_lines(hlo)
     jax.block_until_ready(run(depth, cameras))
-    trace_dir = out / "trace"
-    t0 = time.perf_counter()
-    with jax.profiler.trace(str(trace_dir), create_perfetto_trace=True):
-        jax.block_until_ready(run(depth, cameras))
-    wall = time.perf_counter() - t0
-    trace_file = next(trace_dir.rglob("perfetto_trace.json.gz"))
-    events = json.loads(gzip.decompress(trace_file.read_bytes()))
-    events = events["traceEvents"] if isinstance(events, dict) else events
-    threads = {(e.get("pid"), e.get("tid")): e.get("args", {}).get("name", "")
-               for e in events if e.get("ph") == "M" and e.get("name") == "thread_name"}
-    on_gpu = any("stream" in name.lower() for name in threads.values())
-    by_source = collections.Counter()
-    calls = collections.Counter()
-    busy = 0.0
-    for e in events:
-        if e.get("ph") != "X" or "dur" not in e:
-            continue
-        thread = threads.get((e.get("pid"), e.get("tid")), "")
-        args = e.get("args", {})
-        if "stream" not in thread.lower() and (on_gpu or "hlo_op" not in args):
-            continue  # on the CPU: the XLA operations themselves
-        op = args.get("hlo_op") or e.get("name", "?")
-        key = sources.get(op, op)
-        by_source[key] += e["dur"]
-        calls[key] += 1
-        busy += e["dur"]
-    print(f"\none batch of {batch} traced: {1e3 * wall:.1f} ms wall (traced), "
-          f"device kernels {busy / 1e3:.1f} ms in all")
-    print(f"{'ms':>8} {'share':>6} {'calls':>7}  source")
-    for key, micros in by_source.most_common(40):
-        print(f"{micros / 1e3:8.2f} {micros / max(busy, 1):6.1%} {calls[key]:7d}  {key}")
-    by_function = collections.Counter()
-    for key, micros in by_source.items():
-        match = re.match(r"^(\S+?):\d+ (\S+)", key)
-        by_function[f"{match.group(1)} {match.group(2)}" if match else key] += micros
-    print(f"\n{'ms':>8} {'share':>6}  function (innermost)")
-    for key, micros in by_function.most_common(25):
-        print(f"{micros / 1e3:8.2f} {micros / max(busy, 1):6.1%}  {key}")
+    print_profile(run, (depth, cameras), hlo, out / "trace", f"one batch of {batch}")
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ Compile time is reported apart from run time; every result names the device.
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 import time
 
@@ -169,23 +170,28 @@ def format_detect(r: dict) -> str:
             f"({1e3 * r['batch_s']:.1f} ms per call) after a {r['batch_compile_s']:.1f} s compile")
 
 
-def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024,
-                      seconds: float = 1.0, config: Config = Config(), progress=print) -> dict:
-    """World-steps/s of a scene (settling and grasp execution) and depth images/s.
+@dataclasses.dataclass(frozen=True)
+class PhysicsWorkload:
+    """`batch` freshly placed worlds of one scene and setup, and their vmapped `world.play`."""
 
-    The per-world functions of a run (`procedure.start_round`,
-    `world.play`) vmapped over `batch` worlds of `setup`; compile time apart.
-    """
+    scene: object  # sim.scene.Scene
+    spec: object  # procedure.WorldSpec (batch,)
+    data: object  # mjx.Data (batch,): the layouts placed, not yet settled
+    simulate: object  # jitted (data, spec, grasp, target, segments, execute) -> (data, Execution)
+    idle: object  # GraspPose (batch,) that is never executed
+    zero: jax.Array  # (batch,) int32 zeros
+
+
+def physics_workload(letters: str, setup: int, batch: int, config: Config) -> PhysicsWorkload:
+    """The worlds `graspjax bench physics` times: the per-world functions of a run
+    (`procedure.start_round`, `world.play`) vmapped over `batch` worlds of `setup`."""
     from graspjax.config import stack_configs
-    from graspjax.geometry import look_down
     from graspjax.procedure import WorldSpec, start_round
     from graspjax.sim.scene import mjx, scene_for
-    from graspjax.sim.world import GraspPose, depth_image, mjx_internals, physics_model, play
+    from graspjax.sim.world import GraspPose, physics_model, play
 
-    start = time.perf_counter()
     scene = scene_for(tuple(letters), config, setup != 1)
-    build_s = time.perf_counter() - start
-    n, s = scene.num_objects, config.sim
+    n = scene.num_objects
     order = np.tile(np.arange(n, dtype=np.int32), (batch, 1))
     order[:, 0] = np.arange(batch) % n  # Setup 1: world i holds object i mod n
     spec = WorldSpec(seed=np.zeros(batch, np.int32), setup=np.full(batch, setup, np.int32),
@@ -200,8 +206,27 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
 
     simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, None)), static_argnums=5)
     nan = jnp.full((batch, 3), jnp.nan)
-    idle = GraspPose(nan, nan, nan, jnp.zeros(batch, bool))
-    zero = jnp.zeros(batch, jnp.int32)
+    return PhysicsWorkload(scene, spec, data, simulate,
+                           GraspPose(nan, nan, nan, jnp.zeros(batch, bool)),
+                           jnp.zeros(batch, jnp.int32))
+
+
+def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024,
+                      seconds: float = 1.0, config: Config = Config(), progress=print) -> dict:
+    """World-steps/s of a scene (settling and grasp execution) and depth images/s
+    (`physics_workload`); compile time apart."""
+    from graspjax.geometry import look_down
+    from graspjax.sim.scene import mjx, scene_for
+    from graspjax.sim.world import GraspPose, depth_image, mjx_internals
+
+    start = time.perf_counter()
+    scene_for(tuple(letters), config, setup != 1)  # built once, shared with the workload
+    build_s = time.perf_counter() - start
+    work = physics_workload(letters, setup, batch, config)
+    scene, spec, data, simulate, idle, zero = (work.scene, work.spec, work.data, work.simulate,
+                                               work.idle, work.zero)
+    s, order = config.sim, np.asarray(spec.order)
+    template = mjx.make_data(scene.mj_model)
     settle = s.segments(seconds)
     progress(f"compiling the physics of {letters} (batch {batch}) ...")
     t0 = time.perf_counter()

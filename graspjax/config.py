@@ -271,6 +271,8 @@ class SimConfig:
     condim: int = 3  # sliding friction; finger pads touch at several points, which resists twisting
     max_contact_points: int = 48  # MJX keeps this many most-penetrating contacts per step (piles)
     max_contact_points_alone: int = 24  # ... in scenes of one object at a time (Setup 1)
+    max_geom_pairs: int = 0  # MJX runs the narrow phase on this many nearest geom pairs per pair
+    # type only (bounding spheres); 0: on every pair
     object_friction: float = traced(0.5)  # objects and table sliding on each other (docs: source)
     hand_mass: float = 0.73  # palm and camera housing (kg): a Franka Hand's 0.73 kg
     finger_mass: float = 0.05  # each finger (kg)
@@ -301,6 +303,7 @@ class SimConfig:
                   "drop_settle_time", "group_settle_time", "pile_settle_time",
                   "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
                   "min_lift", "approach_tolerance", "approach_force_limit")
+        _require(self.max_geom_pairs >= 0, "SimConfig.max_geom_pairs must be >= 0 (0: every pair)")
         _require(self.cone in ("elliptic", "pyramidal"),
                  f"SimConfig.cone must be 'elliptic' or 'pyramidal', got {self.cone!r}")
         _require(self.condim in (1, 3, 4, 6), f"SimConfig.condim must be 1, 3, 4 or 6, got {self.condim}")

@@ -116,3 +116,17 @@ def test_the_default_friction_cone_is_elliptic():
     from graspjax.config import SimConfig
 
     assert SimConfig().cone == "elliptic"
+
+
+def test_max_geom_pairs_reaches_the_model_only_when_set():
+    from graspjax.config import SimConfig
+    from graspjax.sim.scene import scene_mjcf
+
+    def numerics(sim):
+        model = mujoco.MjModel.from_xml_string(scene_mjcf("ab", Config().gripper, sim, True))
+        return {model.numeric(i).name: int(model.numeric(i).data[0]) for i in range(model.nnumeric)}
+
+    assert numerics(SimConfig()) == {"max_contact_points": 48}  # 0: MJX collides every pair
+    assert numerics(SimConfig(max_geom_pairs=8)) == {"max_contact_points": 48, "max_geom_pairs": 8}
+    with pytest.raises(ConfigError, match="max_geom_pairs"):
+        override(Config(), ["sim.max_geom_pairs=-1"])

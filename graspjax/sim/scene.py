@@ -113,6 +113,8 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
     friction = f"{sim.object_friction:g} 0.005 0.0001"
     contacts = sim.max_contact_points if objects_collide else sim.max_contact_points_alone
     object_affinity = _TABLE | _GRIPPER | (_OBJECT if objects_collide else 0)
+    pairs = (f'<numeric name="max_geom_pairs" data="{sim.max_geom_pairs}"/>'
+             if sim.max_geom_pairs else "")
     assets, bodies = [], []
     for i, letter in enumerate(letters):
         asset, geoms = object_mjcf(OBJECTS[letter], prefix="obj_")
@@ -131,7 +133,7 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
           cone="{sim.cone}" impratio="{sim.impratio:g}">
     <flag eulerdamp="disable"/>
   </option>
-  <custom><numeric name="max_contact_points" data="{contacts}"/></custom>
+  <custom><numeric name="max_contact_points" data="{contacts}"/>{pairs}</custom>
   <default>
     <geom condim="{sim.condim}" friction="{friction}" contype="{_OBJECT}" conaffinity="{object_affinity}"/>
     <default class="gripper">
