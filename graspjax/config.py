@@ -263,7 +263,8 @@ class SimConfig:
     """
 
     timestep: float = 0.004  # integration step (s; MuJoCo Playground's Panda pick tasks use 5 ms)
-    iterations: int = 5  # Newton solver iterations (it converges in a few on these small systems)
+    iterations: int = 4  # Newton solver iterations: 4 solve settled piles and grips as 5-8 do, 3
+    # do not and move success rates (experiments/solver_convergence.py, results/benchmarks)
     ls_iterations: int = 4  # solver line-search iterations
     cone: Literal["elliptic", "pyramidal"] = "elliptic"  # friction cone: elliptic is Coulomb's,
     # exact in every direction; pyramidal (4 edges at condim 3) holds down to mu / sqrt(2)
