@@ -21,7 +21,6 @@ import gzip
 import json
 import pathlib
 import re
-import statistics
 import sys
 import time
 
@@ -29,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.bench import detect_workload
+from graspjax.bench import detect_workload, median_seconds
 from graspjax.config import Config, RealImageConfig
 from graspjax.realimage.detect import detect_batch, stack_cameras
 
@@ -81,16 +80,6 @@ def _source_lines(hlo: str) -> dict[str, str]:
         last = op.group(1).split("/")[-1] if op else "?"
         found[match.group(1)] = f"{frame_text(int(frame.group(1))) if frame else '?'} ({last})"
     return found
-
-
-def _timed(fn, repeats: int = 5) -> float:
-    jax.block_until_ready(fn())
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def print_profile(run, args, hlo: str, trace_dir: pathlib.Path, what: str, top: int = 40) -> None:
@@ -155,7 +144,9 @@ def main() -> None:
     for targets in (8, 1) if scaling else ():
         for size in (batch, 4 * batch):
             run, depth, cameras = program(size, RealImageConfig(top_k=5, max_targets=targets))
-            seconds = _timed(lambda run=run, depth=depth, cameras=cameras: run(depth, cameras))
+            jax.block_until_ready(run(depth, cameras))  # compile
+            seconds = median_seconds(lambda run=run, depth=depth, cameras=cameras:
+                                     run(depth, cameras), 5)
             print(f"max_targets {targets}, batch {size:>5}: {1e3 * seconds:7.1f} ms, "
                   f"{size / seconds:8,.0f} images/s", flush=True)
 

@@ -30,7 +30,7 @@ import graspjax.perception.align as align_module
 import graspjax.perception.cluster as cluster_module
 import graspjax.perception.real_image as real_image_module
 import graspjax.perception.virtual as virtual_module
-from graspjax.bench import detect_workload
+from graspjax.bench import detect_workload, median_seconds
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception.real_image import detect_real_image
 from graspjax.realimage.detect import detect_batch, stack_cameras
@@ -102,15 +102,6 @@ def use(name: str) -> None:
     real_image_module.warp_depth = warp
 
 
-def median_s(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
-
-
 def main() -> None:
     batch = int(sys.argv[1]) if len(sys.argv) > 1 else (1024 if jax.default_backend() == "gpu" else 32)
     depth = jnp.asarray(SCENES[np.arange(batch) % 64])
@@ -127,7 +118,7 @@ def main() -> None:
             t0 = time.perf_counter()
             result = jax.block_until_ready(run(depth, cameras))
             compile_s = time.perf_counter() - t0
-            batch_s = median_s(lambda run=run: run(depth, cameras), 5)
+            batch_s = median_seconds(lambda run=run: run(depth, cameras), 5)
             single = jax.jit(lambda d, image=image: detect_real_image(d, WORKSPACE, CAMERA,
                                                                        config, image))
             jax.block_until_ready(single(SCENES[0]))

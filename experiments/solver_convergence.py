@@ -6,8 +6,9 @@ States (the bin scene, a-f in Setup 3, `bench.physics_workload`, WORLDS worlds, 
 
 - `pile`: the dropped pile after `sim.pile_settle_time`;
 - `squeeze`: a top-down grasp over each world's first object, the jaws closed for
-  `sim.close_time` and the hand lifted for half of `sim.lift_time` (the grip carries the
-  object: the state whose friction decides an attempt's outcome).
+  `sim.close_time`, then the hand raised halfway to the lifted pose in one segment and held
+  there until half of `sim.lift_time` has passed (the grip carries the object: the state
+  whose friction decides an attempt's outcome).
 
 Each state is solved again (`mjx.forward`, warm-started from the step before, as in a run)
 with k solver iterations, k = 1 ... 8, and against a reference of 100 iterations with 50
@@ -63,10 +64,11 @@ def states(worlds: int, config: Config):
                                 jnp.array(False), 1e9)
         closed = jnp.full(2, CLOSED_TARGET)
         lift = points[1] + (points[2] - points[1]) * 0.5
-        for _ in range(s.segments(s.lift_time) // 2):
-            d, reflex = segment(scene, model, d, points[1], lift, quat, closed, reflex,
+        d, reflex = segment(scene, model, d, points[1], lift, quat, closed, reflex,
+                            jnp.array(False), 1e9)  # raised halfway in one segment ...
+        for _ in range(s.segments(s.lift_time) // 2 - 1):  # ... and held there
+            d, reflex = segment(scene, model, d, lift, lift, quat, closed, reflex,
                                 jnp.array(False), 1e9)
-            points = points.at[1].set(lift)
         return d
 
     held = jax.jit(jax.vmap(squeeze))(pile, spec, centre)

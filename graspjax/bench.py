@@ -20,7 +20,8 @@ from graspjax.perception.workspace import block_factors
 from graspjax.provenance import device_line, provenance
 
 
-def _median_seconds(fn, repeats: int) -> float:
+def median_seconds(fn, repeats: int) -> float:
+    """Median wall time of `repeats` calls of `fn`, each waited for (benchmarks, experiments)."""
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -60,7 +61,7 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
         progress(f"compiling {name} (batch {batch}) ...")
         compiled, compile_s = _compile(jax.vmap(fn), depth)
         jax.block_until_ready(compiled(depth))  # warm-up
-        seconds = _median_seconds(lambda c=compiled: c(depth), repeats)
+        seconds = median_seconds(lambda c=compiled: c(depth), repeats)
         results[f"{name}_compile_s"] = compile_s
         results[f"{name}_batch_s"] = seconds
         results[f"{name}_images_per_s"] = batch / seconds
@@ -68,7 +69,7 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
     compiled, compile_s = _compile(both, single)
     jax.block_until_ready(compiled(single))
     results["single_compile_s"] = compile_s
-    results["single_latency_ms"] = 1e3 * _median_seconds(lambda: compiled(single),
+    results["single_latency_ms"] = 1e3 * median_seconds(lambda: compiled(single),
                                                           max(repeats * 5, 20))
     found = jax.vmap(lambda d: detect_grasp(d, camera, config.detect, config.gripper).found)
     results["grasp_found_fraction"] = float(jnp.mean(jax.jit(found)(jnp.asarray(scenes))))
@@ -133,7 +134,7 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     t0 = time.perf_counter()
     jax.block_until_ready(detect_batch(depth, workspace, cameras, config, image))
     results["batch_compile_s"] = time.perf_counter() - t0
-    seconds = _median_seconds(lambda: detect_batch(depth, workspace, cameras, config, image),
+    seconds = median_seconds(lambda: detect_batch(depth, workspace, cameras, config, image),
                               repeats)
     results["batch_s"] = seconds
     results["images_per_s"] = batch / seconds
@@ -226,7 +227,6 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     scene, spec, data, simulate, idle, zero = (work.scene, work.spec, work.data, work.simulate,
                                                work.idle, work.zero)
     s, order = config.sim, np.asarray(spec.order)
-    template = mjx.make_data(scene.mj_model)
     settle = s.segments(seconds)
     progress(f"compiling the physics of {letters} (batch {batch}) ...")
     t0 = time.perf_counter()
@@ -262,7 +262,7 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     t0 = time.perf_counter()
     jax.block_until_ready(draw(kin, keys))
     render_compile_s = time.perf_counter() - t0
-    render_s = _median_seconds(lambda: draw(kin, keys), 5)
+    render_s = median_seconds(lambda: draw(kin, keys), 5)
     return {
         "scene": letters, "setup": setup, "batch": batch, "build_s": build_s,
         "compile_s": compile_s,
@@ -272,7 +272,7 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
         "grasp_success_fraction": float(np.mean(np.asarray(done.outcome) == 0)),
         "render_compile_s": render_compile_s, "render_images_per_s": batch / render_s,
         "render_resolution": [camera.width, camera.height], "sensor": config.camera.sensor,
-        "ncon": int(mjx_internals(template).ncon),
+        "ncon": int(mjx_internals(data).ncon),  # static: the same for every world
         **provenance(),
     }
 

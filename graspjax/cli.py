@@ -111,7 +111,8 @@ def cmd_detect(args) -> int:
         check_writable(path, what, directory=folder)
     inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=_intrinsics(args),
                      roi=_roi(args.roi), mask=args.mask, depth_range=_range(args.range),
-                     downsample=args.downsample, overrides=_detect_settings(args))
+                     downsample=args.downsample,
+                     overrides=_detect_settings(args.preset, args.top, args.set))
     records = detect(inputs, outputs, args.batch or 16, args.quiet)
     if many:
         for rec in records:
@@ -122,15 +123,16 @@ def cmd_detect(args) -> int:
     return 0
 
 
-def _detect_settings(args) -> list[str]:
+def _detect_settings(preset_name: str | None, top: int | None, sets: list[str] | None
+                     ) -> list[str]:
     """`--set` items of a detect command: its preset's, then --top, then the user's own."""
     from graspjax.config import PRESETS
 
-    if getattr(args, "top", None) is not None and args.top < 1:
-        raise UsageError(f"--top must be >= 1, got {args.top}")
-    items = [f"{k}={v}" for k, v in PRESETS[args.preset or "paper"].items()]
-    items += [f"image.top_k={args.top}"] if getattr(args, "top", None) is not None else []
-    return items + (args.set or [])
+    if top is not None and top < 1:
+        raise UsageError(f"--top must be >= 1, got {top}")
+    items = [f"{k}={v}" for k, v in PRESETS[preset_name or "paper"].items()]
+    items += [f"image.top_k={top}"] if top is not None else []
+    return items + (sets or [])
 
 
 def cmd_bench(args) -> int:
@@ -144,7 +146,7 @@ def cmd_bench(args) -> int:
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
     if args.what == "detect":
-        config, image = split_overrides(_detect_settings(args))  # as graspjax detect
+        config, image = split_overrides(_detect_settings(args.preset, None, args.set))  # as graspjax detect
     else:
         config, image = override(preset(args.preset or "paper"), args.set or []), None
     try:

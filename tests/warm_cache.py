@@ -4,10 +4,11 @@ conftest starts this in a second process when the session starts. It builds the 
 physics program as `test_procedure._world` does and leaves it in the persistent compilation
 cache while the suite's first modules leave a core idle; `test_physics`, its first user, then
 loads it (about 45 s of compile on the 2-core machine; a cold suite took 877 s with this, 892 and
-903 s without). A program's cache key is not only its computation: the same program traced
-after other compiles (the g-l scene, `select_target`, or the a-f scene again in
-`test_procedure` after a module's `jax.clear_caches`) got other keys, and missed. It checks
-nothing: a failure here only costs the tests their own compile.
+903 s without). Warming more programs here (the g-l scene, `select_target`) did not help: the
+tests missed them in the cache. Why is not established: the a-f program lowered twice in one
+process, with `jax.clear_caches` and another scene between, gives identical text, so the
+misses may be programs that differ, not one program with two keys. It checks nothing: a
+failure here only costs the tests their own compile.
 """
 
 import os
