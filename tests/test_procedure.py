@@ -29,15 +29,16 @@ CAMERA = CONFIG.camera.camera()
 
 
 def _world(sim, poses):
-    """First world of a batch with objects at (x, y, yaw); settled briefly, after kinematics."""
+    """First world of a batch with objects standing on the table at (x, y, yaw), after
+    kinematics: exact resting poses, no physics (the procedure's steps are under test here)."""
     n = sim.scene.num_objects
     pos, quat = np.zeros((SIM_BATCH, n, 3)), np.tile([1.0, 0, 0, 0], (SIM_BATCH, n, 1))
     active = np.zeros((SIM_BATCH, n), bool)
     for i, (x, y, yaw) in poses.items():
-        pos[:, i] = (x, y, 0.001)
+        pos[:, i] = (x, y, 0.0)
         quat[:, i] = (np.cos(yaw / 2), 0, 0, np.sin(yaw / 2))
         active[:, i] = True
-    data = sim.kinematics(sim.settle(sim.reset(pos, quat, active), 0.2))
+    data = sim.kinematics(sim.reset(pos, quat, active))
     return jax.tree.map(lambda x: x[0], data)
 
 
