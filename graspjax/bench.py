@@ -188,6 +188,7 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
     (`procedure.start_round`, `world.play`) vmapped over `batch` worlds of `setup`."""
     from graspjax.config import stack_configs
     from graspjax.procedure import WorldSpec, start_round
+    from graspjax.sim.collision import WORLDS
     from graspjax.sim.scene import mjx, scene_for
     from graspjax.sim.world import GraspPose, physics_model, play
 
@@ -205,7 +206,8 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
         return play(scene, physics_model(scene, w.config), d, grasp, target, segments, execute,
                     w.config)
 
-    simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, None)), static_argnums=5)
+    simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, None), axis_name=WORLDS),
+                       static_argnums=5)
     nan = jnp.full((batch, 3), jnp.nan)
     return PhysicsWorkload(scene, spec, data, simulate,
                            GraspPose(nan, nan, nan, jnp.zeros(batch, bool)),

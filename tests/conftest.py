@@ -119,6 +119,7 @@ class Worlds:
 
     def __init__(self, scene):
         from graspjax.config import Config
+        from graspjax.sim.collision import WORLDS
         from graspjax.sim.scene import mjx
         from graspjax.sim.world import physics_model, play, reset
 
@@ -129,7 +130,7 @@ class Worlds:
         def one(data, grasp, target, segments, execute):
             return play(scene, model, data, grasp, target, segments, execute, config)
 
-        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None)))
+        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None), axis_name=WORLDS))
         self._reset = jax.jit(jax.vmap(lambda p, q, a, b: reset(scene, template, p, q, a, b)))
         self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))
 

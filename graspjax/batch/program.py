@@ -29,6 +29,7 @@ from graspjax.batch import exported
 from graspjax.batch.plan import Chunk, Group, World, chunks, padded_size
 from graspjax.config import Config, stack_configs
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
+from graspjax.sim.collision import WORLDS
 from graspjax.sim.scene import Scene, mjx, scene_for
 
 
@@ -74,12 +75,13 @@ class Program:
 
         def start_fn(arrays, spec):
             scene = dataclasses.replace(self.scene, model=arrays[0])
-            return jax.vmap(lambda one: start_round(scene, arrays[1], one))(spec)
+            return jax.vmap(lambda one: start_round(scene, arrays[1], one),
+                            axis_name=WORLDS)(spec)
 
         def attempt_fn(model, state, spec, k):
             scene = dataclasses.replace(self.scene, model=model)
             one = functools.partial(attempt, scene, keep_views=keep_views)
-            return jax.vmap(one, in_axes=(0, 0, None))(state, spec, k)
+            return jax.vmap(one, in_axes=(0, 0, None), axis_name=WORLDS)(state, spec, k)
 
         start = exported.export(start_fn, (arrays, spec), ("start_round",) + description)
         attempt_ = exported.export(
@@ -123,8 +125,9 @@ class Program:
         look at the layouts a run would attempt without grasping (`planes`)."""
         if self._settle is None:
             scene, template = self.scene, self.arrays[1]
-            self._settle = jax.jit(jax.vmap(lambda spec: settle(scene, start_round(scene, template,
-                                                                                   spec), spec)))
+            self._settle = jax.jit(jax.vmap(
+                lambda spec: settle(scene, start_round(scene, template, spec), spec),
+                axis_name=WORLDS))
         spec = jax.device_put(self.spec(worlds, points), self.devices[0])
         return self._settle(spec), spec
 

@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 
 from graspjax.config import GripperConfig, LayoutConfig, SimConfig
+from graspjax.sim.collision import HAND, STATIC
 from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses
 from graspjax.sim.raycast import Solids, solids_of
 
@@ -83,6 +84,21 @@ class Scene:
     @property
     def num_objects(self) -> int:
         return len(self.letters)
+
+    @property
+    def skips_far_pairs(self) -> bool:
+        """Whether the physics step skips the narrow phase of pairs far apart in every world
+        (`sim.skip_far_pairs`, in scenes whose objects do not touch each other: in piles the
+        hand's pairs are the only ones to skip, a few per cent of a step for a much longer
+        compile)."""
+        return self.sim.skip_far_pairs and not self.has_bin
+
+    @property
+    def geom_owner(self) -> np.ndarray:
+        """Who owns each geom (ngeom,) int: STATIC (table, bin), HAND or the object index; the
+        physics step's broad phase skips pairs by owner (`collision.parts`)."""
+        return np.where(self.gripper_geom, HAND, np.where(self.geom_object >= 0, self.geom_object,
+                                                          STATIC)).astype(np.int32)
 
 
 def _box_points(half: np.ndarray, centre) -> np.ndarray:

@@ -28,6 +28,7 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import CameraConfig, Config
 from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
+from graspjax.sim import collision
 from graspjax.sim.layout import footprints, gaps
 from graspjax.sim.raycast import render_depth, world_planes
 from graspjax.sim.scene import BIN_PARK, CLOSED_TARGET, GRIPPER_HOME, Scene, mjx
@@ -239,7 +240,8 @@ def segment(scene: Scene, model: mjx.Model, data: mjx.Data, start: jax.Array, en
         m = scene.hand_mocap
         d = d.replace(mocap_pos=d.mocap_pos.at[m].set(target),
                       mocap_quat=d.mocap_quat.at[m].set(quat), ctrl=jnp.full_like(d.ctrl, jaws))
-        d = mjx.step(model, d)
+        d = (collision.step(model, d, scene.geom_owner) if scene.skips_far_pairs
+             else mjx.step(model, d))
         trip = watch & ~reflex.tripped & (hand_contact_force(scene, d) > force_limit)
         reflex = Reflex(tripped=reflex.tripped | trip,
                         stop=jnp.where(trip, d.qpos[scene.hand_qpos:scene.hand_qpos + 3],

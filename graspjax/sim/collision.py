@@ -1,0 +1,161 @@
+"""The physics step: MJX's, with the narrow phase skipped where no world of the batch needs it.
+
+MJX runs its narrow phase on every candidate geom pair of the model in every step: in a
+Setup 1 scene that is every parked object against the table and the hand, and the hand's
+pairs while it waits at home. Here each of MJX's collision groups is cut into *parts* by who
+owns the two geoms (the table and bin, the hand, object i; pairs of two objects form one
+part), and a part runs only when, in some world of the batch, one of its pairs has bounding
+spheres closer than `NEAR` (a plane: the other geom's sphere closer to its surface). The
+worlds are the `jax.vmap` axis named `WORLDS`; without it each world decides alone, and
+`vmap` computes both branches.
+
+A skipped pair gets a contact that is `FAR` apart (no constraint force), which is what its
+narrow phase would have given in effect: a pair whose spheres are `NEAR` apart cannot touch.
+Its contact row is inactive either way, so the solver sees the same active contacts in the
+same slots and every world steps exactly as under `mjx.step` (tests/test_collision.py checks
+it bit for bit against MJX on batches where parts are skipped and where they are not).
+
+The groups and the contact parameters are MJX's own (`collision_driver._geom_groups`,
+`_contact_groups`: private, so mujoco-mjx is pinned to the minor version this was written
+against); after the narrow phase, contacts are kept per condim as MJX keeps them (the
+`max_contact_points` most penetrating). A model with `max_geom_pairs` (MJX's own culling)
+steps with MJX's collision unchanged.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
+    from mujoco import mjx
+    from mujoco.mjx._src import collision_driver
+
+WORLDS = "worlds"  # the name of the vmapped axis of worlds (`jax.vmap(..., axis_name=WORLDS)`)
+NEAR = 0.01  # a part runs when one of its pairs' bounding spheres are closer than this (m)
+FAR = 1.0  # distance of a skipped pair's contact (m): inactive, as MJX's separated hulls give
+STATIC, HAND, OBJECTS = -3, -2, -1  # owners of geoms besides object i >= 0 (OBJECTS: a pair of two)
+_PLANE = int(mjx.GeomType.PLANE)
+
+
+def any_world(flag: jax.Array) -> jax.Array:
+    """Whether `flag` () bool holds in some world of the batch (`WORLDS`), or in this world
+    when no such axis is bound."""
+    try:
+        return jax.lax.psum(flag.astype(jnp.int32), WORLDS) > 0
+    except NameError:  # no axis of worlds bound here
+        return flag
+
+
+@dataclasses.dataclass(frozen=True)
+class Part:
+    """Pairs of one collision group with the same owners: skipped or run together."""
+
+    owners: tuple[int, int]  # STATIC, HAND, object index, or (OBJECTS, OBJECTS)
+    index: np.ndarray  # (P,) positions of its pairs in the group, ascending
+    geom: np.ndarray  # (P, 2) geom ids of its pairs
+
+
+def parts(pairs: np.ndarray, geom_owner: np.ndarray) -> tuple[Part, ...]:
+    """A group's pairs (P, 2) geom ids cut by owner (`geom_owner` (ngeom,): STATIC, HAND or the
+    object index), in the order of their first pair."""
+    owner = geom_owner[pairs]
+    both_objects = (owner >= 0).all(axis=1)
+    owner = np.where(both_objects[:, None], OBJECTS, np.sort(owner, axis=1))
+    keys = list(dict.fromkeys(map(tuple, owner.tolist())))
+    return tuple(Part(key, np.flatnonzero((owner == key).all(axis=1)),
+                      pairs[(owner == key).all(axis=1)]) for key in keys)
+
+
+def _near(m: mjx.Model, d: mjx.Data, types: tuple[int, int], geom: np.ndarray) -> jax.Array:
+    """Whether some pair (P, 2) of a part may touch in this world: bounding spheres within
+    `NEAR`, or a geom's sphere within `NEAR` of a plane's surface (MJX orders a plane first).
+    A non-finite state counts as near (the narrow phase runs, as MJX's would)."""
+    g1, g2 = geom[:, 0], geom[:, 1]
+    centre1, centre2 = d.geom_xpos[g1], d.geom_xpos[g2]
+    if types[0] == _PLANE:
+        normal = d.geom_xmat[g1][:, :, 2]
+        gap = jnp.sum(normal * (centre2 - centre1), -1) - m.geom_rbound[g2]
+    else:
+        gap = (jnp.linalg.norm(centre2 - centre1, axis=-1)
+               - m.geom_rbound[g1] - m.geom_rbound[g2])
+    return jnp.any(~(gap > NEAR))
+
+
+def _narrow_phase(m, d, key, part: Part, ncon: int):
+    """The contacts (P, ncon) of a part: MJX's collision function where some world needs it,
+    else `FAR` apart."""
+    func = collision_driver._COLLISION_FUNC[key.types]
+    p = len(part.index)
+
+    def run():
+        dist, pos, frame = func(m, d, key, jnp.asarray(part.geom))
+        return dist.reshape(p, ncon), pos.reshape(p, ncon, 3), frame.reshape(p, ncon, 3, 3)
+
+    def far():
+        return (jnp.full((p, ncon), FAR, d.qpos.dtype), jnp.zeros((p, ncon, 3), d.qpos.dtype),
+                jnp.broadcast_to(jnp.eye(3, dtype=d.qpos.dtype), (p, ncon, 3, 3)))
+
+    return jax.lax.cond(any_world(_near(m, d, key.types, part.geom)), run, far)
+
+
+def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
+    """`mjx.collision`, each group's parts run only where some world needs them
+    (`geom_owner` (ngeom,) int: STATIC, HAND or the object index of each geom)."""
+    if d._impl.ncon == 0 or collision_driver._numeric(m, "max_geom_pairs") > -1:
+        return mjx.collision(m, d)
+    pairs = collision_driver._geom_groups(m)
+    by_condim: dict[int, list] = {}
+    for key, contact in collision_driver._contact_groups(m, d).items():
+        ncon = collision_driver._COLLISION_FUNC[key.types].ncon
+        group = np.array([(g1, g2) for g1, g2, _ in pairs[key]])
+        split = parts(group, geom_owner)
+        results = [_narrow_phase(m, d, key, part, ncon) for part in split]
+        order = np.argsort(np.concatenate([part.index for part in split]), kind="stable")
+        # (P, ncon, ...) in the group's pair order, then flat, pair by pair, as MJX's functions
+        # return them
+        dist, pos, frame = (jnp.concatenate(r)[order].reshape((-1,) + r[0].shape[2:])
+                            if len(split) > 1 else r[0].reshape((-1,) + r[0].shape[2:])
+                            for r in zip(*results, strict=True))
+        if ncon > 1:
+            contact = jax.tree.map(lambda x, r=ncon: jnp.repeat(x, r, axis=0), contact)
+        by_condim.setdefault(key.condim, []).append(contact.replace(dist=dist, pos=pos, frame=frame))
+    most = collision_driver._numeric(m, "max_contact_points")
+    kept = []
+    for condim in sorted(by_condim):
+        contact = jax.tree.map(lambda *x: jnp.concatenate(x), *by_condim[condim])
+        if -1 < most < contact.geom.shape[0]:  # the most penetrating, as MJX keeps them
+            _, idx = jax.lax.top_k(-contact.dist, k=most)
+            contact = jax.tree.map(lambda x, idx=idx: x[idx], contact)
+        kept.append(contact)
+    contact = jax.tree.map(lambda *x: jnp.concatenate(x), *kept)
+    return d.tree_replace({"_impl.contact": contact})
+
+
+def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
+    """`mjx.step` with `collision` in place of MJX's (`geom_owner`: as for `collision`)."""
+    return step_with(m, d, lambda m, d: collision(m, d, geom_owner))
+
+
+def step_with(m: mjx.Model, d: mjx.Data, collide) -> mjx.Data:
+    """`mjx.step` with `collide(m, d)` in place of MJX's collision: MJX's forward dynamics
+    stage by stage, then its Euler integrator (the scenes' integrator)."""
+    if m.opt.integrator != mjx.IntegratorType.EULER:
+        raise NotImplementedError(f"graspjax steps with Euler only, not {m.opt.integrator}")
+    for stage in (mjx.kinematics, mjx.com_pos, mjx.camlight, mjx.tendon, mjx.crb,
+                  mjx.tendon_armature, mjx.factor_m):
+        d = stage(m, d)
+    d = collide(m, d)
+    for stage in (mjx.make_constraint, mjx.transmission, mjx.sensor_pos, mjx.fwd_velocity,
+                  mjx.sensor_vel, mjx.fwd_actuation, mjx.fwd_acceleration):
+        d = stage(m, d)
+    if d._impl.efc_J.size == 0:
+        d = d.replace(qacc=d.qacc_smooth)
+    else:
+        d = mjx.sensor_acc(m, mjx.solve(m, d))
+    return mjx.euler(m, d)

@@ -1,0 +1,143 @@
+"""The physics step's broad phase over the batch (`sim/collision.py`), against MJX's own."""
+
+import copy
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from graspjax.config import Config
+from graspjax.sim import Outcome, collision
+from graspjax.sim.collision import HAND, OBJECTS, STATIC, WORLDS
+from graspjax.sim.scene import build_scene, mjx
+from graspjax.sim.world import move_hand, reset
+
+CUBE, PRISM = 0, 1
+
+
+def test_parts_cut_a_group_by_owner():
+    """Pairs of the same owners form one part, in the order of their first pair; two objects'
+    pairs are one part whatever the objects."""
+    owner = np.array([STATIC, HAND, HAND, 0, 0, 1, 2])
+    pairs = np.array([(0, 3), (1, 3), (0, 5), (2, 4), (3, 5), (4, 6), (5, 1)])
+    parts = collision.parts(pairs, owner)
+    assert [p.owners for p in parts] == [(STATIC, 0), (HAND, 0), (STATIC, 1), (OBJECTS, OBJECTS),
+                                         (HAND, 1)]
+    assert [p.index.tolist() for p in parts] == [[0], [1, 3], [2], [4, 5], [6]]
+    np.testing.assert_array_equal(parts[1].geom, [(1, 3), (2, 4)])
+
+
+@pytest.fixture(scope="module")
+def pair_scene():
+    """A Setup 1 scene of the cube and the prism (a hull), every contact kept (no
+    max_contact_points), so each pair's contacts stay in their own slots."""
+    scene = build_scene(("a", "b"), objects_collide=False)
+    mj_model = copy.deepcopy(scene.mj_model)
+    mj_model.numeric_data[:] = -1
+    return scene, mjx.put_model(mj_model), mj_model
+
+
+def _worlds(scene, model, mj_model, prism_and_hand_near: bool):
+    """Two worlds. 0: the cube resting on the table, the prism parked, the hand at home.
+    1: the same, or the prism on the table beside the cube with the hand just above it."""
+    n = scene.num_objects
+    pos = np.zeros((2, n, 3))
+    pos[:, CUBE] = (0.0, 0.0, -0.0005)  # 0.5 mm into the table: the cube's contacts are active
+    pos[:, PRISM] = (0.1, 0.0, 0.0)
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (2, n, 1))
+    active = np.array([[True, False], [True, prism_and_hand_near]])
+    template = mjx.make_data(mj_model)
+    data = jax.vmap(lambda p, q, a: reset(scene, template, p, q, a))(pos, quat, active)
+    if prism_and_hand_near:  # the open hand's finger tips 5 mm above the prism's top
+        hand = jnp.array([0.1, 0.0, 0.0476 + 0.005 + scene.tcp_offset])
+        lowered = move_hand(scene, jax.tree.map(lambda x: x[1], data), hand,
+                            jnp.array([0.0, 1.0, 0.0, 0.0]), opened=True)
+        data = jax.tree.map(lambda x, y: x.at[1].set(y), data, lowered)
+    return data
+
+
+def _slots(mj_model, scene, wanted):
+    """Contact slots (in `mjx.make_data`'s order) of the pairs whose owners (a set) are
+    `wanted` (a set of sets)."""
+    from mujoco.mjx._src import collision_driver
+
+    slots, start = [], 0
+    for key, pairs in collision_driver._geom_groups(mj_model).items():
+        ncon = collision_driver._COLLISION_FUNC[key.types].ncon
+        for g1, g2, _ in pairs:
+            if set(scene.geom_owner[[g1, g2]].tolist()) in wanted:
+                slots.extend(range(start, start + ncon))
+            start += ncon
+    return np.array(slots)
+
+
+def test_far_pairs_are_skipped_and_the_rest_is_mjx(pair_scene):
+    """World 0's contacts: MJX's where a part runs; the parked prism's and the hand's pairs
+    skipped (FAR apart) when no world needs them, run when world 1 does."""
+    scene, model, mj_model = pair_scene
+    ours = jax.jit(jax.vmap(lambda d: collision.collision(model, mjx.kinematics(model, d),
+                                                          scene.geom_owner), axis_name=WORLDS))
+    theirs = jax.jit(jax.vmap(lambda d: mjx.collision(model, mjx.kinematics(model, d))))
+    cube_on_table = _slots(mj_model, scene, [{STATIC, CUBE}])
+    prism_and_hand = _slots(mj_model, scene, [{STATIC, PRISM}, {HAND, PRISM}, {HAND, CUBE}])
+    for near in (False, True):
+        data = _worlds(scene, model, mj_model, near)
+        got = jax.tree.map(lambda x: np.asarray(x[0]), ours(data)._impl.contact)
+        want = jax.tree.map(lambda x: np.asarray(x[0]), theirs(data)._impl.contact)
+        np.testing.assert_array_equal(got.geom, want.geom)
+        skipped = (got.dist == collision.FAR) & (got.pos == 0.0).all(-1)
+        ran = ~skipped
+        np.testing.assert_allclose(got.dist[ran], want.dist[ran], atol=1e-6)
+        np.testing.assert_allclose(got.pos[ran], want.pos[ran], atol=1e-6)
+        assert want.dist[skipped].min() > collision.NEAR  # MJX: apart, no force
+        assert ran[cube_on_table].all() and (got.dist[cube_on_table] < 0).sum() >= 4
+        assert (skipped if not near else ran)[prism_and_hand].all()
+
+
+def test_the_step_is_mjx_stage_by_stage(pair_scene):
+    """With MJX's own collision, `step_with` traces to exactly `mjx.step`'s program: the
+    stages, their order and the integrator are MJX's."""
+    scene, model, mj_model = pair_scene
+    data = mjx.make_data(mj_model)
+    theirs = jax.make_jaxpr(lambda d: mjx.step(model, d))(data)
+    ours = jax.make_jaxpr(lambda d: collision.step_with(model, d, mjx.collision))(data)
+    assert str(ours) == str(theirs)
+    without_collision = jax.make_jaxpr(lambda d: collision.step_with(model, d, lambda m, d: d))(data)
+    assert str(without_collision) != str(theirs)
+
+
+def test_a_world_steps_the_same_whatever_its_batch(industrial_sim):
+    """The gear settling alone, in a batch of copies (every other part's pairs skipped) or
+    beside worlds whose parts stand on the table and whose hand comes down to one (those
+    pairs run): the same state, bit for bit."""
+    from conftest import SIM_BATCH
+    from test_physics import _grasps, _place
+
+    gear, mill = 0, 2
+    alone = _place(industrial_sim, [{gear: (0.0, 0.0, 0.3)}] * SIM_BATCH)
+    beside = _place(industrial_sim, [{gear: (0.0, 0.0, 0.3)}]
+                    + [{i: (0.01 * i, 0.0, 0.0)} for i in range(1, SIM_BATCH)])
+    rows = [((0, 0, 0.1), (1, 0, 0), False)] * SIM_BATCH
+    rows[mill] = ((0.02, 0.0, 0.12), (1, 0, 0), True)  # the pepper mill by its knob
+    grasps = _grasps(rows)
+    segments = jnp.full(SIM_BATCH, 3, jnp.int32)
+    target = jnp.arange(SIM_BATCH) % industrial_sim.scene.num_objects
+    after_alone, _ = industrial_sim._play(alone, _grasps([rows[0]] * SIM_BATCH), target,
+                                          segments, jnp.array(True))
+    after_beside, attempt = industrial_sim._play(beside, grasps, target, segments, jnp.array(True))
+    for state, other in ((alone, beside), (after_alone, after_beside)):
+        for field in ("qpos", "qvel", "qacc"):
+            np.testing.assert_array_equal(getattr(state, field)[0], getattr(other, field)[0])
+    assert attempt.outcome[mill] == Outcome.SUCCESS  # the hand came down beside world 0's steps
+
+
+def test_scenes_skip_where_it_pays():
+    """Setup 1 scenes skip far pairs; the bin scene (objects touch) and `skip_far_pairs=false`
+    step with MJX's collision."""
+    from graspjax.config import override
+
+    off = override(Config(), ["sim.skip_far_pairs=false"])
+    assert build_scene(("a",), objects_collide=False).skips_far_pairs
+    assert not build_scene(("a",), objects_collide=True).skips_far_pairs
+    assert not build_scene(("a",), sim=off.sim, objects_collide=False).skips_far_pairs
