@@ -401,32 +401,48 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     camera = config.camera.camera()
     target, (centre_rot, centre_pos), (depth, objects), k_views = first_look(scene, data, eligible,
                                                                              key, config)
-    budget = config.procedure.max_reorientations  # traced; the loop has MAX_REORIENTATIONS + 1 views
+    budget = config.procedure.max_reorientations  # traced; at most MAX_REORIENTATIONS + 1 views
+    views_at_most = MAX_REORIENTATIONS + 1
 
-    def look(carry, r):
+    def searching(carry, r):
+        """View r is taken: no grasp yet, the search not blocked, within the budget."""
+        _, _, found, blocked, *_ = carry
+        return ~found & ~blocked & (r <= budget) & (r < views_at_most)
+
+    def look(loop):
+        r, carry, kept = loop
         rot, pos, found, blocked, pose, turns, detect_reason, align_reason = carry
         v = view(scene, data, rot, pos, target, camera, config, jax.random.fold_in(k_views, r))
-        searching = ~found & ~blocked & (r <= budget)  # views past the budget are not taken
-        fresh = searching & v.grasp.found & (target >= 0)
+        fresh = v.grasp.found & (target >= 0)
         pose = where_tree(fresh, v.grasp_pose, pose)
-        detect_reason = jnp.where(searching, v.grasp.reason, detect_reason)
+        detect_reason = v.grasp.reason
         found = found | fresh
-        may_turn = ~found & ~blocked & (r < budget)  # the last view never re-aligns
+        may_turn = ~found & (r < budget)  # the last view never re-aligns
         move = may_turn & v.can_realign
         align_reason = jnp.where(may_turn, v.alignment.reason, align_reason)
-        blocked = blocked | (may_turn & ~v.can_realign)
+        blocked = may_turn & ~v.can_realign
         rot = jnp.where(move, v.next_rotation, rot)
         pos = jnp.where(move, v.next_position, pos)
         carry = (rot, pos, found, blocked, pose, turns + move.astype(jnp.int32), detect_reason,
                  align_reason)
         taken = where_tree(move, v.truth, _NO_PLANE)
-        return carry, ((v, searching) if keep_views else None, taken)
+        kept = jax.tree.map(lambda buffer, x: buffer.at[r].set(x), kept,
+                            ((v, jnp.array(True)) if keep_views else None, taken))
+        return r + 1, carry, kept
 
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
     no_pose = GraspPose(nan3, nan3, nan3, jnp.array(False))
     carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
              jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1))
-    carry, (per_view, taken) = jax.lax.scan(look, carry, jnp.arange(MAX_REORIENTATIONS + 1))
+    # Views not taken keep these: no plane, and (kept views) blank images marked not looked.
+    blank = jax.eval_shape(lambda: view(scene, data, centre_rot, centre_pos, target, camera,
+                                        config, k_views))
+    kept = jax.tree.map(lambda x: jnp.zeros((views_at_most,) + x.shape, x.dtype),
+                        ((blank, jax.ShapeDtypeStruct((), bool)) if keep_views else None))
+    kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), _NO_PLANE))
+    # A masked loop: it ends when no world of a batch still searches (vmap runs it until then).
+    _, carry, (per_view, taken) = jax.lax.while_loop(lambda loop: searching(loop[1], loop[0]),
+                                                     look, (jnp.int32(0), carry, kept))
     _, _, found, blocked, pose, turns, detect_reason, align_reason = carry
     pose = dataclasses.replace(pose, valid=found & (target >= 0))
     realign = jax.tree.map(lambda x: x[:MAX_REORIENTATIONS], taken)  # the last view never turns

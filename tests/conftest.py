@@ -130,9 +130,20 @@ class Worlds:
         def one(data, grasp, target, segments, execute):
             return play(scene, model, data, grasp, target, segments, execute, config)
 
-        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None), axis_name=WORLDS))
         self._reset = jax.jit(jax.vmap(lambda p, q, a, b: reset(scene, template, p, q, a, b)))
         self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))
+        # The physics program is compiled ahead of time, right after JAX's caches are cleared.
+        # Its lowered text, and so its persistent-cache key, then does not depend on what the
+        # session traced before (warm_cache.py compiles the same in a second process), and a
+        # later `jax.clear_caches` (`_release_compiled_code`) cannot drop it.
+        jax.clear_caches()
+        n = scene.num_objects
+        data = jax.eval_shape(self.reset, np.zeros((SIM_BATCH, n, 3), np.float32),
+                              np.zeros((SIM_BATCH, n, 4), np.float32),
+                              np.zeros((SIM_BATCH, n), bool))
+        steps = jnp.zeros(SIM_BATCH, jnp.int32)
+        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None), axis_name=WORLDS)).lower(
+            data, self.no_grasp(), steps, steps, jnp.array(False)).compile()
 
     def reset(self, pos, quat, active, bin_in_place=False):
         """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n); the bin in
@@ -147,6 +158,9 @@ class Worlds:
 
     def execute(self, data, grasp, target):
         """Approach, close, lift, hold, judge: (data, Execution) per world."""
+        grasp = type(grasp)(*(jnp.asarray(x, jnp.float32) for x in (grasp.tcp, grasp.approach,
+                                                                    grasp.closing)),
+                            jnp.asarray(grasp.valid, bool))  # the compiled program's types
         return self._play(data, grasp, jnp.asarray(target, jnp.int32),
                           jnp.zeros(SIM_BATCH, jnp.int32), jnp.array(True))
 

@@ -12,8 +12,9 @@ worlds are the `jax.vmap` axis named `WORLDS`; without it each world decides alo
 A skipped pair gets a contact that is `FAR` apart (no constraint force), which is what its
 narrow phase would have given in effect: a pair whose spheres are `NEAR` apart cannot touch.
 Its contact row is inactive either way, so the solver sees the same active contacts in the
-same slots and every world steps exactly as under `mjx.step` (tests/test_collision.py checks
-it bit for bit against MJX on batches where parts are skipped and where they are not).
+same slots: a world steps bit for bit the same whatever the other worlds of its batch do,
+and as under `mjx.step` up to float32 rounding, because a part's narrow phase compiles apart
+from the rest of the step (tests/test_collision.py checks both).
 
 The groups and the contact parameters are MJX's own (`collision_driver._geom_groups`,
 `_contact_groups`: private, so mujoco-mjx is pinned to the minor version this was written
