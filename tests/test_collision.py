@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from graspjax.config import Config
-from graspjax.sim import Outcome, collision
+from graspjax.sim import collision
 from graspjax.sim.collision import HAND, OBJECTS, STATIC, WORLDS
 from graspjax.sim.scene import build_scene, mjx
 from graspjax.sim.world import move_hand, reset
@@ -105,31 +105,6 @@ def test_the_step_is_mjx_stage_by_stage(pair_scene):
     assert str(ours) == str(theirs)
     without_collision = jax.make_jaxpr(lambda d: collision.step_with(model, d, lambda m, d: d))(data)
     assert str(without_collision) != str(theirs)
-
-
-def test_a_world_steps_the_same_whatever_its_batch(industrial_sim):
-    """The gear settling alone, in a batch of copies (every other part's pairs skipped) or
-    beside worlds whose parts stand on the table and whose hand comes down to one (those
-    pairs run): the same state, bit for bit."""
-    from conftest import SIM_BATCH
-    from test_physics import _grasps, _place
-
-    gear, mill = 0, 2
-    alone = _place(industrial_sim, [{gear: (0.0, 0.0, 0.3)}] * SIM_BATCH)
-    beside = _place(industrial_sim, [{gear: (0.0, 0.0, 0.3)}]
-                    + [{i: (0.01 * i, 0.0, 0.0)} for i in range(1, SIM_BATCH)])
-    rows = [((0, 0, 0.1), (1, 0, 0), False)] * SIM_BATCH
-    rows[mill] = ((0.02, 0.0, 0.12), (1, 0, 0), True)  # the pepper mill by its knob
-    grasps = _grasps(rows)
-    segments = jnp.full(SIM_BATCH, 3, jnp.int32)
-    target = jnp.arange(SIM_BATCH) % industrial_sim.scene.num_objects
-    after_alone, _ = industrial_sim._play(alone, _grasps([rows[0]] * SIM_BATCH), target,
-                                          segments, jnp.array(True))
-    after_beside, attempt = industrial_sim._play(beside, grasps, target, segments, jnp.array(True))
-    for state, other in ((alone, beside), (after_alone, after_beside)):
-        for field in ("qpos", "qvel", "qacc"):
-            np.testing.assert_array_equal(getattr(state, field)[0], getattr(other, field)[0])
-    assert attempt.outcome[mill] == Outcome.SUCCESS  # the hand came down beside world 0's steps
 
 
 def test_scenes_skip_where_it_pays():

@@ -165,6 +165,28 @@ def test_grasps_in_the_industrial_scene(industrial_sim):
                                atol=0.003)
 
 
+def test_a_world_steps_the_same_whatever_its_batch(industrial_sim):
+    """The gear settling alone, in a batch of copies (every other part's pairs skipped) or
+    beside worlds whose parts stand on the table and whose hand comes down to one (those
+    pairs run): the same state, bit for bit."""
+    gear, mill = 0, 2
+    alone = _place(industrial_sim, [{gear: (0.0, 0.0, 0.3)}] * SIM_BATCH)
+    beside = _place(industrial_sim, [{gear: (0.0, 0.0, 0.3)}]
+                    + [{i: (0.01 * i, 0.0, 0.0)} for i in range(1, SIM_BATCH)])
+    rows = [((0, 0, 0.1), (1, 0, 0), False)] * SIM_BATCH
+    rows[mill] = ((0.02, 0.0, 0.12), (1, 0, 0), True)  # the pepper mill by its knob
+    grasps = _grasps(rows)
+    segments = jnp.full(SIM_BATCH, 3, jnp.int32)
+    target = jnp.arange(SIM_BATCH) % industrial_sim.scene.num_objects
+    after_alone, _ = industrial_sim._play(alone, _grasps([rows[0]] * SIM_BATCH), target,
+                                          segments, jnp.array(True))
+    after_beside, attempt = industrial_sim._play(beside, grasps, target, segments, jnp.array(True))
+    for state, other in ((alone, beside), (after_alone, after_beside)):
+        for field in ("qpos", "qvel", "qacc"):
+            np.testing.assert_array_equal(getattr(state, field)[0], getattr(other, field)[0])
+    assert attempt.outcome[mill] == Outcome.SUCCESS  # the hand came down beside world 0's steps
+
+
 def test_side_wider_than_the_opening_is_not_grasped():
     """A 4 cm gripper over the 5 cm cube: the fingers come down on its top and are stopped."""
     from conftest import Worlds
