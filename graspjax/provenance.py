@@ -29,8 +29,21 @@ def provenance() -> dict:
             "device": {"platform": devices[0].platform,
                        "kind": getattr(devices[0], "device_kind", str(devices[0])),
                        "count": len(devices)},
+            "cpu": _cpu_model(),  # XLA:CPU compiles for its instruction set: CPU rows depend on it
             "host": platform.node(),
             "command": " ".join(["graspjax", *sys.argv[1:]])}
+
+
+def _cpu_model() -> str:
+    """The host processor's model name (Linux's /proc/cpuinfo), else what Python knows."""
+    try:
+        with open("/proc/cpuinfo") as info:
+            for line in info:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def device_line(record: dict) -> str:

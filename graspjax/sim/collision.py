@@ -105,6 +105,17 @@ def _narrow_phase(m, d, key, part: Part, ncon: int):
     return jax.lax.cond(any_world(_near(m, d, key.types, part.geom)), run, far)
 
 
+def in_group_order(split: tuple[Part, ...], results: list) -> tuple:
+    """Each part's results (a tuple of (P_i, ncon, ...) arrays) put back in their group's pair
+    order and flattened pair by pair, as MJX's collision functions return a group's contacts:
+    a tuple of (P * ncon, ...) arrays."""
+    if len(split) == 1:
+        return tuple(r.reshape((-1,) + r.shape[2:]) for r in results[0])
+    order = np.argsort(np.concatenate([part.index for part in split]), kind="stable")
+    return tuple(jnp.concatenate(r)[order].reshape((-1,) + r[0].shape[2:])
+                 for r in zip(*results, strict=True))
+
+
 def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
     """`mjx.collision`, each group's parts run only where some world needs them
     (`geom_owner` (ngeom,) int: STATIC, HAND or the object index of each geom)."""
@@ -116,13 +127,8 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
         ncon = collision_driver._COLLISION_FUNC[key.types].ncon
         group = np.array([(g1, g2) for g1, g2, _ in pairs[key]])
         split = parts(group, geom_owner)
-        results = [_narrow_phase(m, d, key, part, ncon) for part in split]
-        order = np.argsort(np.concatenate([part.index for part in split]), kind="stable")
-        # (P, ncon, ...) in the group's pair order, then flat, pair by pair, as MJX's functions
-        # return them
-        dist, pos, frame = (jnp.concatenate(r)[order].reshape((-1,) + r[0].shape[2:])
-                            if len(split) > 1 else r[0].reshape((-1,) + r[0].shape[2:])
-                            for r in zip(*results, strict=True))
+        dist, pos, frame = in_group_order(split, [_narrow_phase(m, d, key, part, ncon)
+                                                  for part in split])
         if ncon > 1:
             contact = jax.tree.map(lambda x, r=ncon: jnp.repeat(x, r, axis=0), contact)
         by_condim.setdefault(key.condim, []).append(contact.replace(dist=dist, pos=pos, frame=frame))
