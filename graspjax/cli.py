@@ -362,7 +362,7 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
     p.add_argument("--batch", type=int,
-                   help="worlds per chunk (default: 4096 per GPU, 32 on the CPU); the same seed and "
+                   help="worlds per chunk (default: 4096 per GPU, 10 on the CPU); the same seed and "
                         "batch on the same device kind give the same attempts")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --out (same command): only unfinished chunks run")
