@@ -30,9 +30,10 @@ CAMERA_HEIGHT = 0.5  # metres above the table
 
 @pytest.fixture(scope="session", autouse=True)
 def _warm_late_programs(tmp_path_factory):
-    """`warm_cache.py` in a second process from the session's start: it compiles the a-f
-    scene's physics program into the persistent cache while the first modules leave a core idle
-    (XLA compiles mostly on one). Killed at the session's end if not done."""
+    """`warm_cache.py` in a second process from the session's start: it compiles the programs of
+    `test_experiment`'s runs and the physics programs of `test_physics` into the persistent
+    caches while the first modules leave a core idle (XLA compiles mostly on one). Killed at the
+    session's end if not done."""
     log = tmp_path_factory.mktemp("warm") / "stderr.txt"
     with open(log, "w") as err:  # a file: a full pipe would stall it
         proc = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__),

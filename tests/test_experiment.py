@@ -20,6 +20,18 @@ from graspjax.config import Config, override
 TINY = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--seed", "3", "--quiet",
         "--batch", "3", "--set", "align.window_px=12"]
 VOLATILE = ["run_id", "chunk"]  # what may differ between two runs of the same worlds
+ROUND_OBJECTS = ["a", "c", "f"]  # a cube, a wedge, a flat block
+_ROUNDS = ["--quiet", "--objects", ",".join(ROUND_OBJECTS), "--batch", "4", "--seed", "5",
+           "--save-views", "failed", "--max-views", "2"]
+ROUNDS_RUNS = {"two": ["run", "--setup", "2", "--trials", "4", *_ROUNDS],
+               "both": ["run", "--setup", "2,3", "--trials", "2", *_ROUNDS]}
+CONTINUED_RUN = ["run", "--setup", "2", "--objects", "a,d", "--trials", "3", "--batch", "3",
+                 "--seed", "2", "--quiet", "--preset", "realistic",
+                 "--set", "procedure.round_attempts=4"]
+METHODS_SWEEP = ["sweep", *TINY, "--paired", "--grid", "method=paper,antipodal"]
+# tests/warm_cache.py runs these commands first, in a second process beside the suite's first
+# modules: their programs then load here from the caches (run in the order this module needs them).
+WARM_RUNS = [METHODS_SWEEP, *ROUNDS_RUNS.values(), CONTINUED_RUN]
 
 
 def _cli(*args, env=None):
@@ -196,7 +208,6 @@ def test_a_paired_sweep_plays_the_same_worlds_at_every_point():
         assert first == [(w.setup, w.trial, w.objects) for w in group.worlds if w.point == 1]
 
 
-ROUND_OBJECTS = ["a", "c", "f"]  # a cube, a wedge, a flat block
 
 
 @pytest.fixture(scope="module")
@@ -204,12 +215,8 @@ def rounds_runs(tmp_path_factory):
     """Setup 2 alone, and Setups 2 and 3 together, in one chunk of 4 worlds each (three of Table
     1's objects: a smaller scene compiles and plays faster)."""
     folder = tmp_path_factory.mktemp("rounds")
-    common = ["--quiet", "--objects", ",".join(ROUND_OBJECTS), "--batch", "4", "--seed", "5",
-              "--save-views", "failed", "--max-views", "2"]
-    assert main(["run", "--setup", "2", "--trials", "4", *common, "--out",
-                 str(folder / "two")]) == 0
-    assert main(["run", "--setup", "2,3", "--trials", "2", *common, "--out",
-                 str(folder / "both")]) == 0
+    for name, args in ROUNDS_RUNS.items():
+        assert main([*args, "--out", str(folder / name)]) == 0
     return folder / "two", folder / "both"
 
 
@@ -279,9 +286,7 @@ def test_rounds_csv_measures_clutter_removal(rounds_runs):
 def continued_rounds(tmp_path_factory):
     """Setup 2 rounds of a and d continued for up to 4 attempts, under the realistic preset."""
     out = tmp_path_factory.mktemp("continued") / "run"
-    assert main(["run", "--setup", "2", "--objects", "a,d", "--trials", "3", "--batch", "3",
-                 "--seed", "2", "--quiet", "--preset", "realistic",
-                 "--set", "procedure.round_attempts=4", "--out", str(out)]) == 0
+    assert main([*CONTINUED_RUN, "--out", str(out)]) == 0
     return out
 
 
@@ -319,8 +324,7 @@ def test_the_realistic_preset_is_recorded_and_runs(continued_rounds):
 def methods_sweep(tiny_run, tmp_path_factory):
     """The paper's method and the antipodal baseline on the tiny run's worlds (paired)."""
     out = tmp_path_factory.mktemp("methods") / "sweep"
-    assert main(["sweep", *TINY, "--paired", "--grid", "method=paper,antipodal",
-                 "--out", str(out)]) == 0
+    assert main([*METHODS_SWEEP, "--out", str(out)]) == 0
     return out
 
 

@@ -1,10 +1,12 @@
 """Compile, beside the suite, the physics programs its late tests would otherwise compile first.
 
-conftest starts this in a second process when the session starts. It builds the a-f and g-l
-scenes' `conftest.Worlds`, whose physics programs compile ahead of time, and leaves them in
-the persistent compilation cache while the suite's first modules leave a core idle;
-`test_physics`, their first user, then loads them (about 45 s of compile each on the 2-core
-machine).
+conftest starts this in a second process when the session starts, while the suite's first
+modules leave a core idle (XLA compiles mostly on one). It runs `test_experiment`'s CLI
+commands (`WARM_RUNS`), whose programs' exported forms and compiled code the module's fixtures
+then load (about 4 minutes of tracing and compiling on the 2-core machine), and builds the a-f
+and g-l scenes' `conftest.Worlds`, whose physics programs compile ahead of time into the
+persistent compilation cache for `test_physics`, their first user (about 45 s each). A test
+module reached before its programs are ready compiles them itself.
 
 A program's cache key hashes its lowered text, and that text depends on what the process
 traced before: JAX lowers each nested jitted function (`jnp.where`, `jnp.remainder`, ...) once
@@ -23,9 +25,17 @@ from conftest import Worlds  # noqa: E402  (also sets the cache and XLA_FLAGS)
 
 
 def main() -> None:
+    import tempfile
+
+    from test_experiment import WARM_RUNS
+
+    from graspjax.cli import main as cli
     from graspjax.config import Config
     from graspjax.sim import scene_for
 
+    with tempfile.TemporaryDirectory() as folder:  # the runs' files are not needed
+        for i, args in enumerate(WARM_RUNS):
+            cli([*args, "--out", os.path.join(folder, str(i))])
     for letters, collide in (("abcdef", True), ("ghijkl", False)):
         Worlds(scene_for(tuple(letters), Config(), collide))
 
