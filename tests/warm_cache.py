@@ -3,7 +3,7 @@
 conftest starts this in a second process when the session starts, while the suite's first
 modules leave a core idle (XLA compiles mostly on one). It runs `test_experiment`'s CLI
 commands (`WARM_RUNS`), whose programs' exported forms and compiled code the module's fixtures
-then load (about 4 minutes of tracing and compiling on the 2-core machine), and builds the a-f
+then load (about 3 minutes of tracing and compiling on the 2-core machine), and builds the a-f
 and g-l scenes' `conftest.Worlds`, whose physics programs compile ahead of time into the
 persistent compilation cache for `test_physics`, their first user (about 45 s each). A test
 module reached before its programs are ready compiles them itself.
