@@ -1,6 +1,7 @@
 """The store of exported programs: traced once, loaded after, the same results either way."""
 
 import dataclasses
+import pathlib
 
 import jax
 import jax.numpy as jnp
@@ -57,6 +58,23 @@ def test_what_shapes_a_program_is_in_its_key(store):
                    jax.ShapeDtypeStruct((4,), jnp.float32)), ARGS[1])
     assert not exported.export(_fn, longer, ("pair", 1)).loaded  # other shapes
     assert len(list(store.glob("*.jaxexport"))) == 3
+
+
+def test_an_edit_anywhere_in_the_package_changes_the_key(tmp_path):
+    """The key's source digest covers all of graspjax (a copy of the package digests as the
+    package does), so an edit to a module outside `batch/` (the procedure) traces afresh."""
+    import shutil
+
+    import graspjax
+
+    same, edited = tmp_path / "same" / "graspjax", tmp_path / "edited" / "graspjax"
+    for copy in (same, edited):
+        shutil.copytree(pathlib.Path(graspjax.__file__).parent, copy,
+                        ignore=shutil.ignore_patterns("__pycache__"))
+    with open(edited / "procedure.py", "a") as source:
+        source.write("# an edit\n")
+    assert exported._source_digest(same) == exported._source_digest()
+    assert exported._source_digest(edited) != exported._source_digest()
 
 
 def test_an_unreadable_file_is_traced_again_and_replaced(store):

@@ -30,6 +30,7 @@ import jax
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
+_SOURCES = pathlib.Path(__file__).resolve().parent.parent  # the graspjax package, all of it
 
 
 @dataclasses.dataclass(frozen=True)
@@ -123,9 +124,8 @@ def _versions() -> tuple[str, ...]:
 
 
 @functools.cache
-def _source_digest() -> str:
-    """A digest of graspjax's Python sources: any edit traces afresh."""
-    root = pathlib.Path(__file__).parent
+def _source_digest(root: pathlib.Path = _SOURCES) -> str:
+    """A digest of the Python sources under `root` (graspjax's): any edit traces afresh."""
     digest = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
         digest.update(str(path.relative_to(root)).encode())
