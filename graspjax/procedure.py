@@ -404,19 +404,19 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     budget = config.procedure.max_reorientations  # traced; at most MAX_REORIENTATIONS + 1 views
     views_at_most = MAX_REORIENTATIONS + 1
 
-    def searching(carry, r):
+    def searching(loop):
         """View r is taken: no grasp yet, the search not blocked, within the budget."""
-        _, _, found, blocked, *_ = carry
+        r, (_, _, found, blocked, *_), _ = loop
         return ~found & ~blocked & (r <= budget) & (r < views_at_most)
 
     def look(loop):
+        """View r of a world that still searches (a world that stopped keeps its carry)."""
         r, carry, kept = loop
-        rot, pos, found, blocked, pose, turns, detect_reason, align_reason = carry
+        rot, pos, _, _, pose, turns, _, align_reason = carry
         v = view(scene, data, rot, pos, target, camera, config, jax.random.fold_in(k_views, r))
-        fresh = v.grasp.found & (target >= 0)
-        pose = where_tree(fresh, v.grasp_pose, pose)
+        found = v.grasp.found & (target >= 0)
+        pose = where_tree(found, v.grasp_pose, pose)
         detect_reason = v.grasp.reason
-        found = found | fresh
         may_turn = ~found & (r < budget)  # the last view never re-aligns
         move = may_turn & v.can_realign
         align_reason = jnp.where(may_turn, v.alignment.reason, align_reason)
@@ -441,8 +441,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
                         ((blank, jax.ShapeDtypeStruct((), bool)) if keep_views else None))
     kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), _NO_PLANE))
     # A masked loop: it ends when no world of a batch still searches (vmap runs it until then).
-    _, carry, (per_view, taken) = jax.lax.while_loop(lambda loop: searching(loop[1], loop[0]),
-                                                     look, (jnp.int32(0), carry, kept))
+    _, carry, (per_view, taken) = jax.lax.while_loop(searching, look, (jnp.int32(0), carry, kept))
     _, _, found, blocked, pose, turns, detect_reason, align_reason = carry
     pose = dataclasses.replace(pose, valid=found & (target >= 0))
     realign = jax.tree.map(lambda x: x[:MAX_REORIENTATIONS], taken)  # the last view never turns

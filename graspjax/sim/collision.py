@@ -88,11 +88,10 @@ def _near(m: mjx.Model, d: mjx.Data, types: tuple[int, int], geom: np.ndarray) -
     return jnp.any(~(gap > NEAR))
 
 
-def _narrow_phase(m, d, key, part: Part, ncon: int):
-    """The contacts (P, ncon) of a part: MJX's collision function where some world needs it,
-    else `FAR` apart."""
-    func = collision_driver._COLLISION_FUNC[key.types]
-    p = len(part.index)
+def _narrow_phase(m, d, key, part: Part, func):
+    """The contacts (P, ncon) of a part: MJX's collision function `func` where some world needs
+    it, else `FAR` apart."""
+    p, ncon = len(part.index), func.ncon
 
     def run():
         dist, pos, frame = func(m, d, key, jnp.asarray(part.geom))
@@ -124,13 +123,13 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
     pairs = collision_driver._geom_groups(m)
     by_condim: dict[int, list] = {}
     for key, contact in collision_driver._contact_groups(m, d).items():
-        ncon = collision_driver._COLLISION_FUNC[key.types].ncon
+        func = collision_driver._COLLISION_FUNC[key.types]
         group = np.array([(g1, g2) for g1, g2, _ in pairs[key]])
         split = parts(group, geom_owner)
-        dist, pos, frame = in_group_order(split, [_narrow_phase(m, d, key, part, ncon)
+        dist, pos, frame = in_group_order(split, [_narrow_phase(m, d, key, part, func)
                                                   for part in split])
-        if ncon > 1:
-            contact = jax.tree.map(lambda x, r=ncon: jnp.repeat(x, r, axis=0), contact)
+        if func.ncon > 1:
+            contact = jax.tree.map(lambda x, r=func.ncon: jnp.repeat(x, r, axis=0), contact)
         by_condim.setdefault(key.condim, []).append(contact.replace(dist=dist, pos=pos, frame=frame))
     most = collision_driver._numeric(m, "max_contact_points")
     kept = []
