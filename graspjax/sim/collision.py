@@ -33,6 +33,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from graspjax.sim import solver
+
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
     from mujoco import mjx
     from mujoco.mjx._src import collision_driver
@@ -143,14 +145,18 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
     return d.tree_replace({"_impl.contact": contact})
 
 
-def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
-    """`mjx.step` with `collision` in place of MJX's (`geom_owner`: as for `collision`)."""
-    return step_with(m, d, lambda m, d: collision(m, d, geom_owner))
+def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True) -> mjx.Data:
+    """The scenes' physics step: MJX's, with `solver.solve` (the elliptic cone's Hessian cone by
+    cone) and, when `skip_far`, `collision` in place of MJX's (`geom_owner`: as for
+    `collision`)."""
+    collide = (lambda m, d: collision(m, d, geom_owner)) if skip_far else mjx.collision
+    return step_with(m, d, collide, solver.solve)
 
 
-def step_with(m: mjx.Model, d: mjx.Data, collide) -> mjx.Data:
-    """`mjx.step` with `collide(m, d)` in place of MJX's collision: MJX's forward dynamics
-    stage by stage, then its Euler integrator (the scenes' integrator)."""
+def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:
+    """`mjx.step` with `collide(m, d)` and `solve(m, d)` in place of MJX's collision and
+    constraint solver: MJX's forward dynamics stage by stage, then its Euler integrator (the
+    scenes' integrator)."""
     if m.opt.integrator != mjx.IntegratorType.EULER:
         raise NotImplementedError(f"graspjax steps with Euler only, not {m.opt.integrator}")
     for stage in (mjx.kinematics, mjx.com_pos, mjx.camlight, mjx.tendon, mjx.crb,
@@ -163,5 +169,5 @@ def step_with(m: mjx.Model, d: mjx.Data, collide) -> mjx.Data:
     if d._impl.efc_J.size == 0:
         d = d.replace(qacc=d.qacc_smooth)
     else:
-        d = mjx.sensor_acc(m, mjx.solve(m, d))
+        d = mjx.sensor_acc(m, solve(m, d))
     return mjx.euler(m, d)

@@ -240,8 +240,7 @@ def segment(scene: Scene, model: mjx.Model, data: mjx.Data, start: jax.Array, en
         m = scene.hand_mocap
         d = d.replace(mocap_pos=d.mocap_pos.at[m].set(target),
                       mocap_quat=d.mocap_quat.at[m].set(quat), ctrl=jnp.full_like(d.ctrl, jaws))
-        d = (collision.step(model, d, scene.geom_owner) if scene.skips_far_pairs
-             else mjx.step(model, d))
+        d = collision.step(model, d, scene.geom_owner, scene.skips_far_pairs)
         trip = watch & ~reflex.tripped & (hand_contact_force(scene, d) > force_limit)
         reflex = Reflex(tripped=reflex.tripped | trip,
                         stop=jnp.where(trip, d.qpos[scene.hand_qpos:scene.hand_qpos + 3],
