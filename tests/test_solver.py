@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from graspjax.config import Config, override
-from graspjax.sim import solver
+from graspjax.sim import collision, solver
 from graspjax.sim.scene import build_scene, mjx
 from graspjax.sim.world import reset
 
@@ -13,7 +13,7 @@ CUBE = 0
 
 
 def _constrained(scene, slide: float):
-    """The scene's data after MJX's stages up to the constraint solver: the cube 0.5 mm into the
+    """The scene's data after MJX's stages up to its constraint solver: the cube 0.5 mm into the
     table, sliding at `slide` m/s along x (its friction in the cone's middle zone), the block
     parked."""
     pos = np.zeros((scene.num_objects, 3))
@@ -24,13 +24,7 @@ def _constrained(scene, slide: float):
     data = reset(scene, mjx.make_data(scene.mj_model), pos, quat, active)
     qvel = data.qvel.at[scene.object_qvel[CUBE]].set(slide)
     data = data.replace(qvel=qvel)
-    m = scene.model
-    for stage in (mjx.kinematics, mjx.com_pos, mjx.camlight, mjx.tendon, mjx.crb,
-                  mjx.tendon_armature, mjx.factor_m, mjx.collision, mjx.make_constraint,
-                  mjx.transmission, mjx.sensor_pos, mjx.fwd_velocity, mjx.sensor_vel,
-                  mjx.fwd_actuation, mjx.fwd_acceleration):
-        data = stage(m, data)
-    return data
+    return collision.constrained(scene.model, data, mjx.collision)
 
 
 @pytest.fixture(scope="module")

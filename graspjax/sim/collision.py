@@ -155,10 +155,21 @@ def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = Tru
 
 def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:
     """`mjx.step` with `collide(m, d)` and `solve(m, d)` in place of MJX's collision and
-    constraint solver: MJX's forward dynamics stage by stage, then its Euler integrator (the
-    scenes' integrator)."""
+    constraint solver: `constrained`, the solver, then MJX's Euler integrator (the scenes'
+    integrator)."""
     if m.opt.integrator != mjx.IntegratorType.EULER:
         raise NotImplementedError(f"graspjax steps with Euler only, not {m.opt.integrator}")
+    d = constrained(m, d, collide)
+    if d._impl.efc_J.size == 0:
+        d = d.replace(qacc=d.qacc_smooth)
+    else:
+        d = mjx.sensor_acc(m, solve(m, d))
+    return mjx.euler(m, d)
+
+
+def constrained(m: mjx.Model, d: mjx.Data, collide) -> mjx.Data:
+    """MJX's forward dynamics stage by stage up to its constraint solver, with `collide(m, d)`
+    in place of its collision: the data the solver starts from."""
     for stage in (mjx.kinematics, mjx.com_pos, mjx.camlight, mjx.tendon, mjx.crb,
                   mjx.tendon_armature, mjx.factor_m):
         d = stage(m, d)
@@ -166,8 +177,4 @@ def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:
     for stage in (mjx.make_constraint, mjx.transmission, mjx.sensor_pos, mjx.fwd_velocity,
                   mjx.sensor_vel, mjx.fwd_actuation, mjx.fwd_acceleration):
         d = stage(m, d)
-    if d._impl.efc_J.size == 0:
-        d = d.replace(qacc=d.qacc_smooth)
-    else:
-        d = mjx.sensor_acc(m, solve(m, d))
-    return mjx.euler(m, d)
+    return d

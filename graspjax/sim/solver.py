@@ -66,9 +66,9 @@ def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
     symmetrized as MJX symmetrizes it."""
     jac = d._impl.efc_J  # (nefc, nv)
     h = (jac.T * (d._impl.efc_D * ctx.active)) @ jac
-    cones = np.asarray(d._impl.contact.dim) > 1
-    dims = np.asarray(d._impl.contact.dim)[cones]
-    rows = np.asarray(d._impl.contact.efc_address)[cones]
+    dim = np.asarray(d._impl.contact.dim)
+    cones = dim > 1
+    dims, rows = dim[cones], np.asarray(d._impl.contact.efc_address)[cones]
     for condim in np.unique(dims):  # the contacts of one cone size together
         which = np.flatnonzero(dims == condim)
         block = jac[rows[which, None] + np.arange(condim)]  # (n, condim, nv)
