@@ -9,7 +9,8 @@
 # graspjax package in DIR is timed instead (an older checkout, for a before/after on one
 # machine). Prints one line per pass: total seconds, the summed trace_s / compile_s / wall_s of
 # timings.csv (an older package has no trace_s: its tracing is inside compile_s), whether the
-# programs were traced or loaded, and whether the rows equal the first pass's.
+# programs were traced or loaded, and whether the rows equal the first pass's. ARGS adds options
+# to every pass's `graspjax run` (for example ARGS="--batch 6000").
 set -euo pipefail
 name=${1:?usage: warm_start.sh NAME TRIALS PASS...}
 trials=${2:?usage: warm_start.sh NAME TRIALS PASS...}
@@ -27,7 +28,7 @@ for pass in "$@"; do
   run=$pass$((n + 1))
   start=$(date +%s.%N)
   (cd "$package" && python3 -m graspjax.cli run --table 1,2 --trials "$trials" --seed 0 \
-    --quiet --out "$out/$run" > "$out/$run.log" 2>&1)
+    --quiet ${ARGS:-} --out "$out/$run" > "$out/$run.log" 2>&1)
   echo "$run $start $(date +%s.%N)" >> "$out/total_s.txt"
   rm -f "$out/$run/attempts.parquet" "$out/$run"/*.png
 done

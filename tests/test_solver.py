@@ -80,3 +80,49 @@ def test_other_cones_solve_with_mjx():
     ours = jax.make_jaxpr(lambda d: solver.solve(scene.model, d))(data)
     theirs = jax.make_jaxpr(lambda d: mjx.solve(scene.model, d))(data)
     assert str(ours) == str(theirs)
+
+
+def _primitives(jaxpr) -> set[str]:
+    """Every primitive's name in a jaxpr, sub-jaxprs (loops, conditionals) included."""
+    from jax.extend.core import jaxprs_in_params
+
+    names = set()
+    for eqn in jaxpr.eqns:
+        names.add(eqn.primitive.name)
+        for sub in jaxprs_in_params(eqn.params):
+            names |= _primitives(sub)
+    return names
+
+
+def test_constraint_update_is_mjx_s_with_gathers(sliding):
+    """`context` (and so `update_constraint`) gives MJX's context field for field: the cone's
+    zones, forces, costs and Hessians, with the sliding cube's cones in the middle zone."""
+    from mujoco.mjx._src import solver as mjx_solver
+
+    scene, data = sliding
+    m = scene.model
+    ours = jax.jit(lambda d: solver.context(m, d))(data)
+    theirs = jax.jit(lambda d: mjx_solver.Context.create(m, d, grad=False))(data)
+    assert np.abs(np.asarray(theirs.h)).max() > 0, "no cone in the middle zone: vacuous"
+    assert np.asarray(theirs.active).any() and not np.asarray(theirs.active).all()
+    for field in ("Jaref", "fri", "u", "dm", "h", "efc_force", "qfrc_constraint", "cost",
+                  "gauss"):
+        want = np.asarray(getattr(theirs, field))
+        np.testing.assert_allclose(np.asarray(getattr(ours, field)), want, rtol=1e-6,
+                                   atol=1e-6 * max(np.abs(want).max(), 1e-30), err_msg=field)
+    np.testing.assert_array_equal(np.asarray(ours.active), np.asarray(theirs.active))
+
+
+def test_constraint_update_has_no_scatters(sliding):
+    """Under XLA's deterministic GPU ops a scatter with indices not declared unique becomes a
+    sort: the context and the constraint update gather instead (MJX's scatter)."""
+    from mujoco.mjx._src import solver as mjx_solver
+
+    scene, data = sliding
+    m = scene.model
+    scatters = {"scatter", "scatter-add", "scatter_add"}
+    theirs = _primitives(jax.make_jaxpr(lambda d: mjx_solver.Context.create(m, d, grad=False))(
+        data).jaxpr)
+    ours = _primitives(jax.make_jaxpr(lambda d: solver.context(m, d))(data).jaxpr)
+    assert theirs & scatters, "MJX's context has no scatter to avoid: the test is vacuous"
+    assert not ours & scatters

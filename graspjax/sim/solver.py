@@ -9,10 +9,19 @@ diagonal. Here the same Hessian is the sum of its parts:
 
     H = M + J.T diag(efc_D * active) J + sum over cones c of J_c.T H_c J_c
 
-with J_c the contact's rows of J, gathered by their static addresses. The solver's loop, line
-search and stopping rule are MJX's own (`solver.Context`, `_linesearch`, `_update_constraint`,
-private: mujoco-mjx is pinned to the minor version this was written against); only the order
-of the Hessian's float32 sums differs (tests/test_solver.py compares both).
+with J_c the contact's rows of J, gathered by their static addresses.
+
+MJX's constraint update (`_update_constraint`, run when the context is made and in every
+iteration) writes each cone's zone, forces and friction forces into their efc rows with
+scatters. Under XLA's deterministic GPU ops every scatter whose indices are not declared unique
+becomes a sort of its (index, value) pairs, dozens of kernels at the batch of the tables: the
+bin scene stepped at half the speed of the non-deterministic build. The addresses are static,
+so `update_constraint` reads the same values per row with gathers instead; it computes what
+MJX's computes, operation for operation.
+
+The solver's loop, line search and stopping rule are MJX's own (`solver.Context`,
+`_linesearch`, private: mujoco-mjx is pinned to the minor version this was written against);
+only the order of the Hessian's float32 sums differs (tests/test_solver.py compares both).
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ import io
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
@@ -30,11 +40,14 @@ with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend w
     from mujoco.mjx._src import solver as mjx_solver
     from mujoco.mjx._src import support
 
+MIN_VALUE = mujoco.mjMINVAL  # the floor of divisors in the cone's terms, as MuJoCo's
+
 
 def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
-    """`mjx.solve`, with `newton_step` for the Newton solver with elliptic cones (other
-    solvers and cones: MJX's own)."""
-    if m.opt.solver != mjx.SolverType.NEWTON or m.opt.cone != mjx.ConeType.ELLIPTIC:
+    """`mjx.solve`, with `context`, `update_constraint` and `newton_step` for the Newton solver
+    with elliptic cones (other solvers and cones, or no cone contact: MJX's own)."""
+    if (m.opt.solver != mjx.SolverType.NEWTON or m.opt.cone != mjx.ConeType.ELLIPTIC
+            or not (np.asarray(d._impl.contact.dim) > 1).any()):
         return mjx.solve(m, d)
 
     def unfinished(ctx):  # MJX's stopping rule: iterations, improvement, gradient
@@ -46,19 +59,111 @@ def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
 
     def iteration(ctx):
         ctx = mjx_solver._linesearch(m, d, ctx)
-        ctx = newton_step(m, d, mjx_solver._update_constraint(m, d, ctx))
+        ctx = newton_step(m, d, update_constraint(m, d, ctx))
         return ctx.replace(solver_niter=ctx.solver_niter + 1)
 
     if not m.opt.disableflags & mjx.DisableBit.WARMSTART:  # start from the better of the two
-        warm = mjx_solver.Context.create(m, d.replace(qacc=d.qacc_warmstart), grad=False)
-        smooth = mjx_solver.Context.create(m, d.replace(qacc=d.qacc_smooth), grad=False)
+        warm = context(m, d.replace(qacc=d.qacc_warmstart))
+        smooth = context(m, d.replace(qacc=d.qacc_smooth))
         d = d.replace(qacc=jnp.where(warm.cost < smooth.cost, d.qacc_warmstart, d.qacc_smooth))
     else:
         d = d.replace(qacc=d.qacc_smooth)
-    ctx = newton_step(m, d, mjx_solver.Context.create(m, d, grad=False))
+    ctx = newton_step(m, d, context(m, d))
     ctx = iteration(ctx) if m.opt.iterations == 1 else jax.lax.while_loop(unfinished, iteration, ctx)
     return d.tree_replace({"qfrc_constraint": ctx.qfrc_constraint, "qacc": ctx.qacc,
                            "_impl.efc_force": ctx.efc_force})
+
+
+def context(m: mjx.Model, d: mjx.Data):
+    """MJX's solver context at `d.qacc` (`solver.Context.create` without the gradient): the
+    regularized cone's friction `fri` (ncone, 6), its columns past each contact's condim zero,
+    then the constraint update."""
+    zero = jnp.zeros(m.nv, d.qacc.dtype)
+    dims, _, _, _ = _cone_rows(d)
+    friction = d._impl.contact.friction[np.asarray(d._impl.contact.dim) > 1]  # (ncone, 5)
+    mu = friction[:, 0] / jnp.sqrt(m.opt.impratio)
+    fri = jnp.concatenate((mu[:, None], friction), axis=1)
+    fri = jnp.where(np.arange(6) < dims[:, None], fri, 0.0)
+    ctx = mjx_solver.Context(
+        qacc=d.qacc, qfrc_constraint=d.qfrc_constraint,
+        Jaref=d._impl.efc_J @ d.qacc - d._impl.efc_aref, efc_force=d._impl.efc_force,
+        Ma=support.mul_m(m, d, d.qacc), grad=zero, Mgrad=zero, search=zero, gauss=0.0,
+        cost=jnp.inf, prev_cost=0.0, solver_niter=0, active=0.0, fri=fri, dm=0.0, u=0.0, h=0.0)
+    return update_constraint(m, d, ctx)
+
+
+def _cone_rows(d: mjx.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The elliptic cones' static layout: each cone contact's condim (ncone,) and first efc row
+    (ncone,); for every efc row (nefc,) the cone it belongs to (-1: none) and its place in that
+    cone (0: the normal, 1...: the frictions; -1: none)."""
+    dim, address = np.asarray(d._impl.contact.dim), np.asarray(d._impl.contact.efc_address)
+    dims, rows = dim[dim > 1], address[dim > 1]
+    owner, offset = np.full((2, d._impl.efc_J.shape[0]), -1)
+    for i, (condim, row) in enumerate(zip(dims, rows, strict=True)):
+        owner[row:row + condim], offset[row:row + condim] = i, np.arange(condim)
+    return dims, rows, owner, offset
+
+
+def update_constraint(m: mjx.Model, d: mjx.Data, ctx):
+    """MJX's `_update_constraint` for the elliptic cone, each efc row's cone values gathered by
+    its static cone index where MJX scatters them: the active set (bottom zone), the forces
+    (quadratic rows, plus each cone's middle-zone normal and friction forces), the cost, the
+    cone Hessians `h` (ncone, 6, 6) and the joint-space constraint force."""
+    nefc = d._impl.efc_J.shape[0]
+    _, rows, owner, offset = _cone_rows(d)
+    cone = np.maximum(owner, 0)  # gather indices (rows of no cone are masked)
+    normal_row, friction_row = offset == 0, offset > 0
+    always = np.arange(nefc) < d._impl.ne + d._impl.nf  # equality and friction rows
+    active = jnp.where(always, True, ctx.Jaref < 0)
+
+    floss_force, floss_cost = jnp.zeros(nefc), 0.0
+    if ((m._impl.dof_hasfrictionloss.any() or m._impl.tendon_hasfrictionloss.any())
+            and not m.opt.disableflags & mjx.DisableBit.FRICTIONLOSS):
+        f, efc_d = d._impl.efc_frictionloss, d._impl.efc_D
+        r = 1.0 / (efc_d + (efc_d == 0.0) * MIN_VALUE)
+        below, above = (ctx.Jaref <= -r * f) * (f > 0), (ctx.Jaref >= r * f) * (f > 0)
+        active = active & ~below & ~above
+        floss_force = below * f + above * -f
+        floss_cost = jnp.sum(below * (-0.5 * r * f * f - f * ctx.Jaref)
+                             + above * (-0.5 * r * f * f + f * ctx.Jaref))
+
+    friction = d._impl.contact.friction[np.asarray(d._impl.contact.dim) > 1]  # (ncone, 5)
+    padded = jnp.concatenate((ctx.Jaref, jnp.zeros(3, ctx.Jaref.dtype)))
+    start = np.minimum(rows, nefc + 3 - 6)  # MJX's 6-row window per cone, clamped as it is
+    u = padded[start[:, None] + np.arange(6)] * ctx.fri  # (ncone, 6)
+    mu, n, t = ctx.fri[:, 0], u[:, 0], jax.vmap(mjx_math.norm)(u[:, 1:])
+
+    bottom = ((t <= 0) & (n < 0)) | ((t > 0) & ((mu * n + t) <= 0))  # quadratic zone
+    active = jnp.where(owner >= 0, bottom[cone], active)
+    efc_force = d._impl.efc_D * -ctx.Jaref * active + floss_force
+    cost = 0.5 * jnp.sum(d._impl.efc_D * ctx.Jaref * ctx.Jaref * active)
+
+    middle = (t > 0) & (n < (mu * t)) & ((mu * n + t) > 0)  # the cone's surface
+    dm = d._impl.efc_D[rows] / jnp.maximum(mu * mu * (1 + mu * mu), MIN_VALUE)
+    nmt = n - mu * t
+    cost = cost + 0.5 * jnp.sum(dm * nmt * nmt * middle)
+    force = -dm * nmt * mu * middle
+    force_fri = (-force / (t + ~middle * MIN_VALUE))[:, None] * u[:, 1:] * friction  # (ncone, 5)
+    efc_force = jnp.where(normal_row, efc_force + force[cone], efc_force)
+    efc_force = jnp.where(friction_row,
+                          efc_force + force_fri[cone, np.clip(offset - 1, 0, 4)], efc_force)
+
+    h = 0.0
+    if m.opt.solver == mjx.SolverType.NEWTON:
+        t = jnp.maximum(t, MIN_VALUE)
+        ttt = jnp.maximum(t * t * t, MIN_VALUE)
+        h = (mu * n / ttt)[:, None, None] * (u[:, :, None] * u[:, None, :])  # mu N / T^3 U U'
+        h = h + (mu * mu - mu * n / t)[:, None, None] * jnp.eye(6)
+        first = jnp.concatenate((jnp.ones_like(mu)[:, None], (-mu / t)[:, None] * u[:, 1:]), 1)
+        h = jnp.where((np.arange(6) == 0)[:, None], first[:, None, :], h)  # first row
+        h = jnp.where(np.arange(6) == 0, first[:, :, None], h)  # first column
+        h = h * (dm[:, None, None] * (ctx.fri[:, :, None] * ctx.fri[:, None, :]))
+        h = h * middle[:, None, None]
+
+    gauss = 0.5 * jnp.dot(ctx.Ma - d.qfrc_smooth, ctx.qacc - d.qacc_smooth)
+    return ctx.replace(qfrc_constraint=d._impl.efc_J.T @ efc_force, gauss=gauss,
+                       cost=cost + gauss + floss_cost, prev_cost=ctx.cost, efc_force=efc_force,
+                       active=active, dm=dm, u=u, h=h)
 
 
 def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
