@@ -17,7 +17,9 @@ scatters. Under XLA's deterministic GPU ops every scatter whose indices are not 
 becomes a sort of its (index, value) pairs, dozens of kernels at the batch of the tables: the
 bin scene stepped at half the speed of the non-deterministic build. The addresses are static,
 so `update_constraint` reads the same values per row with gathers instead; it computes what
-MJX's computes, operation for operation.
+MJX's computes, operation for operation (equal to float32 rounding: XLA may fuse it otherwise).
+MJX's line search still scatter-adds the friction rows' quadratics onto the normal rows once per
+iteration, and its kinematic-tree sums scatter too.
 
 The solver's loop, line search and stopping rule are MJX's own (`solver.Context`,
 `_linesearch`, private: mujoco-mjx is pinned to the minor version this was written against);
@@ -40,7 +42,7 @@ with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend w
     from mujoco.mjx._src import solver as mjx_solver
     from mujoco.mjx._src import support
 
-MIN_VALUE = mujoco.mjMINVAL  # the floor of divisors in the cone's terms, as MuJoCo's
+MIN_VALUE = mujoco.mjMINVAL  # MuJoCo's floor of divisors (cone and frictionloss terms)
 
 
 def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
@@ -74,10 +76,10 @@ def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
                            "_impl.efc_force": ctx.efc_force})
 
 
-def context(m: mjx.Model, d: mjx.Data):
-    """MJX's solver context at `d.qacc` (`solver.Context.create` without the gradient): the
-    regularized cone's friction `fri` (ncone, 6), its columns past each contact's condim zero,
-    then the constraint update."""
+def context(m: mjx.Model, d: mjx.Data) -> mjx_solver.Context:
+    """MJX's solver context at `d.qacc` (`solver.Context.create` without the gradient), for
+    data with at least one cone contact: the regularized cone's friction `fri` (ncone, 6), its
+    columns past each contact's condim zero, then the constraint update."""
     zero = jnp.zeros(m.nv, d.qacc.dtype)
     dims, _, _, _ = _cone_rows(d)
     friction = d._impl.contact.friction[np.asarray(d._impl.contact.dim) > 1]  # (ncone, 5)
@@ -104,11 +106,12 @@ def _cone_rows(d: mjx.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     return dims, rows, owner, offset
 
 
-def update_constraint(m: mjx.Model, d: mjx.Data, ctx):
-    """MJX's `_update_constraint` for the elliptic cone, each efc row's cone values gathered by
-    its static cone index where MJX scatters them: the active set (bottom zone), the forces
-    (quadratic rows, plus each cone's middle-zone normal and friction forces), the cost, the
-    cone Hessians `h` (ncone, 6, 6) and the joint-space constraint force."""
+def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx_solver.Context:
+    """MJX's `_update_constraint` for the Newton solver and the elliptic cone (at least one cone
+    contact), each efc row's cone values gathered by its static cone index where MJX scatters
+    them: the active set (bottom zone), the forces (quadratic rows, plus each cone's middle-zone
+    normal and friction forces), the cost, the cones' `u` (ncone, 6), `dm` (ncone,) and
+    Hessians `h` (ncone, 6, 6), and the joint-space constraint force."""
     nefc = d._impl.efc_J.shape[0]
     _, rows, owner, offset = _cone_rows(d)
     cone = np.maximum(owner, 0)  # gather indices (rows of no cone are masked)
@@ -129,8 +132,7 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx):
 
     friction = d._impl.contact.friction[np.asarray(d._impl.contact.dim) > 1]  # (ncone, 5)
     padded = jnp.concatenate((ctx.Jaref, jnp.zeros(3, ctx.Jaref.dtype)))
-    start = np.minimum(rows, nefc + 3 - 6)  # MJX's 6-row window per cone, clamped as it is
-    u = padded[start[:, None] + np.arange(6)] * ctx.fri  # (ncone, 6)
+    u = padded[rows[:, None] + np.arange(6)] * ctx.fri  # MJX's 6-row window per cone (ncone, 6)
     mu, n, t = ctx.fri[:, 0], u[:, 0], jax.vmap(mjx_math.norm)(u[:, 1:])
 
     bottom = ((t <= 0) & (n < 0)) | ((t > 0) & ((mu * n + t) <= 0))  # quadratic zone
@@ -148,17 +150,15 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx):
     efc_force = jnp.where(friction_row,
                           efc_force + force_fri[cone, np.clip(offset - 1, 0, 4)], efc_force)
 
-    h = 0.0
-    if m.opt.solver == mjx.SolverType.NEWTON:
-        t = jnp.maximum(t, MIN_VALUE)
-        ttt = jnp.maximum(t * t * t, MIN_VALUE)
-        h = (mu * n / ttt)[:, None, None] * (u[:, :, None] * u[:, None, :])  # mu N / T^3 U U'
-        h = h + (mu * mu - mu * n / t)[:, None, None] * jnp.eye(6)
-        first = jnp.concatenate((jnp.ones_like(mu)[:, None], (-mu / t)[:, None] * u[:, 1:]), 1)
-        h = jnp.where((np.arange(6) == 0)[:, None], first[:, None, :], h)  # first row
-        h = jnp.where(np.arange(6) == 0, first[:, :, None], h)  # first column
-        h = h * (dm[:, None, None] * (ctx.fri[:, :, None] * ctx.fri[:, None, :]))
-        h = h * middle[:, None, None]
+    t = jnp.maximum(t, MIN_VALUE)  # the cone's Newton Hessian
+    ttt = jnp.maximum(t * t * t, MIN_VALUE)
+    h = (mu * n / ttt)[:, None, None] * (u[:, :, None] * u[:, None, :])  # mu N / T^3 U U'
+    h = h + (mu * mu - mu * n / t)[:, None, None] * jnp.eye(6)
+    first = jnp.concatenate((jnp.ones_like(mu)[:, None], (-mu / t)[:, None] * u[:, 1:]), 1)
+    h = jnp.where((np.arange(6) == 0)[:, None], first[:, None, :], h)  # first row
+    h = jnp.where(np.arange(6) == 0, first[:, :, None], h)  # first column
+    h = h * (dm[:, None, None] * (ctx.fri[:, :, None] * ctx.fri[:, None, :]))
+    h = h * middle[:, None, None]
 
     gauss = 0.5 * jnp.dot(ctx.Ma - d.qfrc_smooth, ctx.qacc - d.qacc_smooth)
     return ctx.replace(qfrc_constraint=d._impl.efc_J.T @ efc_force, gauss=gauss,
