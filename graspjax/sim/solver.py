@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -49,7 +50,7 @@ def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
     """`mjx.solve`, with `context`, `update_constraint` and `newton_step` for the Newton solver
     with elliptic cones (other solvers and cones, or no cone contact: MJX's own)."""
     if (m.opt.solver != mjx.SolverType.NEWTON or m.opt.cone != mjx.ConeType.ELLIPTIC
-            or not (np.asarray(d._impl.contact.dim) > 1).any()):
+            or not cones(d).dims.size):
         return mjx.solve(m, d)
 
     def unfinished(ctx):  # MJX's stopping rule: iterations, improvement, gradient
@@ -81,11 +82,11 @@ def context(m: mjx.Model, d: mjx.Data) -> mjx_solver.Context:
     data with at least one cone contact: the regularized cone's friction `fri` (ncone, 6), its
     columns past each contact's condim zero, then the constraint update."""
     zero = jnp.zeros(m.nv, d.qacc.dtype)
-    dims, _, _, _ = _cone_rows(d)
-    friction = d._impl.contact.friction[np.asarray(d._impl.contact.dim) > 1]  # (ncone, 5)
+    layout = cones(d)
+    friction = d._impl.contact.friction[layout.mask]  # (ncone, 5)
     mu = friction[:, 0] / jnp.sqrt(m.opt.impratio)
     fri = jnp.concatenate((mu[:, None], friction), axis=1)
-    fri = jnp.where(np.arange(6) < dims[:, None], fri, 0.0)
+    fri = jnp.where(np.arange(6) < layout.dims[:, None], fri, 0.0)
     ctx = mjx_solver.Context(
         qacc=d.qacc, qfrc_constraint=d.qfrc_constraint,
         Jaref=d._impl.efc_J @ d.qacc - d._impl.efc_aref, efc_force=d._impl.efc_force,
@@ -94,16 +95,25 @@ def context(m: mjx.Model, d: mjx.Data) -> mjx_solver.Context:
     return update_constraint(m, d, ctx)
 
 
-def _cone_rows(d: mjx.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The elliptic cones' static layout: each cone contact's condim (ncone,) and first efc row
-    (ncone,); for every efc row (nefc,) the cone it belongs to (-1: none) and its place in that
-    cone (0: the normal, 1...: the frictions; -1: none)."""
+class Cones(NamedTuple):
+    """The elliptic cones' static layout in the efc rows (fixed when the model is built)."""
+
+    mask: np.ndarray  # (ncon,) bool: the contact is a cone (condim > 1)
+    dims: np.ndarray  # (ncone,) each cone's condim
+    rows: np.ndarray  # (ncone,) each cone's first efc row (its normal)
+    owner: np.ndarray  # (nefc,) the cone an efc row belongs to, -1: none
+    offset: np.ndarray  # (nefc,) a row's place in its cone (0: the normal, 1...: frictions), -1
+
+
+def cones(d: mjx.Data) -> Cones:
+    """The cones' layout of `d`'s contacts (static: from their condims and efc addresses)."""
     dim, address = np.asarray(d._impl.contact.dim), np.asarray(d._impl.contact.efc_address)
-    dims, rows = dim[dim > 1], address[dim > 1]
+    mask = dim > 1
+    dims, rows = dim[mask], address[mask]
     owner, offset = np.full((2, d._impl.efc_J.shape[0]), -1)
     for i, (condim, row) in enumerate(zip(dims, rows, strict=True)):
         owner[row:row + condim], offset[row:row + condim] = i, np.arange(condim)
-    return dims, rows, owner, offset
+    return Cones(mask, dims, rows, owner, offset)
 
 
 def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx_solver.Context:
@@ -113,7 +123,8 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
     normal and friction forces), the cost, the cones' `u` (ncone, 6), `dm` (ncone,) and
     Hessians `h` (ncone, 6, 6), and the joint-space constraint force."""
     nefc = d._impl.efc_J.shape[0]
-    _, rows, owner, offset = _cone_rows(d)
+    layout = cones(d)
+    rows, owner, offset = layout.rows, layout.owner, layout.offset
     cone = np.maximum(owner, 0)  # gather indices (rows of no cone are masked)
     normal_row, friction_row = offset == 0, offset > 0
     always = np.arange(nefc) < d._impl.ne + d._impl.nf  # equality and friction rows
@@ -130,7 +141,7 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
         floss_cost = jnp.sum(below * (-0.5 * r * f * f - f * ctx.Jaref)
                              + above * (-0.5 * r * f * f + f * ctx.Jaref))
 
-    friction = d._impl.contact.friction[np.asarray(d._impl.contact.dim) > 1]  # (ncone, 5)
+    friction = d._impl.contact.friction[layout.mask]  # (ncone, 5)
     padded = jnp.concatenate((ctx.Jaref, jnp.zeros(3, ctx.Jaref.dtype)))
     u = padded[rows[:, None] + np.arange(6)] * ctx.fri  # MJX's 6-row window per cone (ncone, 6)
     mu, n, t = ctx.fri[:, 0], u[:, 0], jax.vmap(mjx_math.norm)(u[:, 1:])
@@ -171,9 +182,8 @@ def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
     symmetrized as MJX symmetrizes it."""
     jac = d._impl.efc_J  # (nefc, nv)
     h = (jac.T * (d._impl.efc_D * ctx.active)) @ jac
-    dim = np.asarray(d._impl.contact.dim)
-    cones = dim > 1
-    dims, rows = dim[cones], np.asarray(d._impl.contact.efc_address)[cones]
+    layout = cones(d)
+    dims, rows = layout.dims, layout.rows
     for condim in np.unique(dims):  # the contacts of one cone size together
         which = np.flatnonzero(dims == condim)
         block = jac[rows[which, None] + np.arange(condim)]  # (n, condim, nv)
