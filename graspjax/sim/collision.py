@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import io
 
 import jax
@@ -34,6 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.sim import solver
+from graspjax.sim.scatters import without_sorted_scatters
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
     from mujoco import mjx
@@ -149,8 +151,17 @@ def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = Tru
     """The scenes' physics step: MJX's, with `solver.solve` (the elliptic cone's Hessian cone by
     cone) and, when `skip_far`, `collision` in place of MJX's (`geom_owner`: as for
     `collision`)."""
-    collide = (lambda m, d: collision(m, d, geom_owner)) if skip_far else mjx.collision
-    return step_with(m, d, collide, solver.solve)
+    return _step_function(tuple(np.asarray(geom_owner).tolist()), skip_far)(m, d)
+
+
+@functools.cache
+def _step_function(geom_owner: tuple[int, ...], skip_far: bool):
+    """`step`'s function of (m, d) for a scene, its scatters of model indices gathered
+    (`scatters.without_sorted_scatters`): jitted, so each scene's step is traced and rewritten
+    once per process and input shapes, however many loops of a program call it."""
+    owner = np.asarray(geom_owner)
+    collide = (lambda m, d: collision(m, d, owner)) if skip_far else mjx.collision
+    return without_sorted_scatters(lambda m, d: step_with(m, d, collide, solver.solve))
 
 
 def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:

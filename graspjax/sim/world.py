@@ -120,7 +120,7 @@ def parked(scene: Scene, data: mjx.Data) -> jax.Array:
 def with_parking(scene: Scene, model: mjx.Model, data: mjx.Data) -> mjx.Model:
     """`model` with gravity compensated for the parked objects of `data`: they float at rest."""
     gravcomp = jnp.asarray(model.body_gravcomp).at[scene.object_body].set(
-        parked(scene, data).astype(jnp.float32))
+        parked(scene, data).astype(jnp.float32), unique_indices=True)
     return model.replace(body_gravcomp=gravcomp)
 
 
@@ -149,8 +149,8 @@ def move_hand(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
     qpos = data.qpos.at[h:h + 3].set(pos).at[h + 3:h + 7].set(quat)
     qvel = data.qvel.at[hv:hv + 6].set(0.0)
     half = scene.gripper.opening / 2
-    qpos = jnp.where(opened, qpos.at[scene.finger_qpos].set(half), qpos)
-    qvel = jnp.where(opened, qvel.at[scene.finger_qvel].set(0.0), qvel)
+    qpos = jnp.where(opened, qpos.at[scene.finger_qpos].set(half, unique_indices=True), qpos)
+    qvel = jnp.where(opened, qvel.at[scene.finger_qvel].set(0.0, unique_indices=True), qvel)
     ctrl = jnp.where(opened, jnp.full_like(data.ctrl, half), data.ctrl)
     m = scene.hand_mocap
     return data.replace(qpos=qpos, qvel=qvel, ctrl=ctrl, mocap_pos=data.mocap_pos.at[m].set(pos),
@@ -201,10 +201,10 @@ def contact_forces(data: mjx.Data, elliptic: bool) -> jax.Array:
                                     (edges[:, 0::2] - edges[:, 1::2]) * mu], -1)
         rows = jnp.pad(rows, ((0, 0), (0, 6 - dim)))
         columns.append((slots, jnp.where((address[slots] >= 0)[:, None], rows, 0.0)))
-    force = jnp.zeros((dims.size, 6), efc_force.dtype)
-    for slots, rows in columns:
-        force = force.at[slots].set(rows)
-    return force
+    if not columns:
+        return jnp.zeros((0, 6), efc_force.dtype)
+    slots = np.concatenate([slots for slots, _ in columns])  # every slot once: a permutation
+    return jnp.concatenate([rows for _, rows in columns])[np.argsort(slots)]
 
 
 def hand_contact_force(scene: Scene, data: mjx.Data) -> jax.Array:

@@ -1,0 +1,89 @@
+"""Scatters of trace-time indices recomputed by gathers (graspjax.sim.scatters), against JAX's
+own scatters: the same values, bit for bit, and no scatter left that XLA would sort."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from graspjax.sim.scatters import without_sorted_scatters
+
+REPEATS = np.array([0, 2, 2, 1, 0, 4, 2])  # indices with repeats (a scatter-add sums them)
+DISTINCT = np.array([3, 0, 4])
+
+
+def scatters(fun, *args) -> int:
+    """How many scatter equations `fun`'s jaxpr holds, those of loops and calls included."""
+    def count(jaxpr):
+        n = 0
+        for eqn in jaxpr.eqns:
+            n += eqn.primitive.name.startswith("scatter")
+            for param in eqn.params.values():
+                for sub in param if isinstance(param, tuple) else (param,):
+                    inner = getattr(sub, "jaxpr", sub)
+                    if hasattr(inner, "eqns"):
+                        n += count(inner)
+        return n
+
+    return count(jax.make_jaxpr(fun)(*args).jaxpr)
+
+
+def _values(shape, seed):
+    return jnp.asarray(np.random.default_rng(seed).normal(size=shape), jnp.float32)
+
+
+CASES = {  # name: (function of (x (5, 3), u (7, 3)), whether every scatter is rewritten)
+    "add, repeated rows": lambda x, u: x.at[REPEATS].add(u),
+    "add, repeated elements of a column": lambda x, u: x.at[REPEATS, 1].add(u[:, 0]),
+    "add, columns": lambda x, u: x.T.at[:, REPEATS].add(u.T),
+    "add, out of bounds dropped": lambda x, u: x.at[np.array([0, 9, 2, 7, 1, 1, 4])].add(
+        u, mode="drop"),
+    "add, clipped": lambda x, u: x.at[np.array([0, 9, 2, 7, 1, 1, 4])].add(u, mode="clip"),
+    "add, negative indices": lambda x, u: x.at[-REPEATS - 1].add(u),
+    "write, distinct rows": lambda x, u: x.at[DISTINCT].set(u[:3]),
+    "write, distinct elements": lambda x, u: x.at[DISTINCT, np.array([2, 0, 1])].set(u[:3, 0]),
+    "write, a block": lambda x, u: x.at[1:3, 1:].set(u[:2, :2]),
+    "add, in a loop": lambda x, u: jax.lax.fori_loop(
+        0, 3, lambda i, c: c.at[REPEATS].add(u * i), x),
+    "add, in a branch": lambda x, u: jax.lax.cond(
+        u[0, 0] > 0, lambda: x.at[REPEATS].add(u), lambda: x.at[REPEATS].add(-u)),
+    "add, in a vmap over rows": lambda x, u: jax.vmap(
+        lambda r, v: r.at[np.array([0, 2, 0])].add(v))(x, u[:5]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_same_values_as_jax_scatters(name):
+    """Each pattern gives JAX's values bit for bit, in one world and vmapped over worlds,
+    and its jaxpr keeps no scatter."""
+    fun = CASES[name]
+    x, u = _values((5, 3), 0), _values((7, 3), 1)
+    ours = without_sorted_scatters(fun)
+    np.testing.assert_array_equal(ours(x, u), jax.jit(fun)(x, u))
+    xs, us = jnp.stack([x, 2 * x]), jnp.stack([u, u - 1])
+    np.testing.assert_array_equal(jax.vmap(ours)(xs, us), jax.jit(jax.vmap(fun))(xs, us))
+    assert scatters(fun, x, u), "the case has no scatter to rewrite"
+    assert scatters(ours, x, u) == 0
+
+
+def test_repeated_writes_and_traced_indices_are_kept():
+    """A write to one place twice (which one wins is XLA's) and indices known only when the
+    program runs stay scatters, with JAX's values."""
+    x, u = _values((5, 3), 0), _values((7, 3), 1)
+
+    def fun(x, u):
+        return x.at[REPEATS].set(u), x.at[jnp.argsort(u[:, 0])[:5]].add(u[:5])
+
+    ours = without_sorted_scatters(fun)
+    for a, b in zip(ours(x, u), jax.jit(fun)(x, u), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert scatters(ours, x, u) == scatters(fun, x, u) == 2
+
+
+def test_sums_in_update_order():
+    """A repeated index's updates are added one after another in their order (as XLA's CPU
+    scatter adds them), so rounding is the same: 1 + 1e8 - 1e8 differs from 1 + (1e8 - 1e8)."""
+    u = jnp.array([1.0, 1e8, -1e8], jnp.float32)
+    ours = without_sorted_scatters(lambda x, u: x.at[np.array([0, 0, 0])].add(u))
+    assert float(ours(jnp.zeros(1), u)[0]) == float((np.float32(1) + np.float32(1e8))
+                                                    - np.float32(1e8))
