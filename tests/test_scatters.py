@@ -12,12 +12,15 @@ REPEATS = np.array([0, 2, 2, 1, 0, 4, 2])  # indices with repeats (a scatter-add
 DISTINCT = np.array([3, 0, 4])
 
 
-def scatters(fun, *args) -> int:
-    """How many scatter equations `fun`'s jaxpr holds, those of loops and calls included."""
+def scatters(fun, *args, sorted_only=False) -> int:
+    """How many scatter equations `fun`'s jaxpr holds, those of loops and calls included
+    (`sorted_only`: those XLA sorts under deterministic ops, whose indices are not declared
+    unique)."""
     def count(jaxpr):
         n = 0
         for eqn in jaxpr.eqns:
-            n += eqn.primitive.name.startswith("scatter")
+            n += (eqn.primitive.name.startswith("scatter")
+                  and not (sorted_only and eqn.params["unique_indices"]))
             for param in eqn.params.values():
                 for sub in param if isinstance(param, tuple) else (param,):
                     inner = getattr(sub, "jaxpr", sub)
@@ -87,3 +90,24 @@ def test_sums_in_update_order():
     ours = without_sorted_scatters(lambda x, u: x.at[np.array([0, 0, 0])].add(u))
     assert float(ours(jnp.zeros(1), u)[0]) == float((np.float32(1) + np.float32(1e8))
                                                     - np.float32(1e8))
+
+
+def test_the_physics_step_leaves_xla_nothing_to_sort():
+    """The bin scene's physics step (MJX's, with graspjax's collision and solver) holds no
+    scatter whose indices XLA would sort under deterministic ops; without the rewrite it holds
+    dozens (MJX's tree sums, line search, kinematics, integrator)."""
+    from graspjax.config import Config
+    from graspjax.sim import collision, scene_for, solver
+    from graspjax.sim.scene import mjx
+    from graspjax.sim.world import physics_model
+
+    scene = scene_for(tuple("abcdef"), Config(), True)
+    model, data = physics_model(scene, Config()), mjx.make_data(scene.mj_model)
+
+    def unrewritten(d):
+        return collision.step_with(
+            model, d, lambda m, d: collision.collision(m, d, scene.geom_owner), solver.solve)
+
+    assert scatters(unrewritten, data, sorted_only=True) > 10
+    assert scatters(lambda d: collision.step(model, d, scene.geom_owner), data,
+                    sorted_only=True) == 0
