@@ -1,5 +1,6 @@
 """Scatters of trace-time indices recomputed by gathers (graspjax.sim.scatters), against JAX's
-own scatters: the same values, bit for bit, and no scatter left that XLA would sort."""
+own scatters on the CPU: the same values, bit for bit, and no scatter left that XLA would
+sort."""
 
 import jax
 import jax.numpy as jnp
@@ -7,6 +8,15 @@ import numpy as np
 import pytest
 
 from graspjax.sim.scatters import without_sorted_scatters
+
+
+@pytest.fixture(autouse=True)
+def _on_the_cpu():
+    """Bit for bit means against XLA's CPU scatter, which adds in update order (a GPU's
+    deterministic scatter sums in another order, equal to rounding)."""
+    with jax.default_device(jax.devices("cpu")[0]):
+        yield
+
 
 REPEATS = np.array([0, 2, 2, 1, 0, 4, 2])  # indices with repeats (a scatter-add sums them)
 DISTINCT = np.array([3, 0, 4])
@@ -46,6 +56,7 @@ CASES = {  # name: (function of (x (5, 3), u (7, 3)), whether every scatter is r
     "write, distinct rows": lambda x, u: x.at[DISTINCT].set(u[:3]),
     "write, distinct elements": lambda x, u: x.at[DISTINCT, np.array([2, 0, 1])].set(u[:3, 0]),
     "write, a block": lambda x, u: x.at[1:3, 1:].set(u[:2, :2]),
+    "add, everything (no index)": lambda x, u: x.at[:].add(u[:5]),
     "add, in a loop": lambda x, u: jax.lax.fori_loop(
         0, 3, lambda i, c: c.at[REPEATS].add(u * i), x),
     "add, in a branch": lambda x, u: jax.lax.cond(
@@ -69,18 +80,33 @@ def test_same_values_as_jax_scatters(name):
     assert scatters(ours, x, u) == 0
 
 
-def test_repeated_writes_and_traced_indices_are_kept():
-    """A write to one place twice (which one wins is XLA's) and indices known only when the
-    program runs stay scatters, with JAX's values."""
+def test_repeated_writes_traced_indices_and_long_sums_are_kept():
+    """A write to one place twice (which one wins is XLA's), indices known only when the
+    program runs and a sum of more than 64 updates into one place stay scatters, with JAX's
+    values."""
     x, u = _values((5, 3), 0), _values((7, 3), 1)
+    many = _values((100,), 2)
 
-    def fun(x, u):
-        return x.at[REPEATS].set(u), x.at[jnp.argsort(u[:, 0])[:5]].add(u[:5])
+    def fun(x, u, many):
+        return (x.at[REPEATS].set(u), x.at[jnp.argsort(u[:, 0])[:5]].add(u[:5]),
+                jnp.zeros(2).at[np.zeros(100, int)].add(many))
 
     ours = without_sorted_scatters(fun)
-    for a, b in zip(ours(x, u), jax.jit(fun)(x, u), strict=True):
+    for a, b in zip(ours(x, u, many), jax.jit(fun)(x, u, many), strict=True):
         np.testing.assert_array_equal(a, b)
-    assert scatters(ours, x, u) == scatters(fun, x, u) == 2
+    assert scatters(ours, x, u, many) == scatters(fun, x, u, many) == 3
+
+
+def test_signed_zeros_kept():
+    """A place with fewer updates than the deepest keeps the sign of its zero, as XLA's sum
+    does (-0.0 + -0.0 is -0.0)."""
+    def fun(x, u):
+        return x.at[np.array([0, 0, 1])].add(u)
+
+    x, u = jnp.full(3, -0.0), jnp.full(3, -0.0)
+    np.testing.assert_array_equal(np.signbit(without_sorted_scatters(fun)(x, u)),
+                                  np.signbit(jax.jit(fun)(x, u)))
+    assert np.signbit(jax.jit(fun)(x, u)).all()
 
 
 def test_sums_in_update_order():

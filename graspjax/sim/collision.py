@@ -158,7 +158,8 @@ def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = Tru
 def _step_function(geom_owner: tuple[int, ...], skip_far: bool):
     """`step`'s function of (m, d) for a scene, its scatters of model indices gathered
     (`scatters.without_sorted_scatters`): jitted, so each scene's step is traced and rewritten
-    once per process and input shapes, however many loops of a program call it."""
+    once per process, input types and model statics, and whether the axis of worlds is bound
+    (and its size), however many loops of a program call it."""
     owner = np.asarray(geom_owner)
     collide = (lambda m, d: collision(m, d, owner)) if skip_far else mjx.collision
     return without_sorted_scatters(lambda m, d: step_with(m, d, collide, solver.solve))

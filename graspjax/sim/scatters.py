@@ -14,10 +14,13 @@ computed from a table made then:
 - a scatter (write) whose destinations are distinct: each destination's update, gathered.
 
 `without_sorted_scatters(fun)` traces `fun` to a jaxpr and evaluates it with those scatters
-replaced, inside loop bodies, branches and calls too (each such jaxpr is traced again with what
-its equation knows of its inputs: a loop's constants, a call's operands); every other equation
-is bound as it was. Scatters of traced indices, writes to one place twice and other combiners
-stay scatters. On the CPU the values are XLA's own scatters' bit for bit
+replaced, inside loop bodies, branches and calls too (each such jaxpr that holds a scatter is
+traced again with what its equation knows of its inputs: a loop's constants, a call's
+operands). Equations of known inputs only are traced where they are used (or computed, for a
+scatter's indices); every other equation is bound with its own parameters. Scatters of traced
+indices, writes to one place twice, other combiners, sums of more than `_DEEPEST` updates into
+one place and scatters inside jaxprs this does not open (`checkpoint`'s, `shard_map`'s, a
+custom derivative rule's) stay scatters. On the CPU the values are XLA's own scatters' bit for bit
 (tests/test_scatters.py); in a larger program XLA may fuse the arithmetic around them
 differently, so floats can differ there in the last place.
 """
@@ -37,6 +40,11 @@ from jax._src import source_info_util  # private: each equation keeps its source
 from jax.extend import core
 
 _ADD, _WRITE = "scatter-add", "scatter"  # the primitives rewritten
+_CALLS = ("jit", "pjit", "closed_call", "core_call", "custom_jvp_call", "custom_vjp_call",
+          "custom_vjp_call_jaxpr")  # calls whose jaxpr takes the operands as they are
+_DEEPEST = 64  # most updates summed into one place by gathers (beyond: the scatter is kept)
+_MODES = (lax.GatherScatterMode.FILL_OR_DROP, lax.GatherScatterMode.CLIP,
+          lax.GatherScatterMode.PROMISE_IN_BOUNDS)  # the index modes `destinations` knows
 
 
 def without_sorted_scatters(fun: Callable) -> Callable:
@@ -57,8 +65,8 @@ def evaluate(jaxpr: core.Jaxpr, consts, args) -> list:
     """`jaxpr`'s outputs at (`consts`, `args`) as traced values, scatters of known indices
     gathered and the jaxprs of calls and loops evaluated the same way. An equation of known
     inputs only is held (`_Known`) until an output is used: traced into this trace when used
-    by it (once per trace: `staged`), or computed now (on the CPU) when it makes a scatter's
-    indices."""
+    by it (once per trace: `staged`), or computed now (on the CPU device, for inputs not
+    already on another) when it makes a scatter's indices."""
     env, staged = {}, {}
 
     def read(v):
@@ -75,7 +83,7 @@ def evaluate(jaxpr: core.Jaxpr, consts, args) -> list:
             outs = [_Output(held, i) for i in range(len(eqn.outvars))]
         else:
             with _context(eqn):
-                outs = _equation(eqn, [_traced(x, staged) for x in invals], invals)
+                outs = _equation(eqn, invals, staged)
             if not eqn.primitive.multiple_results:
                 outs = [outs]
         for var, value in zip(eqn.outvars, outs, strict=True):
@@ -106,8 +114,7 @@ class _Known:
         """The outputs traced into the trace whose equations `staged` holds."""
         if id(self) not in staged:
             with _context(self.eqn):
-                invals = [_traced(x, staged) for x in self.invals]
-                staged[id(self)] = self._results(_equation(self.eqn, invals, self.invals))
+                staged[id(self)] = self._results(_equation(self.eqn, self.invals, staged))
         return staged[id(self)]
 
     def known(self) -> list:
@@ -140,16 +147,18 @@ def _is_known(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
 
-def _equation(eqn, invals, held):
-    """One equation's output(s) at traced `invals`: a scatter of known indices (`held`: the
-    inputs as they were read) rewritten when it can be; the jaxprs in any other equation's
-    parameters (loop bodies, branches, calls) rewritten the same way, knowing what their
-    equation knows of their inputs."""
+def _equation(eqn, held, staged):
+    """One equation's output(s) traced into the trace of `staged`, at its inputs as they were
+    read (`held`): a scatter of known indices rewritten when it can be; the jaxprs in any
+    other equation's parameters (loop bodies, branches, calls) rewritten the same way, knowing
+    what their equation knows of their inputs."""
     name, params = eqn.primitive.name, eqn.params
     if name in (_ADD, _WRITE) and _is_known(held[1]):
-        out = _gathered_scatter(name, params, invals[0], _known(held[1]), invals[2])
+        out = _gathered_scatter(name, params, _traced(held[0], staged), _known(held[1]),
+                                _traced(held[2], staged))
         if out is not None:
             return out
+    invals = [_traced(x, staged) for x in held]
     known = [x if _is_known(x) else None for x in held]
     new = {}
     for key, param in params.items():
@@ -168,16 +177,20 @@ def _inputs_known(name, key, params, closed, known) -> list:
     known), from what is known of its operands: a loop's constants; a branch's or a call's
     operands. Nothing where the layout is not recognised."""
     n = len(closed.jaxpr.invars)
-    if name == "while":
+    if name == "while" and {"cond_nconsts", "body_nconsts"} <= params.keys():
         nc, nb = params["cond_nconsts"], params["body_nconsts"]
         consts = known[:nc] if key == "cond_jaxpr" else known[nc:nc + nb]
-        return consts + [None] * (n - len(consts))
-    if name == "scan":
+    elif name == "scan":
         consts = known[:_scan_consts(params)]
-        return consts + [None] * (n - len(consts))
-    if name == "cond":
-        known = known[1:]  # the branch index first
-    return known if len(known) == n else [None] * n
+    elif name == "cond":
+        consts = known[1:]  # the branch index first
+    elif name in _CALLS:
+        consts = known
+    else:
+        consts = []
+    if name in ("cond", *_CALLS) and len(consts) != n:
+        consts = []
+    return consts + [None] * (n - len(consts))
 
 
 def _scan_consts(params) -> int:
@@ -250,8 +263,9 @@ def destinations(params, operand_shape, indices, updates_shape) -> np.ndarray:
     size[windowed] = [updates_shape[w] for w in window_dims]
     at = np.indices(updates_shape).reshape(len(updates_shape), n)
     where = at[scatter_dims]  # each element's place among the indices' batch dims
-    vectors = indices.reshape(-1, indices.shape[-1])[
-        np.ravel_multi_index(tuple(where), indices.shape[:-1]) if scatter_dims else np.zeros(n, int)]
+    vectors = indices.reshape(-1, indices.shape[-1])[  # (n, K); K may be 0 (`x.at[:]`)
+        np.ravel_multi_index(tuple(where), indices.shape[:-1]) if scatter_dims
+        else np.zeros(n, int)] if indices.size else np.zeros((n, indices.shape[-1]), np.int64)
     start = np.zeros((rank, n), np.int64)
     for k, d in enumerate(dnums.scatter_dims_to_operand_dims):
         start[d] = vectors[:, k]
@@ -269,16 +283,21 @@ def destinations(params, operand_shape, indices, updates_shape) -> np.ndarray:
 
 
 def _gathered_scatter(name, params, operand, indices, updates):
-    """The scatter computed by gathers from its concrete `indices`, or None to keep it (a
-    write to one place twice; an update function other than the primitive's own)."""
+    """The scatter computed by gathers from its concrete `indices`, or None to keep it: a
+    write to one place twice, an update function other than the primitive's own, an index
+    mode `destinations` does not know, more than `_DEEPEST` updates into one place."""
     if params.get("update_jaxpr") is not None and name == _WRITE:
         return None  # a write with a custom update function (never emitted by `.at[].set`)
+    if params["mode"] not in _MODES:
+        return None
     dest = destinations(params, operand.shape, indices, updates.shape).ravel()
     size = int(np.prod(operand.shape))
     kept = np.flatnonzero(dest >= 0)  # update positions in bounds, in update order
     targets, counts = np.unique(dest[kept], return_counts=True)
     if name == _WRITE and counts.size and counts.max() > 1:
         return None  # which write wins is unspecified: leave it to XLA
+    if counts.size and counts.max() > _DEEPEST:
+        return None  # a long chain of adds: the sorted scatter is the better program
     order = kept[np.argsort(dest[kept], kind="stable")]  # grouped by target, update order kept
     depth = int(counts.max()) if counts.size else 0
     table = np.full((targets.size, depth), updates.size)  # sources per target; updates.size: none
@@ -287,7 +306,8 @@ def _gathered_scatter(name, params, operand, indices, updates):
         has = counts > k
         table[has, k] = order[starts[has] + k]
     flat = operand.reshape(-1)
-    source = jnp.concatenate((updates.reshape(-1), jnp.zeros(1, updates.dtype)))
+    none = -0.0 if jnp.issubdtype(updates.dtype, jnp.inexact) else 0  # x + -0.0 is x, -0.0 too
+    source = jnp.concatenate((updates.reshape(-1), jnp.full(1, none, updates.dtype)))
     if name == _ADD:
         value = flat[targets]
         for k in range(depth):
