@@ -82,10 +82,7 @@ def evaluate(jaxpr: core.Jaxpr, consts, args) -> list:
             held = _Known(eqn, invals)
             outs = [_Output(held, i) for i in range(len(eqn.outvars))]
         else:
-            with _context(eqn):
-                outs = _equation(eqn, invals, staged)
-            if not eqn.primitive.multiple_results:
-                outs = [outs]
+            outs = _equation(eqn, invals, staged)
         for var, value in zip(eqn.outvars, outs, strict=True):
             env[var] = value
     return [_traced(read(v), staged) for v in jaxpr.outvars]
@@ -107,14 +104,10 @@ class _Known:
         self.eqn, self.invals = eqn, invals
         self.known_outs = None
 
-    def _results(self, outs):
-        return outs if self.eqn.primitive.multiple_results else [outs]
-
     def traced(self, staged: dict) -> list:
         """The outputs traced into the trace whose equations `staged` holds."""
         if id(self) not in staged:
-            with _context(self.eqn):
-                staged[id(self)] = self._results(_equation(self.eqn, self.invals, staged))
+            staged[id(self)] = _equation(self.eqn, self.invals, staged)
         return staged[id(self)]
 
     def known(self) -> list:
@@ -122,7 +115,7 @@ class _Known:
         if self.known_outs is None:
             invals = [_known(x) for x in self.invals]
             with jax.ensure_compile_time_eval(), jax.default_device(_cpu()):
-                self.known_outs = self._results(_bind(self.eqn.primitive, self.eqn.params, invals))
+                self.known_outs = _bind(self.eqn.primitive, self.eqn.params, invals)
         return self.known_outs
 
 
@@ -147,17 +140,23 @@ def _is_known(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
 
-def _equation(eqn, held, staged):
-    """One equation's output(s) traced into the trace of `staged`, at its inputs as they were
-    read (`held`): a scatter of known indices rewritten when it can be; the jaxprs in any
-    other equation's parameters (loop bodies, branches, calls) rewritten the same way, knowing
-    what their equation knows of their inputs."""
+def _equation(eqn, held, staged) -> list:
+    """One equation's outputs traced into the trace of `staged` (with its source line), at its
+    inputs as they were read (`held`)."""
+    with _context(eqn):
+        return _rewritten(eqn, held, staged)
+
+
+def _rewritten(eqn, held, staged) -> list:
+    """`_equation`'s outputs: a scatter of known indices gathered when it can be; the jaxprs in
+    any other equation's parameters (loop bodies, branches, calls) rewritten the same way,
+    knowing what their equation knows of their inputs."""
     name, params = eqn.primitive.name, eqn.params
     if name in (_ADD, _WRITE) and _is_known(held[1]):
         out = _gathered_scatter(name, params, _traced(held[0], staged), _known(held[1]),
                                 _traced(held[2], staged))
         if out is not None:
-            return out
+            return [out]
     invals = [_traced(x, staged) for x in held]
     known = [x if _is_known(x) else None for x in held]
     new = {}
@@ -234,11 +233,12 @@ def _has_scatter(jaxpr: core.Jaxpr) -> bool:
     return _SCATTERING[jaxpr]
 
 
-def _bind(primitive, params, invals):
-    """`primitive` applied to `invals`, as traced."""
+def _bind(primitive, params, invals) -> list:
+    """`primitive`'s outputs at `invals`, as traced."""
     bind_params = primitive.get_bind_params(params)  # (subfuns, params) before jax 0.8
     subfuns, bind_params = bind_params if isinstance(bind_params, tuple) else ((), bind_params)
-    return primitive.bind(*subfuns, *invals, **bind_params)
+    outs = primitive.bind(*subfuns, *invals, **bind_params)
+    return outs if primitive.multiple_results else [outs]
 
 
 @functools.cache
