@@ -1,15 +1,17 @@
-"""MJX's Newton constraint solver, with the elliptic cone's Hessian assembled cone by cone.
+"""MJX's Newton constraint solver, with the elliptic cone's Hessian assembled as one product.
 
 MJX (`solver._update_gradient`) builds the Newton Hessian of an elliptic-cone model as
 `J.T @ C @ J` with `C` a dense (nefc, nefc) matrix: the active rows' `efc_D` on its diagonal
 and each contact's cone Hessian (condim, condim) scatter-added onto its block. In a pile of 48
 contact slots that is a (153, 153) matrix, 48 scatter-adds per solver iteration (sorted, under
 XLA's deterministic ops) and two matrix products over it, for a matrix that is block
-diagonal. Here the same Hessian is the sum of its parts:
+diagonal. Here `C J` is built row by row without forming `C`:
 
-    H = M + J.T diag(efc_D * active) J + sum over cones c of J_c.T H_c J_c
+    H = M + J.T W,   W_r = efc_D_r active_r J_r + (H_c J_c)_a   (row r = row a of cone c)
 
-with J_c the contact's rows of J, gathered by their static addresses.
+with J_c the cone's rows of J, gathered by their static addresses, and `H_c J_c` sums of at
+most 6 products (elementwise). One matrix product per iteration: under deterministic ops XLA
+does not autotune its matrix kernels, and a product per cone size was the step's largest cost.
 
 MJX's constraint update (`_update_constraint`, run when the context is made and in every
 iteration) writes each cone's zone, forces and friction forces into their efc rows with
@@ -18,8 +20,9 @@ becomes a sort of its (index, value) pairs, dozens of kernels at the batch of th
 bin scene stepped at half the speed of the non-deterministic build. The addresses are static,
 so `update_constraint` reads the same values per row with gathers instead; it computes what
 MJX's computes, operation for operation (equal to float32 rounding: XLA may fuse it otherwise).
-MJX's line search still scatter-adds the friction rows' quadratics onto the normal rows once per
-iteration, and its kinematic-tree sums scatter too.
+MJX's line search (the friction rows' quadratics added onto the normal rows) and its
+kinematic-tree sums still scatter; `scatters.without_sorted_scatters` gathers them for the whole
+physics step.
 
 The solver's loop, line search and stopping rule are MJX's own (`solver.Context`,
 `_linesearch`, private: mujoco-mjx is pinned to the minor version this was written against);
@@ -179,17 +182,20 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
 
 def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
     """The Newton Hessian (nv, nv) of the elliptic-cone cost at the solver context `ctx`,
-    symmetrized as MJX symmetrizes it."""
+    symmetrized as MJX symmetrizes it: `M + J' W`, one product over the efc rows, where a row of
+    `W` is its Jacobian row times its active weight plus, for a cone's row, that row of the cone
+    block times the cone's rows (`H_c J_c`, sums of at most 6 products: elementwise, not small
+    matrix products, which XLA's deterministic GPU ops run with untuned kernels)."""
     jac = d._impl.efc_J  # (nefc, nv)
-    h = (jac.T * (d._impl.efc_D * ctx.active)) @ jac
     layout = cones(d)
-    dims, rows = layout.dims, layout.rows
-    for condim in np.unique(dims):  # the contacts of one cone size together
-        which = np.flatnonzero(dims == condim)
-        block = jac[rows[which, None] + np.arange(condim)]  # (n, condim, nv)
-        cone = ctx.h[which, :condim, :condim]  # (n, condim, condim)
-        h = h + jnp.einsum("cai,cab,cbj->ij", block, cone, block)
-    h = support.full_m(m, d) + h
+    padded = jnp.concatenate((jac, jnp.zeros((5, jac.shape[1]), jac.dtype)))
+    window = padded[layout.rows[:, None] + np.arange(6)]  # each cone's 6-row window (ncone, 6, nv)
+    # ctx.h is zero past each cone's condim, so rows of the window past it add nothing
+    cone_rows = jnp.sum(ctx.h[:, :, :, None] * window[:, None, :, :], axis=2)  # (ncone, 6, nv)
+    in_cone = (layout.owner >= 0)[:, None]
+    from_cone = cone_rows[np.maximum(layout.owner, 0), np.maximum(layout.offset, 0)]  # (nefc, nv)
+    weighted = jac * (d._impl.efc_D * ctx.active)[:, None] + jnp.where(in_cone, from_cone, 0.0)
+    h = support.full_m(m, d) + jac.T @ weighted
     return (h + h.T) * 0.5
 
 
