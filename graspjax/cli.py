@@ -371,7 +371,7 @@ def _add_experiment_arguments(p) -> None:
                    help="run every N-th chunk from chunk I, into a folder shared by N processes "
                         "(one per host; see docs/running.md)")
     p.add_argument("--fast", action="store_true",
-                   help="GPU: allow non-deterministic XLA ops (the bin scene steps 1.3x as fast; "
+                   help="GPU: allow non-deterministic XLA ops (the bin scene steps 1.2x as fast; "
                         "not bit-reproducible)")
     p.add_argument("--save-views", choices=["none", "failed", "all"], default="none",
                    help="keep the images, detections and planes of these attempts (views/*.npz)")
