@@ -9,9 +9,11 @@ from graspjax.sim.objects import (
     BASIC,
     INDUSTRIAL,
     OBJECTS,
+    _resting_poses,
     catalogue_rows,
     object_mass,
     parse_letters,
+    resting_poses_of,
     write_assets,
 )
 
@@ -66,3 +68,14 @@ def test_parse_letters():
         parse_letters("a,z")
     with pytest.raises(ValueError, match="twice"):
         parse_letters("a,a")
+
+
+def test_resting_poses_of_a_scene_are_each_object_s_own_drops():
+    """The drops of a scene's objects run in threads: each object's poses are those of its own
+    drops run alone (deterministic per object), in the scene's order, and are rotations."""
+    together = resting_poses_of(("g", "a"), count=4, seed=3)
+    alone = np.stack([_resting_poses.__wrapped__(c, 4, 3) for c in "ga"])
+    assert together.shape == (2, 4, 3, 3)
+    np.testing.assert_array_equal(together, alone)
+    identity = np.broadcast_to(np.eye(3), together.shape)
+    np.testing.assert_allclose(together @ np.swapaxes(together, -1, -2), identity, atol=1e-9)

@@ -148,8 +148,8 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
 
 
 def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True) -> mjx.Data:
-    """The scenes' physics step: MJX's, with `solver.solve` (the elliptic cone's Hessian cone by
-    cone) and, when `skip_far`, `collision` in place of MJX's (`geom_owner`: as for
+    """The scenes' physics step: MJX's, with `solver.solve` (the elliptic cone's Hessian as one
+    product) and, when `skip_far`, `collision` in place of MJX's (`geom_owner`: as for
     `collision`)."""
     return _step_function(tuple(np.asarray(geom_owner).tolist()), skip_far)(m, d)
 

@@ -18,6 +18,7 @@ model and an OBJ mesh, and `catalogue.csv` with sizes, masses and pieces.
 
 from __future__ import annotations
 
+import concurrent.futures
 import csv
 import dataclasses
 import functools
@@ -269,6 +270,14 @@ def resting_poses(letter: str, count: int = RESTING_POSES, seed: int = 0) -> np.
     appears about as often as a real drop lands on it. Deterministic.
     """
     return _resting_poses(letter, count, seed).copy()
+
+
+def resting_poses_of(letters: tuple[str, ...], count: int = RESTING_POSES, seed: int = 0) -> np.ndarray:
+    """`resting_poses` of each object in `letters` (len(letters), count, 3, 3), the objects'
+    drops in parallel threads (MuJoCo releases the GIL while it steps): a scene's poses are on
+    the way to its first chunk."""
+    with concurrent.futures.ThreadPoolExecutor(len(letters)) as pool:
+        return np.stack(list(pool.map(lambda c: resting_poses(c, count, seed), letters)))
 
 
 @functools.cache

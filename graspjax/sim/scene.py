@@ -33,7 +33,7 @@ import numpy as np
 
 from graspjax.config import GripperConfig, LayoutConfig, SimConfig
 from graspjax.sim.collision import HAND, STATIC
-from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses
+from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses_of
 from graspjax.sim.raycast import Solids, solids_of
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
@@ -275,7 +275,7 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         tcp_offset=float(PALM_HALF[2] + gripper.finger_length),
         object_com=mj_model.body_ipos[bodies].copy(),
         object_points=padded,
-        resting=np.stack([resting_poses(c) for c in letters]),
+        resting=resting_poses_of(letters),
         solids=solids_of(mj_model, statics + object_geoms),
         piece_object=np.array([-1] * len(statics) + [int(geom_object[g]) for g in object_geoms],
                               np.int32),
