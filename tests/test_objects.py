@@ -73,6 +73,7 @@ def test_parse_letters():
 def test_resting_poses_of_a_scene_are_each_object_s_own_drops():
     """The drops of a scene's objects run in threads: each object's poses are those of its own
     drops run alone (deterministic per object), in the scene's order, and are rotations."""
+    _resting_poses.cache_clear()  # computed here, in the threads
     together = resting_poses_of(("g", "a"), count=4, seed=3)
     alone = np.stack([_resting_poses.__wrapped__(c, 4, 3) for c in "ga"])
     assert together.shape == (2, 4, 3, 3)

@@ -274,8 +274,8 @@ def resting_poses(letter: str, count: int = RESTING_POSES, seed: int = 0) -> np.
 
 def resting_poses_of(letters: tuple[str, ...], count: int = RESTING_POSES, seed: int = 0) -> np.ndarray:
     """`resting_poses` of each object in `letters` (len(letters), count, 3, 3), the objects'
-    drops in parallel threads (MuJoCo releases the GIL while it steps): a scene's poses are on
-    the way to its first chunk."""
+    drops in parallel threads (MuJoCo releases the GIL while it steps): building a scene, and
+    so its first chunk, waits for them."""
     with concurrent.futures.ThreadPoolExecutor(len(letters)) as pool:
         return np.stack(list(pool.map(lambda c: resting_poses(c, count, seed), letters)))
 

@@ -181,11 +181,12 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
 
 
 def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
-    """The Newton Hessian (nv, nv) of the elliptic-cone cost at the solver context `ctx`,
-    symmetrized as MJX symmetrizes it: `M + J' W`, one product over the efc rows, where a row of
-    `W` is its Jacobian row times its active weight plus, for a cone's row, that row of the cone
-    block times the cone's rows (`H_c J_c`, sums of at most 6 products: elementwise, not small
-    matrix products, which XLA's deterministic GPU ops run with untuned kernels)."""
+    """The Newton Hessian (nv, nv) of the elliptic-cone cost at the solver context `ctx` (data
+    with at least one cone contact, as `solve` calls it), symmetrized as MJX symmetrizes it:
+    `M + J' W`, one product over the efc rows, where a row of `W` is its Jacobian row times its
+    active weight plus, for a cone's row, that row of the cone block times the cone's rows
+    (`H_c J_c`, sums of at most 6 products: elementwise, not small matrix products, which XLA's
+    deterministic GPU ops run with untuned kernels)."""
     jac = d._impl.efc_J  # (nefc, nv)
     layout = cones(d)
     padded = jnp.concatenate((jac, jnp.zeros((5, jac.shape[1]), jac.dtype)))
