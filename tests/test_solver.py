@@ -34,13 +34,24 @@ def sliding():
     return scene, jax.jit(lambda: _constrained(scene, 0.1))()
 
 
-def test_hessian_is_the_cost_hessian_built_densely(sliding):
+@pytest.fixture(scope="module", params=[3, 4, 6], ids=lambda c: f"condim{c}")
+def sliding_condims(request, sliding):
+    """The sliding cube at each contact dimension (`sim.condim`): with 4, a cone's 6-row window in
+    the Hessian reaches into the next cone's rows."""
+    if request.param == 3:
+        return sliding
+    sim = override(Config(), [f"sim.condim={request.param}"]).sim
+    scene = build_scene(("a", "f"), sim=sim, objects_collide=False)
+    return scene, jax.jit(lambda: _constrained(scene, 0.1))()
+
+
+def test_hessian_is_the_cost_hessian_built_densely(sliding_condims):
     """H = M + J' C J with C the dense (nefc, nefc) matrix: efc_D of active rows on the diagonal,
     each cone's Hessian on its block, built here in float64 from the same context."""
     from mujoco.mjx._src import solver as mjx_solver
     from mujoco.mjx._src import support
 
-    scene, data = sliding
+    scene, data = sliding_condims
     m = scene.model
     ctx = jax.jit(lambda d: mjx_solver.Context.create(m, d, grad=False))(data)
     ours = np.asarray(jax.jit(lambda d, c: solver.hessian(m, d, c))(data, ctx), np.float64)
