@@ -371,7 +371,7 @@ def _add_experiment_arguments(p) -> None:
                    help="run every N-th chunk from chunk I, into a folder shared by N processes "
                         "(one per host; see docs/running.md)")
     p.add_argument("--fast", action="store_true",
-                   help="GPU: allow non-deterministic XLA ops (the bin scene steps 1.2x as fast; "
+                   help="GPU: allow non-deterministic XLA ops (the bin scene steps about 1.1x as fast; "
                         "not bit-reproducible)")
     p.add_argument("--save-views", choices=["none", "failed", "all"], default="none",
                    help="keep the images, detections and planes of these attempts (views/*.npz)")
@@ -508,28 +508,44 @@ def _compilation_cache() -> None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
+DETERMINISTIC = "--xla_gpu_deterministic_ops=true"
+# Under deterministic ops XLA does not autotune its matrix kernels; products this small (combined
+# non-batch elements of both operands) run faster as XLA's own loops than as untuned GEMMs: MJX's
+# contact Jacobian rows, 3x3 by 3 x nv (bin scene 1.11x; results/benchmarks, stop 38).
+SMALL_DOTS = "--xla_gpu_gemm_rewrite_size_threshold=300"
+
+
+def with_gpu_flags(flags: str) -> str:
+    """XLA_FLAGS `flags` with graspjax's GPU flags added: deterministic ops, unless set, and the
+    small-product threshold, unless the flags already choose one."""
+    added = [DETERMINISTIC] if DETERMINISTIC not in flags else []
+    if SMALL_DOTS.split("=")[0] not in flags:
+        added.append(SMALL_DOTS)
+    return " ".join([flags.strip(), *added]).strip()
+
+
 def _deterministic_gpu(args) -> None:
-    """XLA's GPU scatter-adds are not deterministic: ask for deterministic ops unless --fast.
+    """XLA's GPU scatter-adds are not deterministic: ask for deterministic ops unless --fast
+    (`with_gpu_flags`).
 
     XLA reads its flags once, when JAX starts its first backend; so this runs before any device
     is used, and importing graspjax must start none (tests/test_cli.py checks both). Called
     from Python after JAX has started (several runs in one process), it can only check: the
-    CPU needs no flag, a GPU without it is refused.
+    CPU needs no flag, a GPU without deterministic ops is refused.
     """
     if getattr(args, "fast", True):
         return
     import jax
     from jax._src import xla_bridge
 
-    flag = "--xla_gpu_deterministic_ops=true"
     flags = os.environ.get("XLA_FLAGS", "")
-    if flag in flags:
+    if with_gpu_flags(flags) == flags.strip():
         return
     if not xla_bridge.backends_are_initialized():
-        os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
-    elif jax.default_backend() == "gpu":
+        os.environ["XLA_FLAGS"] = with_gpu_flags(flags)
+    elif DETERMINISTIC not in flags and jax.default_backend() == "gpu":
         raise UsageError("JAX started on the GPU without deterministic ops: set XLA_FLAGS="
-                         f"{flag} before JAX starts, or pass --fast")
+                         f"{DETERMINISTIC} before JAX starts, or pass --fast")
 
 
 def main(argv: list[str] | None = None) -> int:

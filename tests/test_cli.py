@@ -191,7 +191,8 @@ print(os.environ["XLA_FLAGS"])
     env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "--xla_gpu_deterministic_ops=true"
+    assert done.stdout.split() == ["--xla_gpu_deterministic_ops=true",
+                                   "--xla_gpu_gemm_rewrite_size_threshold=300"]
 
 
 def test_bench_detect_takes_the_preset_as_detect_does(tmp_path, monkeypatch):

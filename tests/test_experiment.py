@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import jax
@@ -15,6 +16,7 @@ import pytest
 from graspjax.batch import exported, plan, program
 from graspjax.cli import main
 from graspjax.config import Config, override
+from graspjax.io import InputError
 
 # Objects a and c alone (Setup 1), 3 trials each: 6 worlds, in chunks of 3 (c needs a re-alignment).
 TINY = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--seed", "3", "--quiet",
@@ -351,6 +353,54 @@ def test_a_method_sweep_plays_the_same_worlds_and_compares_them(methods_sweep, t
     assert (methods_sweep / "comparison.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     meta = json.loads((methods_sweep / "config.json").read_text())
     assert meta["grid"] == {"method": ["paper", "antipodal"]}
+
+
+def test_a_worker_process_traces_the_second_program_and_the_rows_stay(methods_sweep, tmp_path,
+                                                                       monkeypatch):
+    """With a trace worker and an empty store, the run traces its first program itself and a
+    helper process traces the second (`program.trace_in_worker`); the run loads the helper's,
+    says so in timings.csv, and gives the rows of the sweep traced in one process."""
+    monkeypatch.setattr(exported, "store", lambda: tmp_path / "exported")
+    monkeypatch.setattr(program, "_PROGRAMS", {})  # not the sweep's compiled programs
+    monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", "1")
+    out = tmp_path / "sweep"
+    assert main([*METHODS_SWEEP, "--out", str(out)]) == 0
+    timings = pd.read_csv(out / "timings.csv").drop_duplicates("group")
+    assert list(timings["program"]) == ["traced", "worker"] and (timings["trace_s"] > 1).all()
+    assert len(list((tmp_path / "exported").glob("*.jaxexport"))) == 4  # two programs of two
+    ours = pd.read_csv(out / "attempts.csv").drop(columns=VOLATILE)
+    reference = pd.read_csv(methods_sweep / "attempts.csv").drop(columns=VOLATILE)
+    pd.testing.assert_frame_equal(ours, reference)
+
+
+@pytest.mark.parametrize("value, workers", [("3", 3), (" 0 ", 0), ("two", None), ("-1", None)])
+def test_trace_workers_come_from_the_environment(monkeypatch, value, workers):
+    monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", value)
+    if workers is None:
+        with pytest.raises(InputError, match="GRASPJAX_TRACE_WORKERS must be a whole number"):
+            program.trace_workers()
+    else:
+        assert program.trace_workers() == workers
+
+
+def test_the_rounds_group_has_the_most_device_work():
+    """Calls per world x worlds x moving objects: 10 trials of Table 1's Setup 1 (60 worlds, drop
+    and one attempt, one object), its rounds (20 worlds, drop and six attempts, six objects)
+    and Table 2 (60 worlds)."""
+    groups = plan.plan([plan.table_job(1, 10), plan.table_job(2, 10)], [Config()], 0)
+    assert [g.work for g in groups] == [60 * 2 * 1, 20 * 7 * 6, 60 * 2 * 1]
+
+
+def test_the_next_chunk_is_the_first_whose_program_is_ready():
+    """Plan order among the chunks whose programs have compiled; wait when none has."""
+    first, second = (concurrent.futures.Future() for _ in range(2))
+    waiting = [plan.Chunk(0, 0, ()), plan.Chunk(1, 0, ()), plan.Chunk(2, 1, ())]
+    compiles = {0: [first], 1: [second]}
+    timer = threading.Timer(0.2, second.set_result, [None])
+    timer.start()
+    assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 2  # waited for it
+    first.set_exception(RuntimeError("failed to compile"))  # done: playing it will raise
+    assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 0
 
 
 def test_every_method_traces_into_the_attempt_program(monkeypatch):

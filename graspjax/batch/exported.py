@@ -31,6 +31,7 @@ import jax
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
 _SOURCES = pathlib.Path(__file__).resolve().parent.parent  # the graspjax package, all of it
+KEY_SETTINGS = ("jax_enable_x64", "jax_default_matmul_precision")  # JAX settings in a key
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,6 +102,12 @@ def export(fn: Callable, args: tuple, description: tuple) -> Portable:
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
 
 
+def stored(args: tuple, description: tuple) -> bool:
+    """Whether the store holds a program of this key: `export` would load it."""
+    path = _path(description, args)
+    return path is not None and path.exists()
+
+
 def _path(description: tuple, args: tuple) -> pathlib.Path | None:
     """The program's file in the store (None when the store is off)."""
     folder = store()
@@ -110,7 +117,7 @@ def _path(description: tuple, args: tuple) -> pathlib.Path | None:
     device = jax.devices()[0]
     key = repr((FORMAT, description, shapes, jax.tree.structure(args), _versions(),
                 _source_digest(), device.platform, device.device_kind,
-                jax.config.jax_enable_x64, jax.config.jax_default_matmul_precision))
+                *(getattr(jax.config, name) for name in KEY_SETTINGS)))
     # Static fields' reprs may name memory addresses (MJX wraps its static numpy arrays): they
     # differ between processes. What those fields hold is fixed by the description and sources.
     key = re.sub(r" at 0x[0-9a-f]+", "", key)

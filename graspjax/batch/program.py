@@ -6,9 +6,10 @@ call each, all on the device), then one transfer of its records to the host. Not
 does depends on the other worlds of its chunk: same seed, same batch size, same device kind
 give the same records.
 
-The groups' programs compile in the background (one thread lowers them in turn, XLA compiles
-them in parallel threads); chunks run in plan order, each as soon as its own group's program
-is ready, so the device runs the first group while the host still compiles the others.
+The groups' programs compile in the background (one thread lowers them in turn, helper
+processes trace later ones beside it where there are cores to spare, XLA compiles them in
+parallel threads); the next chunk is the first in plan order whose program is ready, so the
+device runs one group while the host still compiles the others.
 Records become rows in `rows.py`; this module never builds a table.
 """
 
@@ -17,6 +18,11 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
+import json
+import os
+import pickle
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -25,9 +31,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.batch import exported
+from graspjax.batch import exported, worker
 from graspjax.batch.plan import Chunk, Group, World, chunks, padded_size
 from graspjax.config import Config, stack_configs
+from graspjax.io import InputError
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
 from graspjax.sim.collision import WORLDS
 from graspjax.sim.scene import Scene, mjx, scene_for
@@ -51,6 +58,7 @@ class Program:
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
         self._settle = None
+        self._worker_s: float | None = None  # a worker process's tracing seconds, if it traced
 
     @functools.cached_property
     def scene(self) -> Scene:
@@ -58,20 +66,32 @@ class Program:
         program lowers while the others' scenes are still to be built."""
         return scene_for(self.group.letters, self.group.config, self.group.collide)
 
-    @functools.cached_property
-    def portable(self) -> tuple[exported.Portable, exported.Portable]:
-        """`start_round(arrays, spec)` and `attempt(model, state, spec, k)` for one device's
-        slice, vmapped: traced, or loaded from the store of exported programs (the lowering
-        thread builds them, once for all devices). The scene's device arrays are arguments, not
-        constants: an exported program cannot hold them."""
+    def _shapes(self) -> tuple[tuple, tuple]:
+        """`start_round`'s argument shapes (the scene's arrays, one device's slice of specs) and
+        what shapes the programs besides (`exported.export`'s description)."""
         # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
         example = dataclasses.replace(self.group.worlds[0], point=0)
         spec = jax.tree.map(lambda x: jax.ShapeDtypeStruct((self.per_device,) + x.shape[1:],
                                                            x.dtype),
                             self.spec((example,), [self.group.config]))
         arrays = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), self.arrays)
-        group, keep_views = self.group, self.keep_views
-        description = (group.letters, group.collide, group.attempts, keep_views)
+        group = self.group
+        return (arrays, spec), (group.letters, group.collide, group.attempts, self.keep_views)
+
+    def stored(self) -> bool:
+        """Whether the store holds `start_round`'s exported form (then, as a rule, `attempt`'s:
+        both are saved by one trace), so that `portable` will load rather than trace."""
+        args, description = self._shapes()
+        return exported.stored(args, ("start_round",) + description)
+
+    @functools.cached_property
+    def portable(self) -> tuple[exported.Portable, exported.Portable]:
+        """`start_round(arrays, spec)` and `attempt(model, state, spec, k)` for one device's
+        slice, vmapped: traced, or loaded from the store of exported programs (the lowering
+        thread builds them, once for all devices). The scene's device arrays are arguments, not
+        constants: an exported program cannot hold them."""
+        (arrays, spec), description = self._shapes()
+        keep_views = self.keep_views
 
         def start_fn(arrays, spec):
             scene = dataclasses.replace(self.scene, model=arrays[0])
@@ -146,13 +166,19 @@ class Program:
                 attempt_.jit(donate_argnums=(1,)).lower(*attempt_.in_shapes(sharding)))
 
     @property
-    def loaded(self) -> bool:
-        """Whether both functions came from the store of exported programs (not traced)."""
-        return all(p.loaded for p in self.portable)
+    def origin(self) -> str:
+        """Where both functions came from: `traced` by this process, traced by a `worker`
+        process of this run, or `loaded` from the store of an earlier run."""
+        if not all(p.loaded for p in self.portable):
+            return "traced"
+        return "loaded" if self._worker_s is None else "worker"
 
     @property
     def trace_s(self) -> float:
-        """Seconds to trace and export both functions, or to read them from the store."""
+        """Seconds to trace and export both functions (in the worker, if one did), or to read
+        them from the store."""
+        if self.origin == "worker":
+            return self._worker_s
         return sum(p.seconds for p in self.portable)
 
     def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
@@ -233,14 +259,51 @@ def program(group: Group, batch: int, keep_views: bool) -> Program:
     return _PROGRAMS[key]
 
 
-def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
+def trace_workers() -> int:
+    """How many helper processes may trace programs beside the run's own lowering thread:
+    `GRASPJAX_TRACE_WORKERS` if set, else one per 8 CPU cores (none on a small machine, where
+    they would only take cores from the compiles and the chunks)."""
+    value = os.environ.get("GRASPJAX_TRACE_WORKERS", "")
+    if value.strip():
+        if not value.strip().isdigit():
+            raise InputError(f"GRASPJAX_TRACE_WORKERS must be a whole number, got {value!r}")
+        return int(value)
+    return (os.cpu_count() or 1) // 8
+
+
+def trace_in_worker(p: Program) -> float | None:
+    """Trace `p` in a helper process (`worker.py`) into the store; the helper's tracing seconds,
+    or None when it found the program already stored. A helper that fails leaves the tracing
+    to this process, with the helper's last words in the error."""
+    cache_dir = exported.store().parent
+    group = dataclasses.replace(p.group, worlds=p.group.worlds[:1])
+    settings = {name: getattr(jax.config, name) for name in exported.KEY_SETTINGS}
+    job = worker.Job(group, p.batch, p.keep_views, str(cache_dir), settings)
+    # The run's flags and devices, but not its memory: the helper only traces.
+    env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
+    done = subprocess.run([sys.executable, "-m", "graspjax.batch.worker"], input=pickle.dumps(job),
+                          capture_output=True, env=env)
+    if done.returncode != 0:
+        last = done.stderr.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
+        raise RuntimeError(f"the trace worker of {''.join(p.group.letters)} failed: {last[0]}")
+    result = json.loads(done.stdout.decode().strip().splitlines()[-1])
+    return result["seconds"] if result["traced"] else None
+
+
+def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
+                    log: Callable[[str], None] = lambda m: None
                     ) -> dict[int, list[concurrent.futures.Future]]:
     """Compile every program not yet compiled, for every device, in the background; the
     futures per program id.
 
     One thread lowers the programs in order and hands each to `pool` to compile. Lowering is
     Python and holds the GIL: lowered in parallel threads, every program would finish lowering
-    only when all do; XLA's compiles release the GIL and run in parallel.
+    only when all do; XLA's compiles release the GIL and run in parallel. With helper processes
+    (`trace_workers()` at a time, `trace_in_worker`) the programs go in order of device work,
+    most first (`Group.work`), and at the first program that must be traced, the programs
+    after it go to the helpers, which trace them while this thread traces that one; the thread
+    then loads theirs from the store. A helper starts seconds after this thread (its imports),
+    so the group with the longest chunks waits the least for its program.
     """
     todo = list({id(p): p for p in programs if not p.compiled}.values())
     futures = {id(p): [concurrent.futures.Future() for _ in p.devices] for p in todo}
@@ -256,9 +319,24 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
     # gets back as it reaches them, possibly before this thread does.
     work = [(p, futures[id(p)]) for p in todo]
 
+    workers = trace_workers() if exported.store() is not None else 0
+    if workers:  # this thread traces the program of the most device work, its compile the longest
+        work.sort(key=lambda item: -item[0].group.work)
+    helpers = concurrent.futures.ThreadPoolExecutor(max_workers=max(workers, 1))
+    traced_elsewhere: dict[int, concurrent.futures.Future] = {}
+
     def lower_in_order() -> None:
-        for p, program_futures in work:
+        for i, (p, program_futures) in enumerate(work):
             try:
+                if workers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
+                    traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
+                                             for q, _ in work[i + 1:]})
+                    log(f"tracing {len(work) - i - 1} program(s) in {workers} worker process(es)")
+                if id(p) in traced_elsewhere:
+                    try:
+                        p._worker_s = traced_elsewhere[id(p)].result()
+                    except Exception as failure:  # noqa: BLE001 - tracing here is always right
+                        log(f"{failure}; tracing it here")
                 _ = p.portable  # traced or loaded once, then lowered for each device
             except BaseException as error:  # handed to the threads that wait for it
                 for future in program_futures:
@@ -273,10 +351,28 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor
                 except BaseException as error:  # likewise
                     future.set_exception(error)
 
+    def lower_then_release() -> None:
+        try:
+            lower_in_order()
+        finally:
+            helpers.shutdown(wait=False)
+
     if todo:
-        pool.submit(lower_in_order)
+        pool.submit(lower_then_release)
     return futures
 
+
+def next_ready(waiting: list[Chunk],
+               compiles: Callable[[Chunk], list[concurrent.futures.Future]]) -> Chunk:
+    """The first of the `waiting` chunks whose program's `compiles` are all done (a failed one
+    counts: playing it raises), once one is."""
+    while True:
+        unfinished = [[f for f in compiles(c) if not f.done()] for c in waiting]
+        for chunk, left in zip(waiting, unfinished, strict=True):
+            if not left:
+                return chunk
+        concurrent.futures.wait([f for left in unfinished for f in left],
+                                return_when=concurrent.futures.FIRST_COMPLETED)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -287,7 +383,7 @@ class ChunkResult:
     group: Group
     drop: Record  # the drop's record (k = -1): the settled layout's statistics; leading axis batch
     records: list[Record]  # attempt k's records (numpy, leading axis batch; padding included)
-    timings: dict  # program (traced / loaded), trace_s, compile_s, started_s, wall_s, ...
+    timings: dict  # program (traced / worker / loaded), trace_s, compile_s, started_s, wall_s, ...
     views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
 
 
@@ -295,13 +391,14 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
                log: Callable[[str], None] = lambda m: None, overlap: bool = True
                ) -> Iterator[ChunkResult]:
-    """Play every chunk not in `done`, in plan order; yield each as it finishes.
+    """Play every chunk not in `done`; yield each as it finishes.
 
     Programs compile in background threads; with `overlap`, a group's chunks start as soon as
-    its own program is ready, while the later groups' programs still compile (the device works
-    while the host compiles). Without it, every program is compiled before the first chunk
-    (benchmarks: run time apart from compile time). A chunk's timings say whether its program
-    was traced or loaded from the store of exported programs (`program`), what tracing or
+    its own program is ready, while the other groups' programs still compile (the device works
+    while the host compiles): the next chunk is the first in plan order whose program is ready.
+    Without it, every program is compiled before the first chunk (benchmarks: run time apart
+    from compile time). A chunk's timings say whether its program was traced here, traced by
+    a worker process or loaded from the store of exported programs (`program`), what tracing or
     loading and compiling took (`trace_s`, `compile_s`, on a group's first chunk) and when it
     started (`started_s`, seconds since this call began: gaps are the device waiting for a
     compile)."""
@@ -313,7 +410,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     fresh = {g for g, p in programs.items() if not p.compiled}
     tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)  # + lowering
     with concurrent.futures.ThreadPoolExecutor(max_workers=tasks) as pool:
-        compiling = _start_compiles(list(programs.values()), pool)
+        compiling = _start_compiles(list(programs.values()), pool, log)
         if compiling:
             log(f"compiling {len(compiling)} program(s) ...")
 
@@ -324,13 +421,16 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             if futures:
                 log(f"compiled the program of {''.join(prog.group.letters)} "
                     f"({prog.group.attempts} attempt(s) per world): "
-                    f"{'loaded' if prog.loaded else 'traced'} in {prog.trace_s:.1f} s, "
+                    f"{prog.origin} in {prog.trace_s:.1f} s, "
                     f"compiled in {prog.compile_s:.1f} s")
 
         if not overlap:
             for prog in programs.values():
                 ready(prog)
-        for chunk in todo:
+        waiting = list(todo)
+        while waiting:
+            chunk = next_ready(waiting, lambda c: compiling.get(id(programs[c.group]), []))
+            waiting.remove(chunk)
             prog = programs[chunk.group]
             ready(prog)
             start = time.perf_counter()
@@ -343,7 +443,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             timings = {"chunk": chunk.index, "group": chunk.group,
                        "scene": "".join(prog.group.letters), "worlds": real,
                        "batch": prog.batch, "attempts": attempts,
-                       "program": "loaded" if prog.loaded else "traced",
+                       "program": prog.origin,
                        "trace_s": round(prog.trace_s if first else 0.0, 3),
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
                        "started_s": round(start - began, 3),
