@@ -9,7 +9,7 @@
 # graspjax package in DIR is timed instead (an older checkout, for a before/after on one
 # machine). Prints one line per pass: total seconds, the summed trace_s / compile_s / wall_s of
 # timings.csv (an older package has no trace_s: its tracing is inside compile_s), whether the
-# programs were traced or loaded, and whether the rows equal the first pass's. ARGS adds options
+# programs were traced (by the run or its trace workers) or loaded, and whether the rows equal the first pass's. ARGS adds options
 # to every pass's `graspjax run` (for example ARGS="--batch 6000").
 set -euo pipefail
 name=${1:?usage: warm_start.sh NAME TRIALS PASS...}

@@ -19,7 +19,7 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.batch.plan import Job, chunks, default_batch, plan
-from graspjax.batch.program import run_chunks
+from graspjax.batch.program import run_chunks, trace_workers
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.config import Config, differences
 from graspjax.io import jsonable, write_atomic
@@ -86,6 +86,7 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     from graspjax.report import write_report
     from graspjax.views import ViewSaver
 
+    trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
     out = check_output_folder(out, resume or parts > 1, overwrite)
     configs = [c for _, c in experiment.points]
     batch = experiment.batch or default_batch()

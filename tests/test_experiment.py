@@ -373,7 +373,8 @@ def test_a_worker_process_traces_the_second_program_and_the_rows_stay(methods_sw
     pd.testing.assert_frame_equal(ours, reference)
 
 
-@pytest.mark.parametrize("value, workers", [("3", 3), (" 0 ", 0), ("two", None), ("-1", None)])
+@pytest.mark.parametrize("value, workers",
+                         [("3", 3), (" 0 ", 0), ("two", None), ("-1", None), ("\u00b2", None)])
 def test_trace_workers_come_from_the_environment(monkeypatch, value, workers):
     monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", value)
     if workers is None:
@@ -381,6 +382,15 @@ def test_trace_workers_come_from_the_environment(monkeypatch, value, workers):
             program.trace_workers()
     else:
         assert program.trace_workers() == workers
+
+
+def test_a_bad_trace_worker_count_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", "many")
+    assert main(["run", *TINY, "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == ("graspjax: error: GRASPJAX_TRACE_WORKERS must be a whole number, "
+                           "got 'many'")
+    assert not (tmp_path / "run").exists()
 
 
 def test_the_rounds_group_has_the_most_device_work():
@@ -396,9 +406,10 @@ def test_the_next_chunk_is_the_first_whose_program_is_ready():
     first, second = (concurrent.futures.Future() for _ in range(2))
     waiting = [plan.Chunk(0, 0, ()), plan.Chunk(1, 0, ()), plan.Chunk(2, 1, ())]
     compiles = {0: [first], 1: [second]}
-    timer = threading.Timer(0.2, second.set_result, [None])
-    timer.start()
+    for delay, future in ((0.2, second), (2.0, first)):  # the second program compiles first
+        threading.Timer(delay, future.set_result, [None]).start()
     assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 2  # waited for it
+    first = compiles[0][0] = concurrent.futures.Future()
     first.set_exception(RuntimeError("failed to compile"))  # done: playing it will raise
     assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 0
 

@@ -30,7 +30,7 @@ import jax
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
-_SOURCES = pathlib.Path(__file__).resolve().parent.parent  # the graspjax package, all of it
+SOURCES = pathlib.Path(__file__).resolve().parent.parent  # the graspjax package, all of it
 KEY_SETTINGS = ("jax_enable_x64", "jax_default_matmul_precision")  # JAX settings in a key
 
 
@@ -131,7 +131,7 @@ def _versions() -> tuple[str, ...]:
 
 
 @functools.cache
-def _source_digest(root: pathlib.Path = _SOURCES) -> str:
+def _source_digest(root: pathlib.Path = SOURCES) -> str:
     """A digest of the Python sources under `root` (graspjax's): any edit traces afresh."""
     digest = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):

@@ -259,35 +259,53 @@ def program(group: Group, batch: int, keep_views: bool) -> Program:
     return _PROGRAMS[key]
 
 
+WORKER_TIMEOUT_S = 900  # a trace worker still running after this is given up (tracing: ~1 min)
+
+
+class WorkerFailed(RuntimeError):
+    """A trace worker that did not hand its program over: the run traces it itself."""
+
+
 def trace_workers() -> int:
     """How many helper processes may trace programs beside the run's own lowering thread:
-    `GRASPJAX_TRACE_WORKERS` if set, else one per 8 CPU cores (none on a small machine, where
-    they would only take cores from the compiles and the chunks)."""
-    value = os.environ.get("GRASPJAX_TRACE_WORKERS", "")
-    if value.strip():
-        if not value.strip().isdigit():
+    `GRASPJAX_TRACE_WORKERS` if set, else one per 8 CPU cores this process may use (none on a
+    small machine, where they would only take cores from the compiles and the chunks)."""
+    value = os.environ.get("GRASPJAX_TRACE_WORKERS", "").strip()
+    if value:
+        if not (value.isascii() and value.isdigit()):
             raise InputError(f"GRASPJAX_TRACE_WORKERS must be a whole number, got {value!r}")
         return int(value)
-    return (os.cpu_count() or 1) // 8
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return (cores or 1) // 8
 
 
 def trace_in_worker(p: Program) -> float | None:
     """Trace `p` in a helper process (`worker.py`) into the store; the helper's tracing seconds,
-    or None when it found the program already stored. A helper that fails leaves the tracing
-    to this process, with the helper's last words in the error."""
-    cache_dir = exported.store().parent
+    or None when it found the program already stored. `WorkerFailed` (with the helper's last
+    words) when it fails or hangs; `InterruptedError` when a signal stopped it (Ctrl-C reaches
+    the whole process group)."""
+    name = "".join(p.group.letters)
     group = dataclasses.replace(p.group, worlds=p.group.worlds[:1])
-    settings = {name: getattr(jax.config, name) for name in exported.KEY_SETTINGS}
-    job = worker.Job(group, p.batch, p.keep_views, str(cache_dir), settings)
-    # The run's flags and devices, but not its memory: the helper only traces.
+    settings = {key: getattr(jax.config, key) for key in worker.SETTINGS}
+    job = worker.Job(group, p.batch, p.keep_views, str(exported.store().resolve().parent),
+                     settings)
+    # The run's flags and devices, but not its memory: the helper only traces. It runs in the
+    # folder that holds this graspjax package, so that it imports this one and no other.
     env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
-    done = subprocess.run([sys.executable, "-m", "graspjax.batch.worker"], input=pickle.dumps(job),
-                          capture_output=True, env=env)
-    if done.returncode != 0:
-        last = done.stderr.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
-        raise RuntimeError(f"the trace worker of {''.join(p.group.letters)} failed: {last[0]}")
-    result = json.loads(done.stdout.decode().strip().splitlines()[-1])
-    return result["seconds"] if result["traced"] else None
+    command = "import sys; from graspjax.batch.worker import main; sys.exit(main())"
+    try:
+        done = subprocess.run([sys.executable, "-c", command],
+                              input=pickle.dumps(job), capture_output=True, env=env,
+                              cwd=exported.SOURCES.parent, timeout=WORKER_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        raise WorkerFailed(f"the trace worker of {name} ran over {WORKER_TIMEOUT_S} s") from None
+    if done.returncode < 0:
+        raise InterruptedError(f"the trace worker of {name} was stopped by a signal")
+    if done.returncode == 0:
+        result = json.loads(done.stdout.decode().strip().splitlines()[-1])
+        return result["seconds"] if result["traced"] else None
+    last = (done.stderr.decode(errors="replace").strip().splitlines() or ["no output"])[-1]
+    raise WorkerFailed(f"the trace worker of {name} failed: {last}")
 
 
 def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
@@ -320,23 +338,37 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     work = [(p, futures[id(p)]) for p in todo]
 
     workers = trace_workers() if exported.store() is not None else 0
-    if workers:  # this thread traces the program of the most device work, its compile the longest
+    if workers:  # this thread traces the program of the most device work itself: it starts first
         work.sort(key=lambda item: -item[0].group.work)
-    helpers = concurrent.futures.ThreadPoolExecutor(max_workers=max(workers, 1))
+    helpers = concurrent.futures.ThreadPoolExecutor(max_workers=workers) if workers else None
     traced_elsewhere: dict[int, concurrent.futures.Future] = {}
+
+    def take_over(p: Program) -> None:
+        """The worker's program for `p`, or none: not started yet (then traced here at once), or
+        failed; a program a worker traced but the store does not hold (a key that differs) is
+        traced here too, and said so."""
+        job = traced_elsewhere[id(p)]
+        if job.cancel():
+            return
+        try:
+            p._worker_s = job.result()
+        except WorkerFailed as failure:
+            log(f"{failure}; tracing it here")
+            return
+        if p._worker_s is not None and not p.stored():
+            log(f"the trace worker's program of {''.join(p.group.letters)} is not in the store "
+                "under this run's key; tracing it here")
 
     def lower_in_order() -> None:
         for i, (p, program_futures) in enumerate(work):
             try:
-                if workers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
+                if helpers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
                     traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
                                              for q, _ in work[i + 1:]})
-                    log(f"tracing {len(work) - i - 1} program(s) in {workers} worker process(es)")
+                    log(f"tracing {len(work) - i - 1} program(s) in "
+                        f"{min(workers, len(work) - i - 1)} worker process(es)")
                 if id(p) in traced_elsewhere:
-                    try:
-                        p._worker_s = traced_elsewhere[id(p)].result()
-                    except Exception as failure:  # noqa: BLE001 - tracing here is always right
-                        log(f"{failure}; tracing it here")
+                    take_over(p)
                 _ = p.portable  # traced or loaded once, then lowered for each device
             except BaseException as error:  # handed to the threads that wait for it
                 for future in program_futures:
@@ -355,7 +387,8 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
         try:
             lower_in_order()
         finally:
-            helpers.shutdown(wait=False)
+            if helpers:
+                helpers.shutdown(wait=False, cancel_futures=True)
 
     if todo:
         pool.submit(lower_then_release)

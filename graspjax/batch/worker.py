@@ -3,9 +3,10 @@
 Tracing is Python and holds its process's GIL, so a run with several programs to trace would
 trace them one after another. With cores to spare, the run hands its later programs to helper
 processes (`program.trace_in_worker`), one per program: each traces the program the run itself
-would (same group, batch, devices, flags and JAX settings, hence the same store key) and saves it;
-the run then loads it as if an earlier run had left it there. Run as
-`python -m graspjax.batch.worker` with the job pickled on stdin; prints its tracing seconds.
+would (same group and batch; the run's environment, hence its flags and devices; its JAX
+settings that enter a program's key; the same graspjax package), saves it in the store, and
+prints `{"seconds": ..., "traced": ...}`; the run then loads it as if an earlier run had left it
+there. `trace_in_worker` runs `main` in a new Python process with the job pickled on stdin.
 """
 
 from __future__ import annotations
@@ -14,23 +15,34 @@ import dataclasses
 import json
 import pickle
 import sys
+from typing import TYPE_CHECKING
+
+from graspjax.batch import exported
+
+if TYPE_CHECKING:
+    from graspjax.batch.plan import Group
+
+# JAX settings the run passes on: those in a program's key, and the platforms, which decide the
+# devices and so the batch per device.
+SETTINGS = (*exported.KEY_SETTINGS, "jax_platforms")
 
 
 @dataclasses.dataclass(frozen=True)
 class Job:
     """What a helper needs to trace the program that the run would trace."""
 
-    group: object  # plan.Group, reduced to its first world (the shapes of any batch)
+    group: Group  # reduced to its first world (the shapes of any batch)
     batch: int  # the program's static batch (all devices)
     keep_views: bool
     cache_dir: str  # the compilation cache folder: the store is its `exported/`
-    jax_settings: dict  # JAX settings that enter a program's key (`exported._path`)
+    jax_settings: dict  # name -> the run's value (`SETTINGS`)
 
 
 def main() -> int:
-    job: Job = pickle.load(sys.stdin.buffer)
+    """Trace the job on stdin (saved in the store), print its seconds."""
     import jax
 
+    job: Job = pickle.load(sys.stdin.buffer)
     jax.config.update("jax_compilation_cache_dir", job.cache_dir)
     for name, value in job.jax_settings.items():
         jax.config.update(name, value)
@@ -40,7 +52,3 @@ def main() -> int:
     seconds = sum(p.seconds for p in program.portable)
     print(json.dumps({"seconds": seconds, "traced": program.origin == "traced"}))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
