@@ -107,6 +107,12 @@ class Cones(NamedTuple):
     owner: np.ndarray  # (nefc,) the cone an efc row belongs to, -1: none
     offset: np.ndarray  # (nefc,) a row's place in its cone (0: the normal, 1...: frictions), -1
 
+    def window(self, x: jax.Array) -> jax.Array:
+        """MJX's 6-row window of efc rows per cone, from its normal row on, of `x` (nefc, ...):
+        (ncone, 6, ...), rows past the last efc row zero."""
+        padded = jnp.concatenate((x, jnp.zeros((5,) + x.shape[1:], x.dtype)))
+        return padded[self.rows[:, None] + np.arange(6)]
+
 
 def cones(d: mjx.Data) -> Cones:
     """The cones' layout of `d`'s contacts (static: from their condims and efc addresses)."""
@@ -145,8 +151,7 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
                              + above * (-0.5 * r * f * f + f * ctx.Jaref))
 
     friction = d._impl.contact.friction[layout.mask]  # (ncone, 5)
-    padded = jnp.concatenate((ctx.Jaref, jnp.zeros(3, ctx.Jaref.dtype)))
-    u = padded[rows[:, None] + np.arange(6)] * ctx.fri  # MJX's 6-row window per cone (ncone, 6)
+    u = layout.window(ctx.Jaref) * ctx.fri  # (ncone, 6)
     mu, n, t = ctx.fri[:, 0], u[:, 0], jax.vmap(mjx_math.norm)(u[:, 1:])
 
     bottom = ((t <= 0) & (n < 0)) | ((t > 0) & ((mu * n + t) <= 0))  # quadratic zone
@@ -189,8 +194,7 @@ def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
     deterministic GPU ops run with untuned kernels)."""
     jac = d._impl.efc_J  # (nefc, nv)
     layout = cones(d)
-    padded = jnp.concatenate((jac, jnp.zeros((5, jac.shape[1]), jac.dtype)))
-    window = padded[layout.rows[:, None] + np.arange(6)]  # each cone's 6-row window (ncone, 6, nv)
+    window = layout.window(jac)  # (ncone, 6, nv)
     # ctx.h is zero past each cone's condim, so rows of the window past it add nothing
     cone_rows = jnp.sum(ctx.h[:, :, :, None] * window[:, None, :, :], axis=2)  # (ncone, 6, nv)
     in_cone = (layout.owner >= 0)[:, None]
