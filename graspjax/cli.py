@@ -513,37 +513,55 @@ DETERMINISTIC = "--xla_gpu_deterministic_ops=true"
 # non-batch elements of both operands) run faster as XLA's own loops than as untuned GEMMs: MJX's
 # contact Jacobian rows, 3x3 by 3 x nv (bin scene 1.11x; results/benchmarks, stop 38).
 SMALL_DOTS = "--xla_gpu_gemm_rewrite_size_threshold=300"
+# XLA's CPU backend (jaxlib 0.10.2 on) hands products to YNNPACK, whose per-call overhead
+# outweighs the physics' products of a few elements, and whose kernels make a cached program slow
+# to load: README's command's rounds chunks took 82 s with it and 57 s with XLA's own loops
+# (2-core CPU; results/benchmarks, stop 39). An empty list of fusion types switches it off.
+CPU_SMALL_DOTS = "--xla_cpu_experimental_ynn_fusion_type="
 
 
-def with_gpu_flags(flags: str) -> str:
-    """XLA_FLAGS `flags` with graspjax's GPU flags added: deterministic ops, unless set, and the
-    small-product threshold, unless the flags already choose one."""
-    added = [DETERMINISTIC] if DETERMINISTIC not in flags else []
-    if SMALL_DOTS.split("=")[0] not in flags:
+def with_xla_flags(flags: str, deterministic: bool = True) -> str:
+    """XLA_FLAGS `flags` with graspjax's flags added where the flags do not already set them:
+    the CPU's products as XLA loops (a jaxlib that knows the flag), and with `deterministic`
+    the GPU's deterministic ops and small-product threshold."""
+    added = []
+    if _knows_cpu_small_dots() and CPU_SMALL_DOTS.split("=")[0] not in flags:
+        added.append(CPU_SMALL_DOTS)
+    if deterministic and DETERMINISTIC not in flags:
+        added.append(DETERMINISTIC)
+    if deterministic and SMALL_DOTS.split("=")[0] not in flags:
         added.append(SMALL_DOTS)
     return " ".join([flags.strip(), *added]).strip()
 
 
-def _deterministic_gpu(args) -> None:
-    """XLA's GPU scatter-adds are not deterministic: ask for deterministic ops unless --fast
-    (`with_gpu_flags`).
+def _knows_cpu_small_dots() -> bool:
+    """Whether the installed jaxlib has the YNNPACK flag (0.10.2 and 0.11.2 were checked); XLA
+    stops the process on a flag it does not know."""
+    from importlib.metadata import version
+
+    return tuple(int(n) for n in re.findall(r"\d+", version("jaxlib"))[:3]) >= (0, 10, 2)
+
+
+def _xla_flags(args) -> None:
+    """Set graspjax's XLA flags (`with_xla_flags`): XLA's GPU scatter-adds are not
+    deterministic, so a GPU gets deterministic ops unless --fast; the CPU's flag is only speed.
 
     XLA reads its flags once, when JAX starts its first backend; so this runs before any device
     is used, and importing graspjax must start none (tests/test_cli.py checks both). Called
-    from Python after JAX has started (several runs in one process), it can only check: the
-    CPU needs no flag, a GPU without deterministic ops is refused.
+    from Python after JAX has started (several runs in one process), it can only check: a GPU
+    without deterministic ops is refused.
     """
-    if getattr(args, "fast", True):
+    deterministic = not getattr(args, "fast", True)
+    flags = os.environ.get("XLA_FLAGS", "")
+    wanted = with_xla_flags(flags, deterministic)
+    if wanted == flags.strip():
         return
     import jax
     from jax._src import xla_bridge
 
-    flags = os.environ.get("XLA_FLAGS", "")
-    if with_gpu_flags(flags) == flags.strip():
-        return
     if not xla_bridge.backends_are_initialized():
-        os.environ["XLA_FLAGS"] = with_gpu_flags(flags)
-    elif DETERMINISTIC not in flags and jax.default_backend() == "gpu":
+        os.environ["XLA_FLAGS"] = wanted
+    elif deterministic and DETERMINISTIC not in flags and jax.default_backend() == "gpu":
         raise UsageError("JAX started on the GPU without deterministic ops: set XLA_FLAGS="
                          f"{DETERMINISTIC} before JAX starts, or pass --fast")
 
@@ -552,7 +570,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        _deterministic_gpu(args)
+        _xla_flags(args)
         _compilation_cache()
         return args.func(args)
     except (InputError, ConfigError, UsageError) as exc:

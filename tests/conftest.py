@@ -11,16 +11,16 @@ import numpy as np
 import pytest
 
 from graspjax import Camera, align_tool, detect_grasp
-from graspjax.cli import with_gpu_flags
+from graspjax.cli import with_xla_flags
 from graspjax.synthetic import render_depth, top_down_pose
 
 # A persistent compilation cache makes local reruns fast (CI starts cold); the CLI in a
 # subprocess shares it through GRASPJAX_CACHE.
 os.environ.setdefault("GRASPJAX_CACHE", os.path.expanduser("~/.cache/graspjax-tests"))
-# The flags the CLI sets before JAX starts (`cli._deterministic_gpu`), set here for the whole
+# The flags the CLI sets before JAX starts (`cli._xla_flags`), set here for the whole
 # session: XLA_FLAGS is part of a compiled program's cache key, so the programs compiled in this
 # process and those of a CLI subprocess share their cache entries only if both see them.
-os.environ["XLA_FLAGS"] = with_gpu_flags(os.environ.get("XLA_FLAGS", ""))
+os.environ["XLA_FLAGS"] = with_xla_flags(os.environ.get("XLA_FLAGS", ""))
 jax.config.update("jax_compilation_cache_dir", os.environ["GRASPJAX_CACHE"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 

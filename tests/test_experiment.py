@@ -100,10 +100,26 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
     assert second.compile_s == 0  # a group's compile time goes with its first chunk
     assert first.started_s >= first.compile_s  # the chunk waited for its program
     assert second.started_s >= first.started_s + first.wall_s  # chunks run one after another
+    assert timings["peak_gib"].isna().all()  # the CPU keeps no count of its memory
     summary = pd.read_csv(tiny_run / "summary.csv")
     row = summary[summary.object == "a"].iloc[0]
     assert (row.setup, row.n, row.paper_pct) == (1, 3, 90)
     assert row.ci_low <= row.rate <= row.ci_high
+
+
+def test_peak_memory_is_the_fullest_device_s_in_gib():
+    class Device:
+        def __init__(self, stats):
+            self.stats = stats
+
+        def memory_stats(self):
+            return self.stats
+
+    gib = 2**30
+    two = [Device({"peak_bytes_in_use": 3 * gib, "bytes_in_use": gib}),
+           Device({"peak_bytes_in_use": gib // 2})]
+    assert program.peak_gib(two) == 3.0
+    assert program.peak_gib([Device(None)]) is None  # the CPU's answer
 
 
 def test_same_seed_same_attempts(tiny_run, tmp_path):

@@ -420,6 +420,15 @@ class ChunkResult:
     views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
 
 
+def peak_gib(devices: list[jax.Device]) -> float | None:
+    """The most memory in use at once so far in this process, in GiB, on the fullest of
+    `devices` (None where the backend keeps no such count: the CPU). It tells which `--batch`
+    fits a device."""
+    stats = [d.memory_stats() or {} for d in devices]
+    peaks = [s["peak_bytes_in_use"] for s in stats if "peak_bytes_in_use" in s]
+    return round(max(peaks) / 2**30, 3) if peaks else None
+
+
 def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
                keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
                log: Callable[[str], None] = lambda m: None, overlap: bool = True
@@ -434,7 +443,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     a worker process or loaded from the store of exported programs (`program`), what tracing or
     loading and compiling took (`trace_s`, `compile_s`, on a group's first chunk) and when it
     started (`started_s`, seconds since this call began: gaps are the device waiting for a
-    compile)."""
+    compile), and the device memory it had needed at most so far (`peak_gib`)."""
     began = time.perf_counter()
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
@@ -480,5 +489,6 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                        "trace_s": round(prog.trace_s if first else 0.0, 3),
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
                        "started_s": round(start - began, 3),
-                       "wall_s": round(wall_s, 3)}
+                       "wall_s": round(wall_s, 3),
+                       "peak_gib": peak_gib(prog.devices)}
             yield ChunkResult(chunk, prog.group, drop, records, timings, views)
