@@ -97,3 +97,19 @@ def test_arguments_of_another_tree_are_refused(store):
     portable = exported.export(_fn, ARGS, ("pair", 1))
     with pytest.raises(TypeError, match="do not match"):
         portable.jit()({"a": VALUES[0].a, "b": VALUES[0].b}, VALUES[1])
+
+
+def test_an_exported_operation_keeps_its_line_not_its_traceback(store):
+    """XLA's GPU executable annotates every operation with its frames when it is created or
+    loaded: the exported module gives each one source line, not the Python call stack."""
+    def inner(x):
+        return jnp.sin(x) * 2  # the operations' line
+
+    def outer(pair: Pair):
+        return inner(pair.a) + pair.b  # a call more between the operations and the export
+
+    args = (ARGS[0],)
+    text = exported.export(outer, args, ("outer",)).program.mlir_module()
+    assert "callsite(" not in text and "test_exported.py" in text
+    full = jax.export.export(jax.jit(lambda p: outer(p)))(*args).mlir_module()
+    assert "callsite(" in full  # JAX's default, which the store does not keep

@@ -27,6 +27,7 @@ import time
 from collections.abc import Callable
 
 import jax
+from jax._src import config as jax_config
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
@@ -96,7 +97,12 @@ def export(fn: Callable, args: tuple, description: tuple) -> Portable:
         out_tree.append(tree)
         return out_leaves
 
-    program = jax.export.export(jax.jit(flat))(*in_leaves)
+    # One source line per operation instead of its Python traceback (up to 100 frames): XLA's GPU
+    # executable builds a profiler annotation from every operation's frames each time it is
+    # created, compiled or loaded, which was most of a warm load (results/benchmarks, stop 39).
+    # Profiles still name each operation's line. (JAX's thread-local switch: private API.)
+    with jax_config.include_full_tracebacks_in_locations(False):
+        program = jax.export.export(jax.jit(flat))(*in_leaves)
     if path is not None:
         _write(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
