@@ -2,6 +2,7 @@
 
 import dataclasses
 import pathlib
+import re
 
 import jax
 import jax.numpy as jnp
@@ -113,3 +114,27 @@ def test_an_exported_operation_keeps_its_line_not_its_traceback(store):
     assert "callsite(" not in text and "test_exported.py" in text
     full = jax.export.export(jax.jit(lambda p: outer(p)))(*args).mlir_module()
     assert "callsite(" in full  # JAX's default, which the store does not keep
+
+
+def _deepest_frame(compiled: jax.stages.Compiled) -> int:
+    """The highest stack frame id in a compiled program's operations: frames are numbered as
+    the module's frame index grows, so an operation that carries its caller's Python stack
+    has an id beyond that stack's depth."""
+    return max(int(i) for i in re.findall(r"stack_frame_id=(\d+)", compiled.as_text()))
+
+
+def _called_from_deep(depth: int, fn):
+    return fn() if depth == 0 else _called_from_deep(depth - 1, fn)
+
+
+def test_a_lowered_program_does_not_give_its_operations_the_caller_s_stack(store):
+    """Lowered with JAX's default, the operations inlined from an exported module carry the
+    Python stack of the code that lowers it (a run's lowering thread); `Portable.lower` keeps
+    them at their own line."""
+    portable = exported.export(lambda pair: jnp.sin(pair.a) * 2 + pair.b, (ARGS[0],), ("sin",))
+    ours = _called_from_deep(30, lambda: portable.lower())
+    default = _called_from_deep(30, lambda: portable.jit().lower(*portable.in_shapes()))
+    assert _deepest_frame(default.compile()) > 30
+    assert _deepest_frame(ours.compile()) < 10
+    np.testing.assert_allclose(ours.compile()(VALUES[0]), np.sin(np.arange(3.0)) * 2 + 1,
+                               rtol=1e-6)

@@ -65,6 +65,15 @@ class Portable:
             return jax.tree.unflatten(self.out_tree, self.program.call(*leaves))
         return jax.jit(call, donate_argnums=donate_argnums)
 
+    def lower(self, sharding: jax.sharding.Sharding | None = None,
+              donate_argnums: tuple[int, ...] = ()) -> jax.stages.Lowered:
+        """`jit` lowered for the arguments' shapes (placed by `sharding`), with one source line
+        per operation like the exported module: lowered with JAX's default, every operation
+        inlined from the module would carry the caller's whole Python stack (a run's lowering
+        thread: some 30 frames), which XLA:GPU formats again at each load (stop 40)."""
+        with _one_source_line():
+            return self.jit(donate_argnums).lower(*self.in_shapes(sharding))
+
 
 def store() -> pathlib.Path | None:
     """The folder of exported programs: beside the compilation cache, None when that is off."""
@@ -97,15 +106,20 @@ def export(fn: Callable, args: tuple, description: tuple) -> Portable:
         out_tree.append(tree)
         return out_leaves
 
-    # One source line per operation instead of its Python traceback (up to 100 frames): XLA's GPU
-    # executable builds a profiler annotation from every operation's frames each time it is
-    # created, compiled or loaded, which was most of a warm load (results/benchmarks, stop 39).
-    # Profiles still name each operation's line. (JAX's thread-local switch: private API.)
-    with jax_config.include_full_tracebacks_in_locations(False):
+    with _one_source_line():
         program = jax.export.export(jax.jit(flat))(*in_leaves)
     if path is not None:
         _write(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
+
+
+def _one_source_line():
+    """Trace or lower with one source line per operation instead of its Python traceback (up
+    to 100 frames): XLA's GPU executable builds a profiler annotation from every operation's
+    frames each time it is created, compiled or loaded, which was most of a warm load
+    (results/benchmarks, stops 39 and 40). Profiles still name each operation's line. (JAX's
+    thread-local switch: private API.)"""
+    return jax_config.include_full_tracebacks_in_locations(False)
 
 
 def stored(args: tuple, description: tuple) -> bool:
