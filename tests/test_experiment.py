@@ -8,8 +8,10 @@ import subprocess
 import sys
 import threading
 import time
+import types
 
 import jax
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -428,6 +430,36 @@ def test_the_next_chunk_is_the_first_whose_program_is_ready():
     first = compiles[0][0] = concurrent.futures.Future()
     first.set_exception(RuntimeError("failed to compile"))  # done: playing it will raise
     assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 0
+
+
+class _FakeProgram:
+    """A compiled program whose `play` says when each chunk starts playing."""
+
+    def __init__(self, group, started):
+        self.group, self.batch, self.started, self.calls = group, 3, started, 0
+        self.compiled, self.origin, self.trace_s, self.compile_s = True, "loaded", 0.0, 0.0
+        self.devices = [types.SimpleNamespace(memory_stats=lambda: None)]
+
+    def play(self, worlds, points, progress):
+        self.started[self.calls].set()
+        self.calls += 1
+        record = types.SimpleNamespace(target=np.zeros(self.batch, np.int32))
+        return record, [record], None
+
+
+@pytest.mark.parametrize("keep_views", [False, True])
+def test_the_next_chunk_plays_while_the_caller_handles_the_last(monkeypatch, keep_views):
+    """The caller's rows and files of one chunk overlap the next chunk's play, unless views are
+    kept (two chunks' views would share the device memory)."""
+    groups = plan.plan([plan.Job(("a",), (1,), 6)], [Config()], 0)
+    started = {i: threading.Event() for i in range(2)}
+    fake = _FakeProgram(groups[0], started)
+    monkeypatch.setattr(program, "program", lambda group, batch, keep: fake)
+    chunks = program.run_chunks(groups, [Config()], 3, keep_views=keep_views)
+    first = next(chunks)
+    assert first.chunk.index == 0
+    assert started[1].wait(timeout=0 if keep_views else 10) is not keep_views
+    assert [r.chunk.index for r in chunks] == [1]
 
 
 def test_every_method_traces_into_the_attempt_program(monkeypatch):

@@ -162,8 +162,7 @@ class Program:
         the same exported modules (`portable`, traced or loaded first)."""
         sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
         start, attempt_ = self.portable
-        return (start.jit().lower(*start.in_shapes(sharding)),
-                attempt_.jit(donate_argnums=(1,)).lower(*attempt_.in_shapes(sharding)))
+        return start.lower(sharding), attempt_.lower(sharding, donate_argnums=(1,))
 
     @property
     def origin(self) -> str:
@@ -395,17 +394,20 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     return futures
 
 
+def first_ready(waiting: list[Chunk],
+                compiles: Callable[[Chunk], list[concurrent.futures.Future]]) -> Chunk | None:
+    """The first of the `waiting` chunks whose program's `compiles` are all done (a failed one
+    counts: playing it raises), or None while there is none."""
+    return next((c for c in waiting if all(f.done() for f in compiles(c))), None)
+
+
 def next_ready(waiting: list[Chunk],
                compiles: Callable[[Chunk], list[concurrent.futures.Future]]) -> Chunk:
-    """The first of the `waiting` chunks whose program's `compiles` are all done (a failed one
-    counts: playing it raises), once one is."""
-    while True:
-        unfinished = [[f for f in compiles(c) if not f.done()] for c in waiting]
-        for chunk, left in zip(waiting, unfinished, strict=True):
-            if not left:
-                return chunk
-        concurrent.futures.wait([f for left in unfinished for f in left],
+    """`first_ready`, once there is one."""
+    while (chunk := first_ready(waiting, compiles)) is None:
+        concurrent.futures.wait([f for c in waiting for f in compiles(c) if not f.done()],
                                 return_when=concurrent.futures.FIRST_COMPLETED)
+    return chunk
 
 
 @dataclasses.dataclass(frozen=True)
@@ -469,12 +471,10 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
         if not overlap:
             for prog in programs.values():
                 ready(prog)
-        waiting = list(todo)
-        while waiting:
-            chunk = next_ready(waiting, lambda c: compiling.get(id(programs[c.group]), []))
-            waiting.remove(chunk)
+
+        def play(chunk: Chunk) -> ChunkResult:
+            """Play one chunk on the devices (in the `device` thread) into its result."""
             prog = programs[chunk.group]
-            ready(prog)
             start = time.perf_counter()
             drop, records, views = prog.play(chunk.worlds, points, progress)
             wall_s = time.perf_counter() - start
@@ -491,4 +491,24 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                        "started_s": round(start - began, 3),
                        "wall_s": round(wall_s, 3),
                        "peak_gib": peak_gib(prog.devices)}
-            yield ChunkResult(chunk, prog.group, drop, records, timings, views)
+            return ChunkResult(chunk, prog.group, drop, records, timings, views)
+
+        # One thread plays the chunks, one after another. While the caller turns a chunk into
+        # rows and files, the next chunk whose program is ready already plays (not when views
+        # are kept: two chunks' views would share the devices' memory).
+        compiles = lambda c: compiling.get(id(programs[c.group]), [])  # noqa: E731
+        waiting = list(todo)
+        with concurrent.futures.ThreadPoolExecutor(max_workers=1) as device:
+            def start(chunk: Chunk) -> concurrent.futures.Future:
+                waiting.remove(chunk)
+                ready(programs[chunk.group])
+                return device.submit(play, chunk)
+
+            playing = None
+            while waiting or playing:
+                if playing is None:
+                    playing = start(next_ready(waiting, compiles))
+                result = playing.result()
+                following = None if keep_views else first_ready(waiting, compiles)
+                playing = start(following) if following is not None else None
+                yield result
