@@ -432,6 +432,45 @@ def test_the_next_chunk_is_the_first_whose_program_is_ready():
     assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 0
 
 
+class _LoggedProgram:
+    """A program that notes when the lowering thread reaches it."""
+
+    def __init__(self, name, work, stored, reached):
+        self.group, self.name = types.SimpleNamespace(work=work, letters=tuple(name)), name
+        self.compiled, self.devices, self._stored, self.reached = False, [None], stored, reached
+
+    def stored(self):
+        return self._stored
+
+    @property
+    def portable(self):
+        self.reached.append(self.name)
+
+    def lower(self, device):
+        return None
+
+    def compile(self, device, lowered, lower_s):
+        pass
+
+
+@pytest.mark.parametrize("stored, order", [(False, ["heavy", "light"]),
+                                           (True, ["light", "heavy"])])
+def test_with_helpers_the_heaviest_program_goes_first_unless_it_is_stored(
+        monkeypatch, tmp_path, stored, order):
+    """A cold start traces the program of the most device work first (helpers trace the rest);
+    a warm start keeps the plan's order, so that its first chunk waits for nothing but a load."""
+    monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", "1")
+    monkeypatch.setattr(exported, "store", lambda: tmp_path)
+    monkeypatch.setattr(program, "trace_in_worker", lambda p: None)  # traced "elsewhere": no-op
+    reached = []
+    programs = [_LoggedProgram("light", 1, stored, reached),
+                _LoggedProgram("heavy", 10, stored, reached)]
+    with concurrent.futures.ThreadPoolExecutor(4) as pool:
+        futures = program._start_compiles(programs, pool)
+        concurrent.futures.wait([f for fs in futures.values() for f in fs], timeout=30)
+    assert reached == order
+
+
 class _FakeProgram:
     """A compiled program whose `play` says when each chunk starts playing."""
 

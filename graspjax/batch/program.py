@@ -317,10 +317,11 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     Python and holds the GIL: lowered in parallel threads, every program would finish lowering
     only when all do; XLA's compiles release the GIL and run in parallel. With helper processes
     (`trace_workers()` at a time, `trace_in_worker`) the programs go in order of device work,
-    most first (`Group.work`), and at the first program that must be traced, the programs
-    after it go to the helpers, which trace them while this thread traces that one; the thread
-    then loads theirs from the store. A helper starts seconds after this thread (its imports),
-    so the group with the longest chunks waits the least for its program.
+    most first (`Group.work`), unless that program is in the store already; at the first
+    program that must be traced, the programs after it go to the helpers, which trace them
+    while this thread traces that one; the thread then loads theirs from the store. A helper
+    starts seconds after this thread (its imports), so the group with the longest chunks waits
+    the least for its program.
     """
     todo = list({id(p): p for p in programs if not p.compiled}.values())
     futures = {id(p): [concurrent.futures.Future() for _ in p.devices] for p in todo}
@@ -337,7 +338,11 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     work = [(p, futures[id(p)]) for p in todo]
 
     workers = trace_workers() if exported.store() is not None else 0
-    if workers:  # this thread traces the program of the most device work itself: it starts first
+    # With helpers, the program of the most device work goes first when it must be traced: this
+    # thread traces it itself, so its chunks wait the least. When it is in the store (a warm
+    # start), the plan's order stands: nothing waits for a trace, and the first chunk starts
+    # as soon as the first program loads (the others load while it plays).
+    if workers and work and not max(todo, key=lambda p: p.group.work).stored():
         work.sort(key=lambda item: -item[0].group.work)
     helpers = concurrent.futures.ThreadPoolExecutor(max_workers=workers) if workers else None
     traced_elsewhere: dict[int, concurrent.futures.Future] = {}
