@@ -478,8 +478,10 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                 ready(prog)
 
         def play(chunk: Chunk) -> ChunkResult:
-            """Play one chunk on the devices (in the `device` thread) into its result."""
+            """Play one chunk on the devices (in the `device` thread) into its result; a failed
+            compile of its program raises here, after the chunks before it were handed over."""
             prog = programs[chunk.group]
+            ready(prog)
             start = time.perf_counter()
             drop, records, views = prog.play(chunk.worlds, points, progress)
             wall_s = time.perf_counter() - start
@@ -506,7 +508,6 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
         with concurrent.futures.ThreadPoolExecutor(max_workers=1) as device:
             def start(chunk: Chunk) -> concurrent.futures.Future:
                 waiting.remove(chunk)
-                ready(programs[chunk.group])
                 return device.submit(play, chunk)
 
             playing = None
