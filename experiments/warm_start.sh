@@ -24,7 +24,7 @@ out=$(cd "$out" && pwd)
 for pass in "$@"; do
   if [[ $pass == cold ]]; then rm -rf "$GRASPJAX_CACHE"; fi
   mkdir -p "$GRASPJAX_CACHE"
-  n=$(ls "$out" | grep -c "^$pass" || true)
+  n=$(find "$out" -mindepth 1 -maxdepth 1 -type d -name "$pass*" | wc -l)
   run=$pass$((n + 1))
   start=$(date +%s.%N)
   (cd "$package" && python3 -m graspjax.cli run --table 1,2 --trials "$trials" --seed 0 \
