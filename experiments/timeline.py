@@ -1,0 +1,116 @@
+"""When each step of one `graspjax` command runs, and in which thread: a timeline of the calls
+that make up a run's fixed cost (imports, device start, scene builds, program loads, chunks,
+rows, files, report, teardown).
+
+    START=$(date +%s.%N) python3 experiments/timeline.py run --table 1,2 --trials 1000 --seed 0 ...
+
+The arguments are `graspjax`'s. Every call of the functions in CALLS is timed (seconds since
+START, the shell's clock when it launched Python: the interpreter's own start counts); calls
+of 0.05 s or more are printed to stderr at exit as `TL begin end seconds thread name`, then
+`TL_LAST_ATEXIT` when the last exit handler runs (the rest of the wall time is the
+interpreter's teardown). The graspjax modules are imported before the command runs, so the
+imports are timed apart; `graspjax.cli.entry` would start the devices beside them. With
+TIMELINE_EXIT=1 the process ends at that point without the teardown. Results:
+results/benchmarks/README.md (stop 40).
+"""
+
+import atexit
+import functools
+import importlib
+import os
+import sys
+import threading
+import time
+
+START = float(os.environ.get("START", time.time()))
+EVENTS: list[tuple[str, float, float, str]] = []
+CALLS = [
+    "graspjax.experiment:run",
+    "graspjax.batch.program:Program.portable",
+    "graspjax.batch.program:Program.scene",
+    "graspjax.batch.program:Program.arrays",
+    "graspjax.batch.program:Program.lower",
+    "graspjax.batch.program:Program.compile",
+    "graspjax.batch.program:Program.play",
+    "graspjax.batch.program:trace_in_worker",
+    "graspjax.batch.rows:attempt_rows",
+    "graspjax.batch.rows:round_rows",
+    "graspjax.outputs:RunFolder.add",
+    "graspjax.outputs:RunFolder.finish",
+    "graspjax.report:write_report",
+    "graspjax.sim.scene:mjx.put_model",
+    "jax._src.xla_bridge:backends",
+    "jax._src.compiler:compile_or_get_cached",
+    "jax._src.compilation_cache:get_executable_and_time",
+]
+
+
+def since_start() -> float:
+    return time.time() - START
+
+
+@atexit.register  # registered first, so it runs after every other exit handler (JAX's too)
+def _last_handler() -> None:
+    print(f"TL_LAST_ATEXIT {since_start():.2f}", file=sys.stderr, flush=True)
+    if os.environ.get("TIMELINE_EXIT"):
+        os._exit(0)
+
+
+def timed(name: str, fn):
+    """`fn`, noting each call's begin and end in EVENTS."""
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        begin = since_start()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            EVENTS.append((name, begin, since_start(), threading.current_thread().name))
+    return wrapper
+
+
+def wrap(target: str) -> None:
+    """Time `module:Qualified.name` (a function, method, property or cached property) in place."""
+    module, _, qualified = target.partition(":")
+    *path, name = qualified.split(".")
+    owner = importlib.import_module(module)
+    for part in path:
+        owner = getattr(owner, part)
+    inner = owner.__dict__[name]
+    if isinstance(inner, property):
+        setattr(owner, name, property(timed(qualified, inner.fget)))
+    elif isinstance(inner, functools.cached_property):
+        cached = functools.cached_property(timed(qualified, inner.func))
+        cached.__set_name__(owner, name)
+        setattr(owner, name, cached)
+    else:
+        setattr(owner, name, timed(qualified, inner))
+
+
+def imported(module: str):
+    begin = since_start()
+    loaded = importlib.import_module(module)
+    EVENTS.append((f"import {module}", begin, since_start(), "MainThread"))
+    return loaded
+
+
+@atexit.register
+def _show() -> None:
+    for name, begin, end, thread in sorted(EVENTS, key=lambda e: e[1]):
+        if end - begin >= 0.05:
+            print(f"TL {begin:8.2f} {end:8.2f} {end - begin:7.2f}  {thread[:24]:24s} {name}",
+                  file=sys.stderr)
+    print(f"TL {since_start():8.2f} exit", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    for module in ("jax", "graspjax.cli", "graspjax.experiment", "graspjax.report"):
+        imported(module)
+    for target in CALLS:
+        wrap(target)
+    # names the modules imported before they were wrapped
+    experiment = sys.modules["graspjax.experiment"]
+    program = sys.modules["graspjax.batch.program"]
+    rows = sys.modules["graspjax.batch.rows"]
+    experiment.run_chunks = program.run_chunks
+    experiment.attempt_rows, experiment.round_rows = rows.attempt_rows, rows.round_rows
+    sys.exit(sys.modules["graspjax.cli"].main(sys.argv[1:]))
