@@ -262,29 +262,29 @@ def _experiment_request(args, grid_items):
 
 
 def _start_devices() -> None:
-    """Start JAX's devices and compiler in a thread of their own: on a GPU the driver, the
-    client, the first allocation and the first compile take about two seconds, which then pass
-    while the simulation's modules import (seconds: MJX and its mesh libraries). A failure is
-    left to the run's own first use of the devices, which reports it."""
+    """Start JAX's devices in a thread of their own: on a GPU the driver, the client and the
+    first allocation take about a second, which then passes while the simulation's modules
+    import (seconds: MJX and its mesh libraries). A failure is left to the run's own first use
+    of the devices, which raises it again."""
     import threading
 
-    def start() -> None:
-        import jax
+    import jax  # here, not in the thread: the main thread's imports import it too
 
-        try:  # the devices, then XLA's compiler (its first program takes a second on a GPU)
-            jax.jit(lambda x: x + 1)(jax.device_put(0.0)).block_until_ready()
-        except Exception:  # the run's own first call raises it again, in one line
+    def start() -> None:
+        try:
+            jax.device_put(0.0).block_until_ready()
+        except Exception:  # the run's own first use of the devices raises it again
             pass
 
     threading.Thread(target=start, name="start-devices").start()
 
 
 def _run_experiment(args, grid_items=None) -> int:
+    part, parts = _part(args.part)
     _start_devices()
     from graspjax import experiment
 
     request = _experiment_request(args, grid_items)
-    part, parts = _part(args.part)
     result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
                             args.quiet)
     if not result.files:
@@ -604,10 +604,12 @@ def entry() -> None:
     """The `graspjax` command: `main`, then the process ends without the interpreter's teardown
     (every file is written and closed by then). Tearing down JAX's GPU client and the programs
     loaded on it took about 2 s of a warm run (one H100; results/benchmarks, stop 40)."""
-    code = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
+    code = main()  # an exception (argparse's SystemExit, a bug's traceback) ends it as usual
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    finally:  # a closed pipe (`| head`) must not keep the exit code from the shell
+        os._exit(code)
 
 
 if __name__ == "__main__":

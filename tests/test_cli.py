@@ -4,6 +4,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -170,6 +171,18 @@ def test_console_script_exit_status(tmp_path):
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "negative depth" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_console_script_prints_all_its_output_before_it_ends(tmp_path):
+    """`entry` ends the process without the interpreter's teardown: what the command printed
+    into a pipe (block-buffered) still arrives, with its exit status."""
+    proc = subprocess.run([sys.executable, "-m", "graspjax.cli", "assets", str(tmp_path / "a")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    printed = proc.stdout.split()
+    assert len(printed) > 12 and all(Path(p).is_file() for p in printed)
+    assert {Path(p).name for p in printed} == {p.name for p in (tmp_path / "a").rglob("*")
+                                               if p.is_file()}
 
 
 def test_importing_graspjax_starts_no_backend_so_xla_flags_apply():

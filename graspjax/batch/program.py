@@ -338,12 +338,6 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     work = [(p, futures[id(p)]) for p in todo]
 
     workers = trace_workers() if exported.store() is not None else 0
-    # With helpers, the program of the most device work goes first when it must be traced: this
-    # thread traces it itself, so its chunks wait the least. When it is in the store (a warm
-    # start), the plan's order stands: nothing waits for a trace, and the first chunk starts
-    # as soon as the first program loads (the others load while it plays).
-    if workers and work and not max(todo, key=lambda p: p.group.work).stored():
-        work.sort(key=lambda item: -item[0].group.work)
     helpers = concurrent.futures.ThreadPoolExecutor(max_workers=workers) if workers else None
     traced_elsewhere: dict[int, concurrent.futures.Future] = {}
 
@@ -363,7 +357,22 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
             log(f"the trace worker's program of {''.join(p.group.letters)} is not in the store "
                 "under this run's key; tracing it here")
 
+    def order() -> None:
+        """With helpers, the program of the most device work goes first when it must be traced:
+        this thread traces it itself, so its chunks wait the least. When it is in the store (a
+        warm start), the plan's order stands: nothing waits for a trace, and the first chunk
+        starts as soon as the first program loads (the others load while it plays)."""
+        if not helpers or not work:
+            return
+        try:
+            heaviest_stored = max(todo, key=lambda p: p.group.work).stored()
+        except Exception:  # its scene failed: its own turn raises it through its futures
+            return
+        if not heaviest_stored:
+            work.sort(key=lambda item: -item[0].group.work)
+
     def lower_in_order() -> None:
+        order()
         for i, (p, program_futures) in enumerate(work):
             try:
                 if helpers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
@@ -440,7 +449,9 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
                log: Callable[[str], None] = lambda m: None, overlap: bool = True
                ) -> Iterator[ChunkResult]:
-    """Play every chunk not in `done`; yield each as it finishes.
+    """Play every chunk not in `done`; yield each as it finishes. While the caller handles a
+    yielded chunk, the next one whose program is ready already plays on the devices (unless
+    views are kept), so closing the generator early waits for that chunk to end.
 
     Programs compile in background threads; with `overlap`, a group's chunks start as soon as
     its own program is ready, while the other groups' programs still compile (the device works
