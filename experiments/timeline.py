@@ -9,7 +9,7 @@ START, the shell's clock when it launched Python: the interpreter's own start co
 of 0.05 s or more are printed to stderr at exit as `TL begin end seconds thread name`, then
 `TL_LAST_ATEXIT` when the last exit handler runs (the rest of the wall time is the
 interpreter's teardown). The graspjax modules are imported before the command runs, so the
-imports are timed apart; `graspjax.cli.entry` would start the devices beside them. With
+imports are timed apart (`graspjax run` itself starts the devices beside them). With
 TIMELINE_EXIT=1 the process ends at that point without the teardown. Results:
 results/benchmarks/README.md (stop 40).
 """

@@ -514,7 +514,9 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
         # One thread plays the chunks, one after another. While the caller turns a chunk into
         # rows and files, the next chunk whose program is ready already plays (not when views
         # are kept: two chunks' views would share the devices' memory).
-        compiles = lambda c: compiling.get(id(programs[c.group]), [])  # noqa: E731
+        def compiles(chunk: Chunk) -> list[concurrent.futures.Future]:
+            return compiling.get(id(programs[chunk.group]), [])
+
         waiting = list(todo)
         with concurrent.futures.ThreadPoolExecutor(max_workers=1) as device:
             def start(chunk: Chunk) -> concurrent.futures.Future:
