@@ -11,9 +11,11 @@ the arguments and prints what these return.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import json
 import os
 import sys
+import threading
 from pathlib import Path
 
 import pandas as pd
@@ -42,6 +44,19 @@ def progress_bar(total: int, quiet: bool, initial: int = 0, unit: str = "attempt
             bar.write(message, file=sys.stderr)
 
     return bar, log
+
+
+def import_in_background(module: str) -> None:
+    """Start importing `module` in a thread, once: the report's plotting libraries load while the
+    device plays the next chunk rather than before the first. A later import waits for it (the
+    import system locks the module) and raises its error, if any."""
+    if module not in sys.modules and module not in _IMPORTING:
+        _IMPORTING.add(module)
+        threading.Thread(target=importlib.import_module, args=(module,), daemon=True,
+                         name=f"import {module}").start()
+
+
+_IMPORTING: set[str] = set()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,7 +98,6 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     write its report. With `parts` > 1 this process runs every `parts`-th chunk from `part`
     into a folder shared with the other parts; the one that completes the last chunk writes
     the results."""
-    from graspjax.report import write_report
     from graspjax.views import ViewSaver
 
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
@@ -122,9 +136,12 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
             folder.add(result.chunk.index, frame, round_rows(result, columns), result.timings)
             if result.views is not None:
                 saver.save(result.chunk, frame, result.views)
+            import_in_background("graspjax.report")
     files = folder.finish()
     if not files:
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
+    from graspjax.report import write_report
+
     files += write_report(out)
     success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
     return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()))

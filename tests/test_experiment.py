@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from graspjax import experiment
 from graspjax.batch import exported, plan, program
 from graspjax.cli import main
 from graspjax.config import Config, override
@@ -599,3 +600,18 @@ def test_report_errors(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "no such directory" in err and "no attempts.csv" in err
+
+
+def test_a_background_import_loads_the_module_once_in_its_own_thread(tmp_path, monkeypatch):
+    (tmp_path / "slow_to_import.py").write_text(
+        "import threading, time\ntime.sleep(0.5)\nIMPORTED_BY = threading.current_thread().name\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "slow_to_import", raising=False)
+    monkeypatch.setattr(experiment, "_IMPORTING", set())
+    experiment.import_in_background("slow_to_import")
+    experiment.import_in_background("slow_to_import")  # already on its way: no second thread
+    importing = [t for t in threading.enumerate() if t.name == "import slow_to_import"]
+    assert len(importing) == 1
+    importing[0].join(30)
+    assert sys.modules["slow_to_import"].IMPORTED_BY == "import slow_to_import"
+    monkeypatch.delitem(sys.modules, "slow_to_import")
