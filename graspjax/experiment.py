@@ -11,6 +11,7 @@ the arguments and prints what these return.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib
 import json
 import os
@@ -46,17 +47,14 @@ def progress_bar(total: int, quiet: bool, initial: int = 0, unit: str = "attempt
     return bar, log
 
 
+@functools.cache
 def import_in_background(module: str) -> None:
-    """Start importing `module` in a thread, once: the report's plotting libraries load while the
-    device plays the next chunk rather than before the first. A later import waits for it (the
-    import system locks the module) and raises its error, if any."""
-    if module not in sys.modules and module not in _IMPORTING:
-        _IMPORTING.add(module)
+    """Start importing `module` in a thread, once per process: the report's plotting libraries
+    load while the device plays the next chunk rather than before the first. A later import
+    waits for it (the import system locks the module) and raises its error, if any."""
+    if module not in sys.modules:
         threading.Thread(target=importlib.import_module, args=(module,), daemon=True,
                          name=f"import {module}").start()
-
-
-_IMPORTING: set[str] = set()
 
 
 @dataclasses.dataclass(frozen=True)

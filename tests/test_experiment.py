@@ -607,7 +607,7 @@ def test_a_background_import_loads_the_module_once_in_its_own_thread(tmp_path, m
         "import threading, time\ntime.sleep(0.5)\nIMPORTED_BY = threading.current_thread().name\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.delitem(sys.modules, "slow_to_import", raising=False)
-    monkeypatch.setattr(experiment, "_IMPORTING", set())
+    experiment.import_in_background.cache_clear()
     experiment.import_in_background("slow_to_import")
     experiment.import_in_background("slow_to_import")  # already on its way: no second thread
     importing = [t for t in threading.enumerate() if t.name == "import slow_to_import"]
@@ -615,3 +615,4 @@ def test_a_background_import_loads_the_module_once_in_its_own_thread(tmp_path, m
     importing[0].join(30)
     assert sys.modules["slow_to_import"].IMPORTED_BY == "import slow_to_import"
     monkeypatch.delitem(sys.modules, "slow_to_import")
+    experiment.import_in_background.cache_clear()
