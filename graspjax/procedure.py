@@ -435,10 +435,13 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
              jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1))
     # Views not taken keep these: no plane, and (kept views) blank images marked not looked.
-    blank = jax.eval_shape(lambda: view(scene, data, centre_rot, centre_pos, target, camera,
-                                        config, k_views))
-    kept = jax.tree.map(lambda x: jnp.zeros((views_at_most,) + x.shape, x.dtype),
-                        ((blank, jax.ShapeDtypeStruct((), bool)) if keep_views else None))
+    # The view's shapes cost a trace of its own, so only kept views ask for them.
+    kept = None
+    if keep_views:
+        blank = jax.eval_shape(lambda: view(scene, data, centre_rot, centre_pos, target, camera,
+                                            config, k_views))
+        kept = jax.tree.map(lambda x: jnp.zeros((views_at_most,) + x.shape, x.dtype),
+                            (blank, jax.ShapeDtypeStruct((), bool)))
     kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), _NO_PLANE))
     # A masked loop: it ends when no world of a batch still searches (vmap runs it until then).
     _, carry, (per_view, taken) = jax.lax.while_loop(searching, look, (jnp.int32(0), carry, kept))
@@ -515,6 +518,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     k_search, k_error = attempt_keys(state, k)
 
+    @jax.jit  # traced once: `idle` takes its shapes from the same trace the branch calls
     def search(_):
         kin = mjx.kinematics(model, state.data)
         target, pose, progress, views = _search(scene, kin, eligible, k_search, config, keep_views)
