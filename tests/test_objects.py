@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from graspjax.config import DetectorConfig, GripperConfig
+from graspjax.sim import objects
 from graspjax.sim.objects import (
     BASIC,
     INDUSTRIAL,
@@ -75,8 +76,40 @@ def test_resting_poses_of_a_scene_are_each_object_s_own_drops():
     drops run alone (deterministic per object), in the scene's order, and are rotations."""
     _resting_poses.cache_clear()  # computed here, in the threads
     together = resting_poses_of(("g", "a"), count=4, seed=3)
-    alone = np.stack([_resting_poses.__wrapped__(c, 4, 3) for c in "ga"])
+    alone = np.stack([objects._drops(c, 4, 3) for c in "ga"])
     assert together.shape == (2, 4, 3, 3)
     np.testing.assert_array_equal(together, alone)
     identity = np.broadcast_to(np.eye(3), together.shape)
     np.testing.assert_allclose(together @ np.swapaxes(together, -1, -2), identity, atol=1e-9)
+
+
+def test_drops_are_kept_in_the_store_and_read_back(tmp_path, monkeypatch):
+    """The drops run once: a later process reads the very same poses from the store beside the
+    compilation cache; an unreadable file is run again and rewritten; other drops (count,
+    seed, object) get files of their own; with the cache off nothing is kept."""
+    monkeypatch.setattr(objects, "_cache_folder", lambda: str(tmp_path))
+    _resting_poses.cache_clear()
+    ran = objects._drops("a", 3, 7)
+    first = _resting_poses("a", 3, 7)
+    np.testing.assert_array_equal(first, ran)
+    (path,) = (tmp_path / "resting").iterdir()
+
+    def no_drops(*args):
+        raise AssertionError("the drops ran again")
+
+    _resting_poses.cache_clear()
+    with monkeypatch.context() as m:  # a new process: the function's cache is empty
+        m.setattr(objects, "_drops", no_drops)
+        np.testing.assert_array_equal(_resting_poses("a", 3, 7), ran)
+
+    path.write_bytes(b"not an array")
+    _resting_poses.cache_clear()
+    np.testing.assert_array_equal(_resting_poses("a", 3, 7), ran)
+    np.testing.assert_array_equal(np.load(path), ran)
+
+    _resting_poses("a", 2, 7), _resting_poses("a", 3, 8), _resting_poses("b", 3, 7)
+    assert len(list((tmp_path / "resting").iterdir())) == 4
+
+    monkeypatch.setattr(objects, "_cache_folder", lambda: None)
+    assert objects._stored_drops("a", 3, 7) is None
+    _resting_poses.cache_clear()

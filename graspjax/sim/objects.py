@@ -22,11 +22,14 @@ import concurrent.futures
 import csv
 import dataclasses
 import functools
+import hashlib
 import io
 import math
 from pathlib import Path
 
 import numpy as np
+
+from graspjax.io import write_atomic
 
 
 @dataclasses.dataclass(frozen=True)
@@ -267,7 +270,8 @@ def resting_poses(letter: str, count: int = RESTING_POSES, seed: int = 0) -> np.
     Each drop starts from a uniformly random orientation with the lowest
     point 5 mm above the table and runs 2 s of CPU MuJoCo (the object alone,
     friction 0.5); its resting orientation is kept. So every stable face
-    appears about as often as a real drop lands on it. Deterministic.
+    appears about as often as a real drop lands on it. Deterministic, so
+    kept beside the compilation cache once run (`_resting_poses`).
     """
     return _resting_poses(letter, count, seed).copy()
 
@@ -275,13 +279,59 @@ def resting_poses(letter: str, count: int = RESTING_POSES, seed: int = 0) -> np.
 def resting_poses_of(letters: tuple[str, ...], count: int = RESTING_POSES, seed: int = 0) -> np.ndarray:
     """`resting_poses` of each object in `letters` (len(letters), count, 3, 3), the objects'
     drops in parallel threads (MuJoCo releases the GIL while it steps): building a scene, and
-    so its first chunk, waits for them."""
+    so its first chunk, waits for them unless the store holds them."""
     with concurrent.futures.ThreadPoolExecutor(len(letters)) as pool:
         return np.stack(list(pool.map(lambda c: resting_poses(c, count, seed), letters)))
 
 
 @functools.cache
 def _resting_poses(letter: str, count: int, seed: int) -> np.ndarray:
+    """`_drops`, read from the store beside the compilation cache when an earlier process kept
+    them (the drops are about 9 s of CPU for the twelve objects, every process), else run and
+    kept there."""
+    path = _stored_drops(letter, count, seed)
+    if path is not None and path.exists():
+        try:
+            poses = np.load(path, allow_pickle=False)
+            if poses.shape == (count, 3, 3) and poses.dtype == np.float64:
+                return poses
+        except (OSError, ValueError):  # unreadable: run the drops and write it again
+            pass
+    poses = _drops(letter, count, seed)
+    if path is not None:
+        buffer = io.BytesIO()
+        np.save(buffer, poses, allow_pickle=False)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(path, buffer.getvalue())
+        except OSError:  # a store that cannot be written only costs time
+            pass
+    return poses
+
+
+def _stored_drops(letter: str, count: int, seed: int) -> Path | None:
+    """The drops' file in `<compilation cache folder>/resting/` (None when the cache is off),
+    keyed by all they depend on: the object's model, this module's source (the drops'
+    procedure), count, seed and the versions of MuJoCo and NumPy."""
+    import mujoco
+
+    folder = _cache_folder()
+    if not folder:
+        return None
+    key = repr((standalone_mjcf(OBJECTS[letter]), Path(__file__).read_text(), count, seed,
+                mujoco.__version__, np.__version__))
+    return Path(folder) / "resting" / f"{letter}_{hashlib.sha256(key.encode()).hexdigest()[:32]}.npy"
+
+
+def _cache_folder() -> str | None:
+    """JAX's compilation cache folder (the CLI's `GRASPJAX_CACHE`), None when it is off."""
+    import jax
+
+    return jax.config.jax_compilation_cache_dir
+
+
+def _drops(letter: str, count: int, seed: int) -> np.ndarray:
+    """The drops of `resting_poses`, run with CPU MuJoCo (count, 3, 3)."""
     import mujoco
 
     spec = OBJECTS[letter]
