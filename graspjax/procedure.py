@@ -518,7 +518,6 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     k_search, k_error = attempt_keys(state, k)
 
-    @jax.jit  # traced once: `idle` takes its shapes from the same trace the branch calls
     def search(_):
         kin = mjx.kinematics(model, state.data)
         target, pose, progress, views = _search(scene, kin, eligible, k_search, config, keep_views)
