@@ -25,6 +25,7 @@ import functools
 import hashlib
 import io
 import math
+import platform
 from pathlib import Path
 
 import numpy as np
@@ -290,12 +291,12 @@ def _resting_poses(letter: str, count: int, seed: int) -> np.ndarray:
     them (the drops are about 9 s of CPU for the twelve objects, every process), else run and
     kept there."""
     path = _stored_drops(letter, count, seed)
-    if path is not None and path.exists():
+    if path is not None:
         try:
             poses = np.load(path, allow_pickle=False)
             if poses.shape == (count, 3, 3) and poses.dtype == np.float64:
                 return poses
-        except (OSError, ValueError):  # unreadable: run the drops and write it again
+        except Exception:  # missing, unreadable or not an array: run the drops (and write them)
             pass
     poses = _drops(letter, count, seed)
     if path is not None:
@@ -312,14 +313,15 @@ def _resting_poses(letter: str, count: int, seed: int) -> np.ndarray:
 def _stored_drops(letter: str, count: int, seed: int) -> Path | None:
     """The drops' file in `<compilation cache folder>/resting/` (None when the cache is off),
     keyed by all they depend on: the object's model, this module's source (the drops'
-    procedure), count, seed and the versions of MuJoCo and NumPy."""
+    procedure), count, seed, the versions of MuJoCo and NumPy and the machine's architecture
+    (MuJoCo's floats may differ between them; a cache folder may be shared)."""
     import mujoco
 
     folder = _cache_folder()
     if not folder:
         return None
-    key = repr((standalone_mjcf(OBJECTS[letter]), Path(__file__).read_text(), count, seed,
-                mujoco.__version__, np.__version__))
+    key = repr((standalone_mjcf(OBJECTS[letter]), Path(__file__).read_bytes(), count, seed,
+                mujoco.__version__, np.__version__, platform.machine()))
     return Path(folder) / "resting" / f"{letter}_{hashlib.sha256(key.encode()).hexdigest()[:32]}.npy"
 
 
