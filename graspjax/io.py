@@ -231,6 +231,25 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
         raise
 
 
+def store(name: str) -> Path | None:
+    """A folder of results kept across runs, beside JAX's compilation cache (`GRASPJAX_CACHE`)
+    and switched off with it (None)."""
+    import jax
+
+    folder = jax.config.jax_compilation_cache_dir
+    return Path(folder) / name if folder else None
+
+
+def keep(path: Path, data: bytes) -> None:
+    """Write a store's file atomically; a store that cannot be written is skipped: it only
+    saves time."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, data)
+    except OSError:
+        pass
+
+
 def check_writable(path: str | os.PathLike | None, what: str, directory: bool = False) -> None:
     """Fail before any work if `path` (a file, or with `directory` a folder created if missing)
     cannot be written: its parent must exist and be writable. `what` names it in the message."""

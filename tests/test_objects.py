@@ -74,7 +74,7 @@ def test_parse_letters():
 def test_resting_poses_of_a_scene_are_each_object_s_own_drops(monkeypatch):
     """The drops of a scene's objects run in threads: each object's poses are those of its own
     drops run alone (deterministic per object), in the scene's order, and are rotations."""
-    monkeypatch.setattr(objects, "_cache_folder", lambda: None)  # no store: the threads drop
+    monkeypatch.setattr(objects, "store", lambda name: None)  # no store: the threads drop
     _resting_poses.cache_clear()
     together = resting_poses_of(("g", "a"), count=4, seed=3)
     alone = np.stack([objects._drops(c, 4, 3) for c in "ga"])
@@ -88,7 +88,7 @@ def test_drops_are_kept_in_the_store_and_read_back(tmp_path, monkeypatch):
     """The drops run once: a later process reads the very same poses from the store beside the
     compilation cache; an unreadable file is run again and rewritten; other drops (count,
     seed, object) get files of their own; with the cache off nothing is kept."""
-    monkeypatch.setattr(objects, "_cache_folder", lambda: str(tmp_path))
+    monkeypatch.setattr(objects, "store", lambda name: tmp_path / name)
     _resting_poses.cache_clear()
     ran = objects._drops("a", 3, 7)
     first = _resting_poses("a", 3, 7)
@@ -112,7 +112,7 @@ def test_drops_are_kept_in_the_store_and_read_back(tmp_path, monkeypatch):
     _resting_poses("a", 2, 7), _resting_poses("a", 3, 8), _resting_poses("b", 3, 7)
     assert len(list((tmp_path / "resting").iterdir())) == 4
 
-    monkeypatch.setattr(objects, "_cache_folder", lambda: None)
+    monkeypatch.setattr(objects, "store", lambda name: None)
     assert objects._stored_drops("a", 3, 7) is None
     _resting_poses.cache_clear()
     np.testing.assert_array_equal(_resting_poses("a", 3, 7), ran)

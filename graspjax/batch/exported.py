@@ -18,16 +18,16 @@ import dataclasses
 import functools
 import hashlib
 import importlib.metadata
-import os
 import pathlib
 import pickle
 import re
-import tempfile
 import time
 from collections.abc import Callable
 
 import jax
 from jax._src import config as jax_config
+
+from graspjax import io
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
@@ -77,8 +77,7 @@ class Portable:
 
 def store() -> pathlib.Path | None:
     """The folder of exported programs: beside the compilation cache, None when that is off."""
-    folder = jax.config.jax_compilation_cache_dir
-    return pathlib.Path(folder) / "exported" if folder else None
+    return io.store("exported")
 
 
 def export(fn: Callable, args: tuple, description: tuple) -> Portable:
@@ -109,7 +108,7 @@ def export(fn: Callable, args: tuple, description: tuple) -> Portable:
     with _one_source_line():
         program = jax.export.export(jax.jit(flat))(*in_leaves)
     if path is not None:
-        _write(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
+        io.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
 
 
@@ -158,15 +157,3 @@ def _source_digest(root: pathlib.Path = SOURCES) -> str:
         digest.update(str(path.relative_to(root)).encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
-
-
-def _write(path: pathlib.Path, data: bytes) -> None:
-    """Write atomically (processes may share the store); a store that cannot be written is
-    skipped: it only saves time."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=path.parent, delete=False) as tmp:
-            tmp.write(data)
-        os.replace(tmp.name, path)
-    except OSError:
-        pass

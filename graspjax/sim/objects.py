@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graspjax.io import write_atomic
+from graspjax.io import keep, store
 
 
 @dataclasses.dataclass(frozen=True)
@@ -302,11 +302,7 @@ def _resting_poses(letter: str, count: int, seed: int) -> np.ndarray:
     if path is not None:
         buffer = io.BytesIO()
         np.save(buffer, poses, allow_pickle=False)
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_atomic(path, buffer.getvalue())
-        except OSError:  # a store that cannot be written only costs time
-            pass
+        keep(path, buffer.getvalue())
     return poses
 
 
@@ -317,19 +313,12 @@ def _stored_drops(letter: str, count: int, seed: int) -> Path | None:
     (MuJoCo's floats may differ between them; a cache folder may be shared)."""
     import mujoco
 
-    folder = _cache_folder()
-    if not folder:
+    folder = store("resting")
+    if folder is None:
         return None
     key = repr((standalone_mjcf(OBJECTS[letter]), Path(__file__).read_bytes(), count, seed,
                 mujoco.__version__, np.__version__, platform.machine()))
-    return Path(folder) / "resting" / f"{letter}_{hashlib.sha256(key.encode()).hexdigest()[:32]}.npy"
-
-
-def _cache_folder() -> str | None:
-    """JAX's compilation cache folder (the CLI's `GRASPJAX_CACHE`), None when it is off."""
-    import jax
-
-    return jax.config.jax_compilation_cache_dir
+    return folder / f"{letter}_{hashlib.sha256(key.encode()).hexdigest()[:32]}.npy"
 
 
 def _drops(letter: str, count: int, seed: int) -> np.ndarray:
