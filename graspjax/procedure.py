@@ -517,6 +517,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     eligible = eligible_objects(state, spec)
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     k_search, k_error = attempt_keys(state, k)
+    searched = []  # the search's output shapes, recorded by its trace
 
     def search(_):
         kin = mjx.kinematics(model, state.data)
@@ -526,10 +527,15 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
         waypoints, _ = hand_waypoints(scene, reached, config)
         rotation = frame_from_axes(reached.approach, reached.closing)
         clear = hand_clear(scene, kin, waypoints[0], rotation)
-        return target, pose, reached, clear, progress, views
+        out = target, pose, reached, clear, progress, views
+        searched.append(jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), out))
+        return out
 
     def idle(_):
-        return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), jax.eval_shape(search, None))
+        # `lax.cond` traces the true branch first, so the search's shapes are known here and
+        # the search (most of an attempt's tracing) is traced once; else they cost a trace.
+        shapes = searched[-1] if searched else jax.eval_shape(search, None)
+        return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
     target, pose, reached, clear, (blocked, turns, detect_reason, align_reason, realign), views = (
         jax.lax.cond(k >= 0, search, idle, None))
