@@ -200,7 +200,7 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
                      trial=np.arange(batch, dtype=np.int32), order=order,
                      members=np.ones((batch, n), bool), config=stack_configs([config] * batch))
     template = mjx.make_data(scene.mj_model)
-    data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w).data))(spec)
+    data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, (setup,)).data))(spec)
 
     def run(d, w, grasp, target, segments, execute):
         return play(scene, physics_model(scene, w.config), d, grasp, target, segments, execute,

@@ -235,19 +235,26 @@ def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
     return jnp.where(spec.setup == 1, jax.random.key_data(single), jax.random.key_data(pile))
 
 
-def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec) -> RoundState:
+def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec,
+                setups: tuple[int, ...] = (1, 2, 3)) -> RoundState:
     """Place the round's layout (not yet settled): one object dropped alone (Setup 1), a group
-    of resting objects (Setup 2) or a pile dropped into the bin (Setup 3)."""
+    of resting objects (Setup 2) or a pile dropped into the bin (Setup 3). `setups` (static)
+    are those the batch's worlds may play: only their layouts are built."""
     config = spec.config
     key = jax.random.wrap_key_data(_layout_key(scene, spec))
     n = scene.num_objects
     points = jnp.asarray(scene.object_points, jnp.float32)
-    one = layout.single(key, spec.order[0], points, config.layout)
-    group = layout.grouped(key, jnp.asarray(scene.resting, jnp.float32), points, config.layout)
-    heap = layout.pile(key, points, config.layout)
-    pos, quat = jax.tree.map(lambda a, b, c: jnp.select([spec.setup == 1, spec.setup == 2], [a, b], c),
-                             one[:2], group[:2], heap[:2])
-    active = jnp.where(spec.setup == 1, one[2], spec.members)
+    samplers = {
+        1: lambda: layout.single(key, spec.order[0], points, config.layout),
+        2: lambda: layout.grouped(key, jnp.asarray(scene.resting, jnp.float32), points,
+                                  config.layout),
+        3: lambda: layout.pile(key, points, config.layout)}
+    placed = {s: samplers[s]() for s in sorted(set(setups))}
+    others = list(placed)[:-1]  # each picked where the world plays it; else the last
+    pos, quat = jax.tree.map(
+        lambda *poses: jnp.select([spec.setup == s for s in others], poses[:-1], poses[-1])
+        if others else poses[0], *(placed[s][:2] for s in placed))
+    active = jnp.where(spec.setup == 1, placed[1][2], spec.members) if 1 in placed else spec.members
     data = reset(scene, data, pos, quat, active, bin_in_place=spec.setup == 3)
     return RoundState(data=data, attempted=jnp.zeros(n, bool), failures=jnp.int32(0),
                       removed=jnp.zeros(n, bool), key=key)

@@ -117,6 +117,33 @@ def test_execution_error_has_its_configured_spread():
     np.testing.assert_array_equal(np.asarray(exact.tcp), 0.0)
 
 
+def test_a_batch_builds_only_the_layouts_of_its_setups(basic_sim):
+    """`start_round` with the setups a batch plays places each world exactly as with all three
+    (the others' layouts are never picked): one world per setup, seeds apart."""
+    from graspjax.config import stack_configs
+    from graspjax.procedure import WorldSpec, start_round
+    from graspjax.sim.scene import mjx
+
+    scene = basic_sim.scene
+    n = scene.num_objects
+    spec = WorldSpec(seed=np.array([0, 1, 2], np.int32), setup=np.array([1, 2, 3], np.int32),
+                     trial=np.array([4, 5, 6], np.int32),
+                     order=np.tile(np.arange(n, dtype=np.int32), (3, 1)),
+                     members=np.ones((3, n), bool), config=stack_configs([CONFIG] * 3))
+    template = mjx.make_data(scene.mj_model)
+
+    def placed(setups, worlds):
+        one = jax.tree.map(lambda x: x[worlds], spec)
+        data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, setups).data))(one)
+        return np.asarray(data.qpos), np.asarray(data.mocap_pos)
+
+    every = placed((1, 2, 3), np.arange(3))
+    for setups, worlds in (((1,), [0]), ((2, 3), [1, 2])):
+        for ours, theirs in zip(placed(setups, np.array(worlds)), every, strict=True):
+            np.testing.assert_array_equal(ours, theirs[worlds])
+    assert not np.array_equal(every[0][0], every[0][1])  # the setups' layouts differ
+
+
 NAN3 = jnp.full(3, jnp.nan)
 
 

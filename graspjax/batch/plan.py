@@ -83,6 +83,11 @@ class Group:
     worlds: tuple[World, ...]
 
     @property
+    def setups(self) -> tuple[int, ...]:
+        """The setups its worlds play (`plan` groups Setup 1 apart from Setups 2 and 3)."""
+        return (2, 3) if self.collide else (1,)
+
+    @property
     def work(self) -> int:
         """A rough measure of the device time of the group's chunks, to start the longest
         first: calls per world (the drop and each attempt) times worlds times the objects that

@@ -95,7 +95,7 @@ class Program:
 
         def start_fn(arrays, spec):
             scene = dataclasses.replace(self.scene, model=arrays[0])
-            return jax.vmap(lambda one: start_round(scene, arrays[1], one),
+            return jax.vmap(lambda one: start_round(scene, arrays[1], one, self.group.setups),
                             axis_name=WORLDS)(spec)
 
         def attempt_fn(model, state, spec, k):
@@ -146,7 +146,8 @@ class Program:
         if self._settle is None:
             scene, template = self.scene, self.arrays[1]
             self._settle = jax.jit(jax.vmap(
-                lambda spec: settle(scene, start_round(scene, template, spec), spec),
+                lambda spec: settle(scene, start_round(scene, template, spec, self.group.setups),
+                                    spec),
                 axis_name=WORLDS))
         spec = jax.device_put(self.spec(worlds, points), self.devices[0])
         return self._settle(spec), spec
