@@ -219,6 +219,8 @@ class _View:
     surface: jax.Array  # (H, W) int32 `Surface` of each pixel (ground truth)
 
 
+_NO_LAYOUT = LayoutStats(objects=np.int32(-1), touching=np.int32(-1), stacked=np.int32(-1),
+                         gap=np.float32(np.nan), spread=np.float32(np.nan))  # not measured
 _NO_PLANE = PlaneTruth(surface=np.int32(Surface.NONE), on_target=np.float32(np.nan),  # numpy: no
                        normal_error_deg=np.float32(np.nan), view_tilt_deg=np.float32(np.nan))  # backend
 
@@ -515,9 +517,12 @@ def attempt_keys(state: RoundState, k) -> tuple[jax.Array, jax.Array]:
 
 
 def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
-            keep_views: bool = False) -> tuple[RoundState, Record, Views | None]:
+            keep_views: bool = False, setups: tuple[int, ...] = (1, 2, 3)
+            ) -> tuple[RoundState, Record, Views | None]:
     """Call k of this world's round: k = -1 settles the freshly placed layout; k >= 0 is the
-    k-th grasp attempt (steps 1-6). `k` is () int32, the same for every world of a batch."""
+    k-th grasp attempt (steps 1-6). `k` is () int32, the same for every world of a batch.
+    `setups` (static): those the batch's worlds may play; a batch of Setup 1 alone records no
+    layout density (`_NO_LAYOUT`: rounds.csv has rows for Setups 2 and 3 only)."""
     config = spec.config
     model = physics_model(scene, config)
     n = scene.num_objects
@@ -561,8 +566,9 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     removed = state.removed | ((jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0))
     state = RoundState(data=data, attempted=attempted, failures=failures.astype(jnp.int32),
                        removed=removed, key=state.key)
+    density = layout_stats(scene, data) if {2, 3} & set(setups) else _NO_LAYOUT
     return state, _record(target, pose, done, finite, blocked, turns, detect_reason,
-                          align_reason, realign, layout_stats(scene, data)), views
+                          align_reason, realign, density), views
 
 
 def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, detect_reason,

@@ -521,18 +521,21 @@ def test_a_program_that_failed_to_compile_raises_after_the_chunks_before_it(monk
 def test_every_method_traces_into_the_attempt_program(monkeypatch):
     """The highest-PCA baseline in the batch program, traced and exported (not compiled: the
     two methods above run end to end); the store is off, so it is traced here. The search is
-    traced once: the idle branch of its conditional takes the shapes of that trace."""
+    traced once: the idle branch of its conditional takes the shapes of that trace. A Setup 1
+    program measures no layout density (rounds.csv has no Setup 1 rows)."""
     monkeypatch.setattr(exported, "store", lambda: None)
-    searches = []
-    search = procedure._search
+    searches, densities = [], []
+    search, density = procedure._search, procedure.layout_stats
     monkeypatch.setattr(procedure, "_search", lambda *a, **k: searches.append(1) or search(*a, **k))
+    monkeypatch.setattr(procedure, "layout_stats",
+                        lambda *a: densities.append(1) or density(*a))
     config = override(Config(), ["method=highest-pca", "align.window_px=12"])
     group, = plan.plan([plan.Job(("a", "c"), (1,), 3)], [config], 3)
     start, attempt = program.Program(group, 3, False).portable
     assert not start.loaded and not attempt.loaded
     leaves = jax.tree.leaves(attempt.out_shapes())
     assert leaves and all(leaf.shape[:1] == (3,) for leaf in leaves)  # one slice of 3 worlds
-    assert len(searches) == 1
+    assert len(searches) == 1 and not densities
 
 
 def test_failed_attempts_keep_their_views_and_report_draws_them(rounds_runs, capsys):

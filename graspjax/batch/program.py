@@ -100,7 +100,8 @@ class Program:
 
         def attempt_fn(model, state, spec, k):
             scene = dataclasses.replace(self.scene, model=model)
-            one = functools.partial(attempt, scene, keep_views=keep_views)
+            one = functools.partial(attempt, scene, keep_views=keep_views,
+                                    setups=self.group.setups)
             return jax.vmap(one, in_axes=(0, 0, None), axis_name=WORLDS)(state, spec, k)
 
         start = exported.export(start_fn, (arrays, spec), ("start_round",) + description)
