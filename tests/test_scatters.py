@@ -137,3 +137,49 @@ def test_the_physics_step_leaves_xla_nothing_to_sort():
     assert scatters(unrewritten, data, sorted_only=True) > 10
     assert scatters(lambda d: collision.step(model, d, scene.geom_owner), data,
                     sorted_only=True) == 0
+
+
+BIG = np.array([2**31 - 3, -(2**31) + 2, 7, -5, 0, 1], np.int32)  # sums and products wrap
+
+
+INDEX_ARITHMETIC = {  # name: function of (a (6,) int32, b (6,) int32) with integer results
+    "wrapping arithmetic": lambda a, b: ((a + b) * 3 - b, -a, jnp.maximum(a, b), jnp.minimum(a, b)),
+    "comparisons and logic": lambda a, b: (a < b, a <= b, a > b, a >= b, a == b, a != b,
+                                           (a < 0) & (b > 0) | ~(a == b), a & b, ~a),
+    "selects": lambda a, b: (jnp.where(a > b, a, b), jax.lax.select_n(
+        jnp.clip(b, 0, 2), a, b, a * 2)),
+    "casts": lambda a, b: (a.astype(bool), (a > b).astype(jnp.int32), a.astype(jnp.int8),
+                           a.astype(jnp.uint32)),
+    "shapes": lambda a, b: (jnp.broadcast_to(a[:, None], (6, 4)), jnp.concatenate([a, b])[1:11:3],
+                            a.reshape(2, 3).T.reshape(3, 2, 1).squeeze(2),
+                            jax.lax.broadcasted_iota(jnp.int32, (3, 4), 1) + jnp.arange(3)[:, None]),
+    "calls": lambda a, b: jax.jit(lambda x, y: x * y + 1)(a, b),
+}
+
+
+@pytest.mark.parametrize("name", INDEX_ARITHMETIC)
+def test_index_arithmetic_is_computed_by_numpy_as_xla_computes_it(name):
+    """Integer equations of known inputs (a scatter's index computations) are computed by NumPy,
+    not compiled per operation: the same values and dtypes as XLA's, overflow included."""
+    from graspjax.sim import scatters as module
+
+    fun = INDEX_ARITHMETIC[name]
+    a, b = jnp.asarray(BIG), jnp.asarray(np.roll(BIG, 2) // 3)
+    closed = jax.make_jaxpr(fun)(a, b)
+    primitives = {eqn.primitive.name for eqn in closed.jaxpr.eqns}
+    assert primitives <= set(module._NUMPY) | {"jit"}  # no operation compiled by XLA
+    ours = module._evaluated(closed.jaxpr, closed.consts, [np.asarray(a), np.asarray(b)])
+    theirs = jax.tree.leaves(fun(a, b))
+    assert all(isinstance(x, np.ndarray) for x in ours)
+    for x, y in zip(ours, theirs, strict=True):
+        assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, np.asarray(y))
+
+
+def test_every_numpy_operation_is_checked_against_xla():
+    from graspjax.sim import scatters as module
+
+    a = jnp.asarray(BIG)
+    used = {eqn.primitive.name for fun in INDEX_ARITHMETIC.values()
+            for eqn in jax.make_jaxpr(fun)(a, a).jaxpr.eqns}
+    assert set(module._NUMPY) <= used

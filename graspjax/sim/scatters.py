@@ -65,8 +65,8 @@ def evaluate(jaxpr: core.Jaxpr, consts, args) -> list:
     """`jaxpr`'s outputs at (`consts`, `args`) as traced values, scatters of known indices
     gathered and the jaxprs of calls and loops evaluated the same way. An equation of known
     inputs only is held (`_Known`) until an output is used: traced into this trace when used
-    by it (once per trace: `staged`), or computed now (on the CPU device, for inputs not
-    already on another) when it makes a scatter's indices."""
+    by it (once per trace: `staged`), or computed now when it makes a scatter's indices
+    (`_computed`: integer arithmetic by NumPy, anything else by XLA on the CPU)."""
     env, staged = {}, {}
 
     def read(v):
@@ -113,9 +113,7 @@ class _Known:
     def known(self) -> list:
         """The outputs computed (concrete arrays)."""
         if self.known_outs is None:
-            invals = [_known(x) for x in self.invals]
-            with jax.ensure_compile_time_eval(), jax.default_device(_cpu()):
-                self.known_outs = _bind(self.eqn.primitive, self.eqn.params, invals)
+            self.known_outs = _computed(self.eqn, [_known(x) for x in self.invals])
         return self.known_outs
 
 
@@ -124,6 +122,89 @@ class _Output:
 
     def __init__(self, held: _Known, index: int):
         self.held, self.index = held, index
+
+
+def _computed(eqn, invals) -> list:
+    """An equation's outputs at concrete inputs: by NumPy where `_NUMPY` has its primitive
+    and every value is an integer or boolean array (exact, so XLA's own values), else by XLA
+    on the CPU (an executable compiled per operation: tens of ms each)."""
+    name, outs = eqn.primitive.name, [v.aval for v in eqn.outvars]
+    values = [np.asarray(x) for x in invals]
+    if name == "jit" and all(_exact(x.dtype) for x in [*values, *outs]):
+        closed = eqn.params["jaxpr"]
+        return _evaluated(closed.jaxpr, closed.consts, values)
+    if name in _NUMPY and all(_exact(x.dtype) for x in [*values, *outs]):
+        out = _NUMPY[name](*values, **eqn.params)
+        return [np.asarray(out).astype(outs[0].dtype).reshape(outs[0].shape)]
+    with jax.ensure_compile_time_eval(), jax.default_device(_cpu()):
+        return _bind(eqn.primitive, eqn.params, invals)
+
+
+def _evaluated(jaxpr: core.Jaxpr, consts, args) -> list:
+    """A jaxpr's outputs at concrete inputs, equation by equation (`_computed`)."""
+    env = dict(zip(jaxpr.constvars, consts, strict=True)) | dict(
+        zip(jaxpr.invars, args, strict=True))
+
+    def read(v):
+        return v.val if isinstance(v, core.Literal) else env[v]
+
+    for eqn in jaxpr.eqns:
+        env.update(zip(eqn.outvars, _computed(eqn, [read(v) for v in eqn.invars]), strict=True))
+    return [read(v) for v in jaxpr.outvars]
+
+
+def _exact(dtype) -> bool:
+    return np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.bool_)
+
+
+def _broadcast_in_dim(x, shape, broadcast_dimensions, **_):
+    """XLA's broadcast: x's dimension i becomes dimension broadcast_dimensions[i] of `shape`."""
+    expanded = [1] * len(shape)
+    for i, d in enumerate(broadcast_dimensions):
+        expanded[d] = x.shape[i]
+    return np.broadcast_to(x.reshape(expanded), shape)
+
+
+def _iota(dtype, shape, dimension, **_):
+    return np.broadcast_to(np.arange(shape[dimension], dtype=dtype).reshape(
+        [-1 if d == dimension else 1 for d in range(len(shape))]), shape)
+
+
+def _slice(x, start_indices, limit_indices, strides, **_):
+    return x[tuple(slice(a, b, c) for a, b, c in zip(
+        start_indices, limit_indices, strides or (1,) * x.ndim, strict=True))]
+
+
+def _reshape(x, new_sizes, dimensions, **_):
+    return x.reshape(new_sizes) if dimensions is None else x.transpose(dimensions).reshape(new_sizes)
+
+
+_NUMPY = {  # primitive: its value on integer and boolean arrays (outputs cast to XLA's dtype)
+    "add": lambda a, b, **_: a + b,  # integers wrap in both
+    "sub": lambda a, b, **_: a - b,
+    "mul": lambda a, b, **_: a * b,
+    "neg": lambda a, **_: -a,
+    "max": lambda a, b, **_: np.maximum(a, b),
+    "min": lambda a, b, **_: np.minimum(a, b),
+    "and": lambda a, b, **_: a & b,
+    "or": lambda a, b, **_: a | b,
+    "not": lambda a, **_: ~a,
+    "eq": lambda a, b, **_: a == b,
+    "ne": lambda a, b, **_: a != b,
+    "lt": lambda a, b, **_: a < b,
+    "le": lambda a, b, **_: a <= b,
+    "gt": lambda a, b, **_: a > b,
+    "ge": lambda a, b, **_: a >= b,
+    "select_n": lambda which, *cases, **_: np.choose(which.astype(np.int64), cases),
+    "convert_element_type": lambda x, **_: x,  # the cast to the output's dtype does it
+    "broadcast_in_dim": _broadcast_in_dim,
+    "iota": _iota,
+    "concatenate": lambda *xs, dimension, **_: np.concatenate(xs, dimension),
+    "slice": _slice,
+    "reshape": _reshape,
+    "squeeze": lambda x, dimensions, **_: np.squeeze(x, tuple(dimensions)),
+    "transpose": lambda x, permutation, **_: np.transpose(x, permutation),
+}
 
 
 def _traced(x, staged: dict):
