@@ -117,12 +117,20 @@ def test_execution_error_has_its_configured_spread():
     np.testing.assert_array_equal(np.asarray(exact.tcp), 0.0)
 
 
-def test_a_batch_builds_only_the_layouts_of_its_setups(basic_sim):
-    """`start_round` with the setups a batch plays places each world exactly as with all three
-    (the others' layouts are never picked): one world per setup, seeds apart."""
+def test_a_batch_builds_only_the_layouts_of_its_setups(basic_sim, monkeypatch):
+    """`start_round` with the setups a batch plays builds only their layouts and places each
+    world exactly as with all three (the others' layouts are never picked): one world per
+    setup, seeds apart."""
     from graspjax.config import stack_configs
     from graspjax.procedure import WorldSpec, start_round
+    from graspjax.sim import layout
     from graspjax.sim.scene import mjx
+
+    built = []
+    for setup, name in ((1, "single"), (2, "grouped"), (3, "pile")):
+        sampler = getattr(layout, name)
+        monkeypatch.setattr(layout, name,
+                            lambda *a, _f=sampler, _s=setup: built.append(_s) or _f(*a))
 
     scene = basic_sim.scene
     n = scene.num_objects
@@ -133,15 +141,16 @@ def test_a_batch_builds_only_the_layouts_of_its_setups(basic_sim):
     template = mjx.make_data(scene.mj_model)
 
     def placed(setups, worlds):
+        built.clear()
         one = jax.tree.map(lambda x: x[worlds], spec)
         data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, setups).data))(one)
+        assert sorted(built) == sorted(setups)  # traced once each, the others never
         return np.asarray(data.qpos), np.asarray(data.mocap_pos)
 
     every = placed((1, 2, 3), np.arange(3))
     for setups, worlds in (((1,), [0]), ((2, 3), [1, 2])):
         for ours, theirs in zip(placed(setups, np.array(worlds)), every, strict=True):
             np.testing.assert_array_equal(ours, theirs[worlds])
-    assert not np.array_equal(every[0][0], every[0][1])  # the setups' layouts differ
 
 
 NAN3 = jnp.full(3, jnp.nan)

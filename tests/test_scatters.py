@@ -152,6 +152,7 @@ INDEX_ARITHMETIC = {  # name: function of (a (6,) int32, b (6,) int32) with inte
                            a.astype(jnp.uint32)),
     "shapes": lambda a, b: (jnp.broadcast_to(a[:, None], (6, 4)), jnp.concatenate([a, b])[1:11:3],
                             a.reshape(2, 3).T.reshape(3, 2, 1).squeeze(2),
+                            jax.lax.reshape(a.reshape(2, 3), (3, 2), dimensions=(1, 0)),
                             jax.lax.broadcasted_iota(jnp.int32, (3, 4), 1) + jnp.arange(3)[:, None]),
     "calls": lambda a, b: jax.jit(lambda x, y: x * y + 1)(a, b),
 }
@@ -177,6 +178,7 @@ def test_index_arithmetic_is_computed_by_numpy_as_xla_computes_it(name):
 
 
 def test_every_numpy_operation_is_checked_against_xla():
+    """Each operation NumPy computes appears in the cases above (so it meets XLA's values)."""
     from graspjax.sim import scatters as module
 
     a = jnp.asarray(BIG)

@@ -129,19 +129,20 @@ def _computed(eqn, invals) -> list:
     and every value is an integer or boolean array (exact, so XLA's own values), else by XLA
     on the CPU (an executable compiled per operation: tens of ms each)."""
     name, outs = eqn.primitive.name, [v.aval for v in eqn.outvars]
-    values = [np.asarray(x) for x in invals]
-    if name == "jit" and all(_exact(x.dtype) for x in [*values, *outs]):
+    integral = all(_integral(v.aval.dtype) for v in [*eqn.invars, *eqn.outvars])
+    if integral and name in ("jit", "pjit"):
         closed = eqn.params["jaxpr"]
-        return _evaluated(closed.jaxpr, closed.consts, values)
-    if name in _NUMPY and all(_exact(x.dtype) for x in [*values, *outs]):
-        out = _NUMPY[name](*values, **eqn.params)
-        return [np.asarray(out).astype(outs[0].dtype).reshape(outs[0].shape)]
+        return _evaluated(closed.jaxpr, closed.consts, [np.asarray(x) for x in invals])
+    if integral and name in _NUMPY:
+        out = np.asarray(_NUMPY[name](*map(np.asarray, invals), **eqn.params))
+        assert out.shape == outs[0].shape, (name, out.shape, outs[0].shape)
+        return [out.astype(outs[0].dtype)]
     with jax.ensure_compile_time_eval(), jax.default_device(_cpu()):
         return _bind(eqn.primitive, eqn.params, invals)
 
 
 def _evaluated(jaxpr: core.Jaxpr, consts, args) -> list:
-    """A jaxpr's outputs at concrete inputs, equation by equation (`_computed`)."""
+    """A jaxpr's outputs (arrays) at concrete inputs, equation by equation (`_computed`)."""
     env = dict(zip(jaxpr.constvars, consts, strict=True)) | dict(
         zip(jaxpr.invars, args, strict=True))
 
@@ -150,10 +151,11 @@ def _evaluated(jaxpr: core.Jaxpr, consts, args) -> list:
 
     for eqn in jaxpr.eqns:
         env.update(zip(eqn.outvars, _computed(eqn, [read(v) for v in eqn.invars]), strict=True))
-    return [read(v) for v in jaxpr.outvars]
+    return [np.asarray(read(v), v.aval.dtype) for v in jaxpr.outvars]
 
 
-def _exact(dtype) -> bool:
+def _integral(dtype) -> bool:
+    """Whether values of `dtype` are integers or booleans (NumPy computes them exactly)."""
     return np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.bool_)
 
 
@@ -195,7 +197,7 @@ _NUMPY = {  # primitive: its value on integer and boolean arrays (outputs cast t
     "le": lambda a, b, **_: a <= b,
     "gt": lambda a, b, **_: a > b,
     "ge": lambda a, b, **_: a >= b,
-    "select_n": lambda which, *cases, **_: np.choose(which.astype(np.int64), cases),
+    "select_n": lambda which, *cases, **_: np.choose(which.astype(np.int64), cases, mode="clip"),
     "convert_element_type": lambda x, **_: x,  # the cast to the output's dtype does it
     "broadcast_in_dim": _broadcast_in_dim,
     "iota": _iota,
