@@ -2,6 +2,7 @@
 
 import dataclasses
 import pathlib
+import pickle
 import re
 
 import jax
@@ -59,6 +60,29 @@ def test_what_shapes_a_program_is_in_its_key(store):
                    jax.ShapeDtypeStruct((4,), jnp.float32)), ARGS[1])
     assert not exported.export(_fn, longer, ("pair", 1)).loaded  # other shapes
     assert len(list(store.glob("*.jaxexport"))) == 3
+
+
+def test_a_program_keyed_by_part_of_its_arguments_loads_from_that_part_alone(store):
+    """With `key`, the store finds the program from the key's shapes and the description: the
+    rest of the arguments need not exist yet (a warm start loads before it builds the scene)."""
+    assert exported.load(ARGS[1], ("pair", 1)) is None  # nothing stored yet
+    traced = exported.export(_fn, ARGS, ("pair", 1), key=ARGS[1])
+    assert not traced.loaded
+    assert exported.stored(ARGS[1], ("pair", 1)) and not exported.stored(ARGS, ("pair", 1))
+    found = exported.load(ARGS[1], ("pair", 1))
+    assert found.loaded and found.in_tree == traced.in_tree
+    np.testing.assert_array_equal(found.jit()(*VALUES)[0]["sum"], [1.0, 2.0, 3.0])
+    assert exported.export(_fn, ARGS, ("pair", 1), key=ARGS[1]).loaded
+    assert exported.load(ARGS[1], ("pair", 2)) is None  # another description
+
+
+def test_an_unreadable_or_foreign_file_does_not_load(store):
+    exported.export(_fn, ARGS, ("pair", 1))
+    (path,) = store.glob("*.jaxexport")
+    path.write_bytes(b"not a program")
+    assert exported.load(ARGS, ("pair", 1)) is None
+    path.write_bytes(pickle.dumps((exported.FORMAT + 1, None, None, b"")))
+    assert exported.load(ARGS, ("pair", 1)) is None
 
 
 def test_an_edit_anywhere_in_the_package_changes_the_key(tmp_path):

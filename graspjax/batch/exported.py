@@ -80,23 +80,20 @@ def store() -> pathlib.Path | None:
     return io.store("exported")
 
 
-def export(fn: Callable, args: tuple, description: tuple) -> Portable:
+def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = None) -> Portable:
     """`fn` (jittable) for arguments shaped like `args` (pytrees of ShapeDtypeStruct, no
     shardings): loaded from the store when a program of the same key is there, else traced,
     exported and saved. `description`: what shapes the program besides the arguments' shapes
-    (scene, static configuration, modes), as values with a stable repr."""
+    (scene, static configuration, modes), as values with a stable repr. `key`: the shapes that
+    key the program, when the description fixes the rest of `args` (default: all of `args`),
+    so that `load` finds it without them."""
     start = time.perf_counter()
     in_leaves, in_tree = jax.tree.flatten(args)
-    path = _path(description, args)
-    if path is not None and path.exists():
-        try:
-            with path.open("rb") as f:
-                fmt, in_tree_saved, out_tree, blob = pickle.load(f)
-            if fmt == FORMAT and in_tree_saved == in_tree:
-                program = jax.export.deserialize(blob)
-                return Portable(program, in_tree, out_tree, True, time.perf_counter() - start)
-        except Exception:  # an unreadable or foreign file: trace afresh and overwrite it
-            pass
+    key = args if key is None else key
+    found = load(key, description)
+    if found is not None and found.in_tree == in_tree:
+        return found
+    path = _path(description, key)
     out_tree = []
 
     def flat(*leaves):
@@ -112,6 +109,26 @@ def export(fn: Callable, args: tuple, description: tuple) -> Portable:
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
 
 
+def load(key: tuple, description: tuple) -> Portable | None:
+    """The stored program of this key (`export`'s `key` and `description`), or None: none
+    stored, the store off, or an unreadable or foreign file (`export` then traces afresh and
+    overwrites it). Needs no more than the key's shapes: a warm start loads its programs
+    before it builds what they will be called with."""
+    start = time.perf_counter()
+    path = _path(description, key)
+    if path is None or not path.exists():
+        return None
+    try:
+        with path.open("rb") as f:
+            fmt, in_tree, out_tree, blob = pickle.load(f)
+        if fmt != FORMAT:
+            return None
+        return Portable(jax.export.deserialize(blob), in_tree, out_tree, True,
+                        time.perf_counter() - start)
+    except Exception:  # unreadable or foreign
+        return None
+
+
 def _one_source_line():
     """Trace or lower with one source line per operation instead of its Python traceback (up
     to 100 frames): XLA's GPU executable builds a profiler annotation from every operation's
@@ -121,26 +138,26 @@ def _one_source_line():
     return jax_config.include_full_tracebacks_in_locations(False)
 
 
-def stored(args: tuple, description: tuple) -> bool:
+def stored(key: tuple, description: tuple) -> bool:
     """Whether the store holds a program of this key: `export` would load it."""
-    path = _path(description, args)
+    path = _path(description, key)
     return path is not None and path.exists()
 
 
-def _path(description: tuple, args: tuple) -> pathlib.Path | None:
+def _path(description: tuple, key: tuple) -> pathlib.Path | None:
     """The program's file in the store (None when the store is off)."""
     folder = store()
     if folder is None:
         return None
-    shapes = [(a.shape, str(a.dtype)) for a in jax.tree.leaves(args)]
+    shapes = [(a.shape, str(a.dtype)) for a in jax.tree.leaves(key)]
     device = jax.devices()[0]
-    key = repr((FORMAT, description, shapes, jax.tree.structure(args), _versions(),
+    text = repr((FORMAT, description, shapes, jax.tree.structure(key), _versions(),
                 _source_digest(), device.platform, device.device_kind,
                 *(getattr(jax.config, name) for name in KEY_SETTINGS)))
     # Static fields' reprs may name memory addresses (MJX wraps its static numpy arrays): they
     # differ between processes. What those fields hold is fixed by the description and sources.
-    key = re.sub(r" at 0x[0-9a-f]+", "", key)
-    return folder / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.jaxexport"
+    text = re.sub(r" at 0x[0-9a-f]+", "", text)
+    return folder / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.jaxexport"
 
 
 @functools.cache
