@@ -392,6 +392,25 @@ def test_a_worker_process_traces_the_second_program_and_the_rows_stay(methods_sw
     pd.testing.assert_frame_equal(ours, reference)
 
 
+def test_a_stored_program_loads_and_lowers_without_its_scene(tiny_run, monkeypatch):
+    """A warm start finds its programs in the store by their key alone and lowers them before
+    the scene exists (the run builds it beside the load, `Program.prepare`); the scene is then
+    built once."""
+    from graspjax.sim import scene_for
+
+    compiled = next(p for p in program._PROGRAMS.values() if p.group.letters == ("a", "c"))
+    fresh = program.Program(compiled.group, compiled.batch, compiled.keep_views)
+    built = []
+    monkeypatch.setattr(program, "scene_for", lambda *args: built.append(args) or scene_for(*args))
+    assert fresh.stored() and fresh.origin == "loaded"
+    start, attempt = fresh.lower(0)
+    assert built == []
+    assert attempt.as_text() == compiled.lower(0)[1].as_text()  # the run's very program
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        list(pool.map(lambda _: fresh.prepare(), range(2)))  # two threads ask: one build
+    assert len(built) == 1 and fresh.arrays[0] is fresh.scene.model
+
+
 @pytest.mark.parametrize("value, workers",
                          [("3", 3), (" 0 ", 0), ("two", None), ("-1", None), ("\u00b2", None)])
 def test_trace_workers_come_from_the_environment(monkeypatch, value, workers):
@@ -447,6 +466,9 @@ class _LoggedProgram:
     def portable(self):
         self.reached.append(self.name)
 
+    def prepare(self):
+        self.reached.append(f"{self.name} scene")
+
     def lower(self, device):
         return None
 
@@ -469,7 +491,11 @@ def test_with_helpers_the_heaviest_program_goes_first_unless_it_is_stored(
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
         futures = program._start_compiles(programs, pool)
         concurrent.futures.wait([f for fs in futures.values() for f in fs], timeout=30)
-    assert reached == order
+    assert [name for name in reached if "scene" not in name] == order
+    # Every scene is built, in the same order, each from its program's turn on.
+    assert [name for name in reached if "scene" in name] == [f"{name} scene" for name in order]
+    assert all(reached.index(f"{name} scene") < reached.index(later)
+               for i, name in enumerate(order) for later in order[i + 1:])
 
 
 class _FakeProgram:

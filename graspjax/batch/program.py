@@ -59,38 +59,62 @@ class Program:
         self._compile_s = [0.0] * len(self.devices)
         self._settle = None
         self._worker_s: float | None = None  # a worker process's tracing seconds, if it traced
+        self._scene: Scene | None = None
+        self._arrays: tuple[mjx.Model, mjx.Data] | None = None
+        self._building = threading.RLock()  # one build of the scene, whichever thread asks
 
-    @functools.cached_property
+    @property
     def scene(self) -> Scene:
-        """The group's MuJoCo scene, built on first use: by the lowering thread, so the first
-        program lowers while the others' scenes are still to be built."""
-        return scene_for(self.group.letters, self.group.config, self.group.collide)
+        """The group's MuJoCo scene, built on first use (`prepare`)."""
+        with self._building:
+            if self._scene is None:
+                self._scene = scene_for(self.group.letters, self.group.config, self.group.collide)
+            return self._scene
 
-    def _shapes(self) -> tuple[tuple, tuple]:
-        """`start_round`'s argument shapes (the scene's arrays, one device's slice of specs) and
-        what shapes the programs besides (`exported.export`'s description)."""
+    @property
+    def arrays(self) -> tuple[mjx.Model, mjx.Data]:
+        """The scene's device arrays: its MJX model, and a fresh data for `start_round` to fill."""
+        with self._building:
+            if self._arrays is None:
+                self._arrays = self.scene.model, mjx.make_data(self.scene.mj_model)
+            return self._arrays
+
+    def prepare(self) -> None:
+        """Build the scene and its device arrays, which the chunks need and a traced program's
+        shapes come from; a stored program loads without them, so the lowering thread loads it
+        while another thread builds them."""
+        _ = self.arrays
+
+    def _key(self) -> tuple[WorldSpec, tuple]:
+        """What keys both functions in the store: one device's slice of specs (its static
+        configuration in the tree) and what shapes the programs besides. Everything else they
+        take (the scene's arrays, the round's state) follows from these and the package."""
         # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
         example = dataclasses.replace(self.group.worlds[0], point=0)
         spec = jax.tree.map(lambda x: jax.ShapeDtypeStruct((self.per_device,) + x.shape[1:],
                                                            x.dtype),
                             self.spec((example,), [self.group.config]))
-        arrays = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), self.arrays)
         group = self.group
-        return (arrays, spec), (group.letters, group.collide, group.attempts, self.keep_views)
+        return spec, (group.letters, group.collide, group.attempts, self.keep_views)
 
     def stored(self) -> bool:
         """Whether the store holds `start_round`'s exported form (then, as a rule, `attempt`'s:
         both are saved by one trace), so that `portable` will load rather than trace."""
-        args, description = self._shapes()
-        return exported.stored(args, ("start_round",) + description)
+        spec, description = self._key()
+        return exported.stored(spec, ("start_round",) + description)
 
     @functools.cached_property
     def portable(self) -> tuple[exported.Portable, exported.Portable]:
         """`start_round(arrays, spec)` and `attempt(model, state, spec, k)` for one device's
-        slice, vmapped: traced, or loaded from the store of exported programs (the lowering
-        thread builds them, once for all devices). The scene's device arrays are arguments, not
-        constants: an exported program cannot hold them."""
-        (arrays, spec), description = self._shapes()
+        slice, vmapped: loaded from the store of exported programs (without building the
+        scene), or traced (the lowering thread builds them, once for all devices). The scene's
+        device arrays are arguments, not constants: an exported program cannot hold them."""
+        spec, description = self._key()
+        stored = tuple(exported.load(spec, (name,) + description)
+                       for name in ("start_round", "attempt"))
+        if all(p is not None for p in stored):
+            return stored
+        arrays = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), self.arrays)
         keep_views = self.keep_views
 
         def start_fn(arrays, spec):
@@ -104,16 +128,11 @@ class Program:
                                     setups=self.group.setups)
             return jax.vmap(one, in_axes=(0, 0, None), axis_name=WORLDS)(state, spec, k)
 
-        start = exported.export(start_fn, (arrays, spec), ("start_round",) + description)
+        start = exported.export(start_fn, (arrays, spec), ("start_round",) + description, spec)
         attempt_ = exported.export(
             attempt_fn, (arrays[0], start.out_shapes(), spec, jax.ShapeDtypeStruct((), jnp.int32)),
-            ("attempt",) + description)
+            ("attempt",) + description, spec)
         return start, attempt_
-
-    @functools.cached_property
-    def arrays(self) -> tuple[mjx.Model, mjx.Data]:
-        """The scene's device arrays: its MJX model, and a fresh data for `start_round` to fill."""
-        return self.scene.model, mjx.make_data(self.scene.mj_model)
 
     @property
     def compiled(self) -> bool:
@@ -323,10 +342,14 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     program that must be traced, the programs after it go to the helpers, which trace them
     while this thread traces that one; the thread then loads theirs from the store. A helper
     starts seconds after this thread (its imports), so the group with the longest chunks waits
-    the least for its program.
+    the least for its program. A thread of its own builds each program's scene from its turn
+    on: a stored program needs none to load, so on a warm start the first chunk waits for the
+    longer of the two, not for both.
     """
     todo = list({id(p): p for p in programs if not p.compiled}.values())
-    futures = {id(p): [concurrent.futures.Future() for _ in p.devices] for p in todo}
+    # One future per device's compile, and a last one for the scene (`Program.prepare`).
+    futures = {id(p): [concurrent.futures.Future() for _ in range(len(p.devices) + 1)]
+               for p in todo}
 
     def compile_into(future, p: Program, device: int, lowered, lower_s: float) -> None:
         try:
@@ -334,6 +357,17 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
             future.set_result(None)
         except BaseException as error:  # handed to the thread that waits for it
             future.set_exception(error)
+
+    def prepare_into(future, p: Program) -> None:
+        try:
+            p.prepare()
+            future.set_result(None)
+        except BaseException as error:  # likewise
+            future.set_exception(error)
+
+    # The scenes are built in a thread of their own, in order, each from its program's turn
+    # on: a stored program then loads beside its scene (a traced one waits for it).
+    scenes = concurrent.futures.ThreadPoolExecutor(max_workers=1)
 
     # The lowering thread keeps its own references: the caller pops programs off the dict it
     # gets back as it reaches them, possibly before this thread does.
@@ -376,6 +410,8 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     def lower_in_order() -> None:
         order()
         for i, (p, program_futures) in enumerate(work):
+            *device_futures, scene_future = program_futures
+            scenes.submit(prepare_into, scene_future, p)
             try:
                 if helpers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
                     traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
@@ -386,10 +422,10 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
                     take_over(p)
                 _ = p.portable  # traced or loaded once, then lowered for each device
             except BaseException as error:  # handed to the threads that wait for it
-                for future in program_futures:
+                for future in device_futures:
                     future.set_exception(error)
                 continue
-            for device, future in enumerate(program_futures):
+            for device, future in enumerate(device_futures):
                 try:
                     start = time.perf_counter()
                     lowered = p.lower(device)
@@ -402,6 +438,7 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
         try:
             lower_in_order()
         finally:
+            scenes.shutdown(wait=False)  # the scenes submitted are still built
             if helpers:
                 helpers.shutdown(wait=False, cancel_futures=True)
 
