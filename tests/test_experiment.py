@@ -151,6 +151,9 @@ class _Untraceable:
     def portable(self):
         raise ValueError("cannot trace")
 
+    def prepare(self):  # its scene builds
+        pass
+
 
 def test_a_program_that_fails_to_trace_fails_the_run_instead_of_hanging_it():
     """The run may take a program's futures before the lowering thread reaches it (a race that

@@ -59,31 +59,32 @@ class Program:
         self._compile_s = [0.0] * len(self.devices)
         self._settle = None
         self._worker_s: float | None = None  # a worker process's tracing seconds, if it traced
-        self._scene: Scene | None = None
-        self._arrays: tuple[mjx.Model, mjx.Data] | None = None
-        self._building = threading.RLock()  # one build of the scene, whichever thread asks
+        self._scene: tuple[Scene, tuple[mjx.Model, mjx.Data]] | None = None  # `_built`
+        self._building = threading.Lock()  # one build of the scene, whichever thread asks
 
     @property
     def scene(self) -> Scene:
         """The group's MuJoCo scene, built on first use (`prepare`)."""
-        with self._building:
-            if self._scene is None:
-                self._scene = scene_for(self.group.letters, self.group.config, self.group.collide)
-            return self._scene
+        return self._built()[0]
 
     @property
     def arrays(self) -> tuple[mjx.Model, mjx.Data]:
         """The scene's device arrays: its MJX model, and a fresh data for `start_round` to fill."""
-        with self._building:
-            if self._arrays is None:
-                self._arrays = self.scene.model, mjx.make_data(self.scene.mj_model)
-            return self._arrays
+        return self._built()[1]
 
     def prepare(self) -> None:
         """Build the scene and its device arrays, which the chunks need and a traced program's
         shapes come from; a stored program loads without them, so the lowering thread loads it
         while another thread builds them."""
-        _ = self.arrays
+        self._built()
+
+    def _built(self) -> tuple[Scene, tuple[mjx.Model, mjx.Data]]:
+        """The scene and its arrays, built once whichever thread asks first."""
+        with self._building:
+            if self._scene is None:
+                scene = scene_for(self.group.letters, self.group.config, self.group.collide)
+                self._scene = scene, (scene.model, mjx.make_data(scene.mj_model))
+            return self._scene
 
     def _key(self) -> tuple[WorldSpec, tuple]:
         """What keys both functions in the store: one device's slice of specs (its static
@@ -351,18 +352,12 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
     futures = {id(p): [concurrent.futures.Future() for _ in range(len(p.devices) + 1)]
                for p in todo}
 
-    def compile_into(future, p: Program, device: int, lowered, lower_s: float) -> None:
+    def done_into(future, task: Callable, *args) -> None:
+        """Run `task(*args)`; its end, or its error, goes to `future`."""
         try:
-            p.compile(device, lowered, lower_s)
+            task(*args)
             future.set_result(None)
         except BaseException as error:  # handed to the thread that waits for it
-            future.set_exception(error)
-
-    def prepare_into(future, p: Program) -> None:
-        try:
-            p.prepare()
-            future.set_result(None)
-        except BaseException as error:  # likewise
             future.set_exception(error)
 
     # The scenes are built in a thread of their own, in order, each from its program's turn
@@ -411,7 +406,7 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
         order()
         for i, (p, program_futures) in enumerate(work):
             *device_futures, scene_future = program_futures
-            scenes.submit(prepare_into, scene_future, p)
+            scenes.submit(done_into, scene_future, p.prepare)
             try:
                 if helpers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
                     traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
@@ -429,7 +424,7 @@ def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
                 try:
                     start = time.perf_counter()
                     lowered = p.lower(device)
-                    pool.submit(compile_into, future, p, device, lowered,
+                    pool.submit(done_into, future, p.compile, device, lowered,
                                 time.perf_counter() - start)
                 except BaseException as error:  # likewise
                     future.set_exception(error)
