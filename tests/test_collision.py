@@ -101,6 +101,19 @@ def test_far_pairs_are_skipped_and_the_rest_is_mjx(pair_scene):
         assert (skipped if not near else ran)[block_and_hand].all()
 
 
+def test_without_skipping_every_pair_runs_as_in_mjx(pair_scene):
+    """`skip_far=False` (the bin scene's step): every pair's contacts, in MJX's slots; the
+    scene's pairs are boxes, which MJX's own colliders collide, so the contacts are MJX's."""
+    scene, model, mj_model = pair_scene
+    ours = jax.jit(jax.vmap(lambda d: collision.collision(
+        model, mjx.kinematics(model, d), scene.geom_owner, skip_far=False)))
+    theirs = jax.jit(jax.vmap(lambda d: mjx.collision(model, mjx.kinematics(model, d))))
+    data = _worlds(scene, model, mj_model, block_and_hand_near=False)
+    got, want = ours(data)._impl.contact, theirs(data)._impl.contact
+    for name in ("geom", "dist", "pos", "frame"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+
+
 def test_the_step_is_mjx_stage_by_stage(pair_scene):
     """With MJX's own collision, `step_with` traces to exactly `mjx.step`'s program: the
     stages, their order and the integrator are MJX's."""
@@ -115,7 +128,7 @@ def test_the_step_is_mjx_stage_by_stage(pair_scene):
 
 def test_scenes_skip_where_it_pays():
     """Setup 1 scenes skip far pairs; the bin scene (objects touch) and `skip_far_pairs=false`
-    step with MJX's collision."""
+    run every pair."""
     from graspjax.config import override
 
     off = override(Config(), ["sim.skip_far_pairs=false"])

@@ -1,4 +1,6 @@
-"""The physics step: MJX's, with the narrow phase skipped where no world of the batch needs it.
+"""The physics step: MJX's, with the narrow phase skipped where no world of the batch needs it,
+and hull pairs (box-mesh, mesh-mesh) collided by `convex.convex_convex` (MJX's algorithm on pair
+grids: the same contacts up to float32 rounding, several times faster on the CPU).
 
 MJX runs its narrow phase on every candidate geom pair of the model in every step: in a
 Setup 1 scene that is every parked object against the table and the hand, and the hand's
@@ -34,7 +36,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.sim import solver
+from graspjax.sim import convex, solver
 from graspjax.sim.scatters import without_sorted_scatters
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
@@ -46,6 +48,15 @@ NEAR = 0.01  # a part runs when one of its pairs' bounding spheres are closer th
 FAR = 1.0  # distance of a skipped pair's contact (m): inactive, as MJX's separated hulls give
 STATIC, HAND, OBJECTS = -3, -2, -1  # owners of geoms besides object i >= 0 (OBJECTS: a pair of two)
 _PLANE = int(mjx.GeomType.PLANE)
+_BOX, _MESH = int(mjx.GeomType.BOX), int(mjx.GeomType.MESH)
+_GRID_PAIRS = {(_BOX, _MESH), (_MESH, _MESH)}  # pair types `convex.convex_convex` collides
+
+
+def narrow_phase_function(types: tuple[int, int]):
+    """The collision function of a pair type: `convex.convex_convex` for hull pairs, else MJX's."""
+    if tuple(map(int, types)) in _GRID_PAIRS:
+        return convex.convex_convex
+    return collision_driver._COLLISION_FUNC[types]
 
 
 def any_world(flag: jax.Array) -> jax.Array:
@@ -119,19 +130,24 @@ def in_group_order(split: tuple[Part, ...], results: list) -> tuple:
                  for r in zip(*results, strict=True))
 
 
-def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
-    """`mjx.collision`, each group's parts run only where some world needs them
-    (`geom_owner` (ngeom,) int: STATIC, HAND or the object index of each geom)."""
+def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True
+              ) -> mjx.Data:
+    """`mjx.collision` with `narrow_phase_function`'s colliders; when `skip_far`, each group's
+    parts run only where some world needs them (`geom_owner` (ngeom,) int: STATIC, HAND or the
+    object index of each geom), else every pair runs."""
     if d._impl.ncon == 0 or collision_driver._numeric(m, "max_geom_pairs") > -1:
         return mjx.collision(m, d)
     pairs = collision_driver._geom_groups(m)
     by_condim: dict[int, list] = {}
     for key, contact in collision_driver._contact_groups(m, d).items():
-        func = collision_driver._COLLISION_FUNC[key.types]
+        func = narrow_phase_function(key.types)
         group = np.array([(g1, g2) for g1, g2, _ in pairs[key]])
-        split = parts(group, geom_owner)
-        dist, pos, frame = in_group_order(split, [_narrow_phase(m, d, key, part, func)
-                                                  for part in split])
+        if skip_far:
+            split = parts(group, geom_owner)
+            dist, pos, frame = in_group_order(split, [_narrow_phase(m, d, key, part, func)
+                                                      for part in split])
+        else:
+            dist, pos, frame = func(m, d, key, jnp.asarray(group))
         if func.ncon > 1:
             contact = jax.tree.map(lambda x, r=func.ncon: jnp.repeat(x, r, axis=0), contact)
         by_condim.setdefault(key.condim, []).append(contact.replace(dist=dist, pos=pos, frame=frame))
@@ -149,8 +165,8 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray) -> mjx.Data:
 
 def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True) -> mjx.Data:
     """The scenes' physics step: MJX's, with `solver.solve` (the elliptic cone's Hessian as one
-    product) and, when `skip_far`, `collision` in place of MJX's (`geom_owner`: as for
-    `collision`)."""
+    product) and `collision` (skipping far pairs when `skip_far`; `geom_owner`: as for
+    `collision`) in place of MJX's."""
     return _step_function(tuple(np.asarray(geom_owner).tolist()), skip_far)(m, d)
 
 
@@ -161,8 +177,8 @@ def _step_function(geom_owner: tuple[int, ...], skip_far: bool):
     once per process, input types and model statics, and whether the axis of worlds is bound
     (and its size), however many loops of a program call it."""
     owner = np.asarray(geom_owner)
-    collide = (lambda m, d: collision(m, d, owner)) if skip_far else mjx.collision
-    return without_sorted_scatters(lambda m, d: step_with(m, d, collide, solver.solve))
+    return without_sorted_scatters(
+        lambda m, d: step_with(m, d, lambda m, d: collision(m, d, owner, skip_far), solver.solve))
 
 
 def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:
