@@ -114,6 +114,42 @@ def test_without_skipping_every_pair_runs_as_in_mjx(pair_scene):
         np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
 
 
+def test_hull_pairs_through_the_step_are_mjx_up_to_rounding():
+    """The cube pressed against the cylinder's side (a box-mesh pair, the grid collider) at
+    five gaps, every pair run (`skip_far=False`) against `mjx.collision`: the same pairs in the
+    same slots, the same normals, and each pair's first two contacts equal to float32
+    rounding (`tests/test_convex.py` compares the contacts themselves)."""
+    scene = build_scene(("a", "e"), objects_collide=True)
+    mj_model = copy.deepcopy(scene.mj_model)
+    mj_model.numeric_data[:] = -1  # every contact kept, in its own slot
+    model = mjx.put_model(mj_model)
+    cube = np.flatnonzero(scene.geom_object == 0)[0]
+    cylinder = np.flatnonzero(scene.geom_object == 1)[0]
+    mesh = int(mj_model.geom_dataid[cylinder])
+    start, count = mj_model.mesh_vertadr[mesh], mj_model.mesh_vertnum[mesh]
+    radius = np.linalg.norm(mj_model.mesh_vert[start:start + count, :2], axis=1).max()
+    reach = radius + mj_model.geom_size[cube, 0]
+    worlds = 5
+    pos = np.zeros((worlds, 2, 3))
+    pos[:, 0, 0] = reach * np.linspace(0.8, 1.0, worlds)  # the cube 0-20 % into the cylinder
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (worlds, 2, 1))
+    template = mjx.make_data(mj_model)
+    data = jax.vmap(lambda p, q: reset(scene, template, p, q, np.ones(2, bool)))(pos, quat)
+    ours = jax.jit(jax.vmap(lambda d: collision.collision(
+        model, mjx.kinematics(model, d), scene.geom_owner, skip_far=False)))(data)._impl.contact
+    theirs = jax.jit(jax.vmap(lambda d: mjx.collision(model, mjx.kinematics(model, d))))(
+        data)._impl.contact
+    np.testing.assert_array_equal(ours.geom, theirs.geom)
+    np.testing.assert_allclose(ours.frame, theirs.frame, atol=1e-5)
+    hull_pair = np.all(np.sort(np.asarray(theirs.geom[0]), 1) == sorted((cube, cylinder)), 1)
+    first_two = hull_pair & (np.arange(hull_pair.size) % 4 < 2)
+    assert (np.asarray(theirs.dist)[:, hull_pair] < 0).any()  # the grid collider made contact
+    np.testing.assert_allclose(ours.dist[:, first_two], theirs.dist[:, first_two], atol=1e-6)
+    np.testing.assert_allclose(ours.pos[:, first_two], theirs.pos[:, first_two], atol=1e-6)
+    rest = ~hull_pair
+    np.testing.assert_allclose(ours.dist[:, rest], theirs.dist[:, rest], atol=1e-6)
+
+
 def test_the_step_is_mjx_stage_by_stage(pair_scene):
     """With MJX's own collision, `step_with` traces to exactly `mjx.step`'s program: the
     stages, their order and the integrator are MJX's."""

@@ -1,6 +1,7 @@
 """The physics step: MJX's, with the narrow phase skipped where no world of the batch needs it,
 and hull pairs (box-mesh, mesh-mesh) collided by `convex.convex_convex` (MJX's algorithm on pair
-grids: the same contacts up to float32 rounding, several times faster on the CPU).
+grids, several times faster on the CPU: MJX's contacts up to float32 rounding, which may break
+MJX's ties among a pair's third and fourth contact points otherwise).
 
 MJX runs its narrow phase on every candidate geom pair of the model in every step: in a
 Setup 1 scene that is every parked object against the table and the hand, and the hand's
@@ -132,7 +133,8 @@ def in_group_order(split: tuple[Part, ...], results: list) -> tuple:
 
 def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True
               ) -> mjx.Data:
-    """`mjx.collision` with `narrow_phase_function`'s colliders; when `skip_far`, each group's
+    """`mjx.collision` with `narrow_phase_function`'s colliders (MJX's own collision when
+    `max_geom_pairs` is set); when `skip_far`, each group's
     parts run only where some world needs them (`geom_owner` (ngeom,) int: STATIC, HAND or the
     object index of each geom), else every pair runs."""
     if d._impl.ncon == 0 or collision_driver._numeric(m, "max_geom_pairs") > -1:

@@ -10,9 +10,10 @@ the narrow phase was three quarters of a physics step (results/benchmarks, stop 
 
 Here the same tests are written on grids: one axis per edge (or plane) of each side, each
 coordinate its own array, and what depends on one edge alone (its direction, its Gauss-map arc)
-computed once per edge instead of once per pair. The algorithm, its thresholds, the order of
-the candidates and so the choices among ties are MJX's; only the order of some float32 sums
-may differ (tests/test_convex.py compares contacts with MJX's on the scenes' hulls).
+computed once per edge instead of once per pair. The algorithm, its thresholds and the order
+of the candidates are MJX's; the order of some float32 sums may differ, and where MJX picks a
+third or fourth contact among clipped points whose scores tie, rounding may then pick another
+(tests/test_convex.py compares contacts with MJX's on the scenes' hulls).
 """
 
 from __future__ import annotations
@@ -45,11 +46,12 @@ def _cross(u, v):
 
 
 def _sub(u, v):
+    """Differences of coordinate triples (broadcast)."""
     return (u[0] - v[0], u[1] - v[1], u[2] - v[2])
 
 
-def _rows(triple, axis: int):
-    """Coordinate triple of one side of a grid: (n,) arrays as (1, n) (axis 1) or (n, 1)."""
+def _side(triple, axis: int):
+    """A coordinate triple of (n,) arrays as one side of a grid: along axis 1 (1, n) or 0 (n, 1)."""
     return tuple(jnp.expand_dims(c, 1 - axis) for c in triple)
 
 
@@ -63,21 +65,21 @@ def _edge_contact(centroid_a, edges_a, edges_b, edge_normals_a, edge_normals_b):
     # Arcs (a1, a2) of hull a and (-b1, -b2) of hull b cross (MJX's `_arcs_intersect`).
     a1, a2 = _xyz(edge_normals_a[:, 0]), _xyz(edge_normals_a[:, 1])
     b1, b2 = _xyz(-edge_normals_b[:, 0]), _xyz(-edge_normals_b[:, 1])
-    arc_a = _rows(_cross(a2, a1), 1)  # per edge of a
-    arc_b = _rows(_cross(b2, b1), 0)  # per edge of b
-    cba, dba = _dot(_rows(b1, 0), arc_a), _dot(_rows(b2, 0), arc_a)
-    adc, bdc = _dot(_rows(a1, 1), arc_b), _dot(_rows(a2, 1), arc_b)
+    arc_a = _side(_cross(a2, a1), 1)  # per edge of a
+    arc_b = _side(_cross(b2, b1), 0)  # per edge of b
+    cba, dba = _dot(_side(b1, 0), arc_a), _dot(_side(b2, 0), arc_a)
+    adc, bdc = _dot(_side(a1, 1), arc_b), _dot(_side(a2, 1), arc_b)
     minkowski = (cba * dba < 0) & (adc * bdc < 0) & (cba * bdc > 0)
     # The axis across both edges, pointing from a to b (b's frame: b at the origin).
-    axis = _cross(_rows(_xyz(dir_a), 1), _rows(_xyz(dir_b), 0))
+    axis = _cross(_side(_xyz(dir_a), 1), _side(_xyz(dir_b), 0))
     degenerate = _dot(axis, axis) < 1e-6
-    norm = jnp.sqrt(_dot(axis, axis))
+    norm = jnp.sqrt(_dot(axis, axis))  # MJX's norm but for |axis| < 1e-8: degenerate, unused
     norm = norm + 1e-6 * (norm == 0.0)
     axis = tuple(c / norm for c in axis)
-    start_a = _rows(_xyz(edges_a[:, 0]), 1)
+    start_a = _side(_xyz(edges_a[:, 0]), 1)
     sign = jnp.where(_dot(axis, _sub(start_a, _xyz(centroid_a))) > 0.0, 1.0, -1.0)
     axis = tuple(c * sign for c in axis)
-    dist = _dot(axis, _sub(_rows(_xyz(edges_b[:, 0]), 0), start_a))
+    dist = _dot(axis, _sub(_side(_xyz(edges_b[:, 0]), 0), start_a))
     dist = jnp.where(degenerate | ~minkowski, -jnp.inf, dist).reshape(-1)
     best = jnp.argmax(dist)  # flat index b * Ea + a: MJX's pair order
     axis = jnp.stack([c.reshape(-1)[best] for c in axis])
@@ -89,8 +91,8 @@ def _clip_edges(start, end, plane_pt, plane_normal):
     """Edges (E, 3) from `start` to `end` clipped against side planes (J, 3) (MJX's
     `_clip_edge_to_planes` for every edge): the clipped end points (E, 2, 3) and whether each
     edge is kept (E,)."""
-    p0, p1 = _rows(_xyz(start), 0), _rows(_xyz(end), 0)  # (E, 1)
-    q, n = _rows(_xyz(plane_pt), 1), _rows(_xyz(plane_normal), 1)  # (1, J)
+    p0, p1 = _side(_xyz(start), 0), _side(_xyz(end), 0)  # (E, 1)
+    q, n = _side(_xyz(plane_pt), 1), _side(_xyz(plane_normal), 1)  # (1, J)
     front0 = _dot(_sub(p0, q), n) > 1e-6  # (E, J)
     front1 = _dot(_sub(p1, q), n) > 1e-6
     span = _sub(p1, p0)
@@ -146,7 +148,7 @@ def _manifold(clipping_poly, subject_poly, clipping_normal, subject_normal, sep_
 
 def _sat(centroid_a, faces_a, faces_b, vertices_a, vertices_b, normals_a, normals_b, edges_a,
          edges_b, edge_normals_a, edge_normals_b):
-    """MJX's `_sat_gaussmap` (hull b at the origin): distances (4,), points (4, 3), normal (3,)."""
+    """MJX's `_sat_gaussmap` (hull b at the origin): distances (4,), points (4, 3), normals (4, 3)."""
     axes = jnp.concatenate([normals_a, -normals_b])
     high = jax.lax.Precision.HIGH
     support = (jnp.max(jnp.matmul(axes, vertices_a.T, precision=high), 1)
@@ -176,7 +178,7 @@ def _sat(centroid_a, faces_a, faces_b, vertices_a, vertices_b, normals_a, normal
 
 
 def _convex_convex(c1: ConvexInfo, c2: ConvexInfo):
-    """MJX's `_convex_convex` with `_sat` above: distances (4,), points (4, 3), normal (3,)."""
+    """MJX's `_convex_convex` with `_sat` above: distances (4,), points (4, 3), normals (4, 3)."""
     width1, width2 = c1.face.shape[1], c2.face.shape[1]
     if width1 < width2:  # faces padded to one vertex count (their last vertex repeated)
         c1 = c1.replace(face=jnp.pad(c1.face, ((0, 0), (0, width2 - width1), (0, 0)), "edge"))
