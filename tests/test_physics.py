@@ -347,3 +347,36 @@ def test_c_mujoco_replays_end_as_the_physics_says(basic_sim):
         state = jax.tree.map(lambda x, w=w: np.asarray(x[w]), physics_state(data))
         grasp = jax.tree.map(lambda x, w=w: np.asarray(x[w]), grasps)
         assert replay(basic_sim.scene, Config(), state, grasp, target[w]) == expected[w], w
+
+
+def test_layout_stats_count_touching_and_stacked_objects():
+    """Hand-placed layouts of the cube (a) and the flat block (f), their contacts from the
+    physics step's collision: f resting 0.5 mm into a's top face (both touching, f stacked, no
+    footprint gap), then f on the table 2 cm beside a (nothing touching, a 2 cm gap)."""
+    from graspjax.sim import collision
+    from graspjax.sim.scene import build_scene, mjx
+    from graspjax.sim.world import layout_stats, reset
+
+    scene = build_scene(("a", "f"), objects_collide=True)
+    model, m = scene.model, scene.mj_model
+    cube, block = (np.flatnonzero(scene.geom_object == i)[0] for i in range(2))
+    bottom = m.geom_pos[[cube, block], 2] - m.geom_size[[cube, block], 2]  # below each origin
+    top = m.geom_pos[cube, 2] + m.geom_size[cube, 2]
+    beside = m.geom_size[cube, 0] + m.geom_size[block, 0] + 0.02
+    pos = np.array([[[0.0, 0.0, -bottom[0]], [0.0, 0.0, top - bottom[1] - 0.0005]],
+                    [[0.0, 0.0, -bottom[0]], [beside, 0.0, -bottom[1]]]])
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (2, 2, 1))
+    template = mjx.make_data(m)
+
+    def stats(p, q):
+        data = reset(scene, template, p, q, np.ones(2, bool))
+        data = collision.collision(model, mjx.kinematics(model, data), scene.geom_owner,
+                                   skip_far=False)
+        return layout_stats(scene, data)
+
+    got = jax.jit(jax.vmap(stats))(pos, quat)
+    np.testing.assert_array_equal(got.objects, [2, 2])
+    np.testing.assert_array_equal(got.touching, [2, 0])
+    np.testing.assert_array_equal(got.stacked, [1, 0])
+    assert float(got.gap[0]) == 0.0
+    assert float(got.gap[1]) == pytest.approx(0.02, abs=1e-4)
