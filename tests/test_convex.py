@@ -10,6 +10,7 @@ from mujoco.mjx._src import collision_convex as mjx_convex
 from mujoco.mjx._src import mesh as mjx_mesh
 from mujoco.mjx._src.collision_types import ConvexInfo, GeomInfo
 
+from graspjax.geometry import quat_to_matrix
 from graspjax.sim import convex
 from graspjax.sim.collision import narrow_phase_function
 from graspjax.sim.scene import build_scene, mjx
@@ -18,10 +19,7 @@ from graspjax.sim.scene import build_scene, mjx
 def _rotation(key) -> jax.Array:
     """A uniformly random rotation matrix (3, 3) (a normalized Gaussian quaternion)."""
     q = jax.random.normal(key, (4,))
-    w, x, y, z = q / jnp.linalg.norm(q)
-    return jnp.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return quat_to_matrix(q / jnp.linalg.norm(q))
 
 
 def _hull(mesh, pos, mat) -> ConvexInfo:

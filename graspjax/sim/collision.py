@@ -134,9 +134,9 @@ def in_group_order(split: tuple[Part, ...], results: list) -> tuple:
 def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True
               ) -> mjx.Data:
     """`mjx.collision` with `narrow_phase_function`'s colliders (MJX's own collision when
-    `max_geom_pairs` is set); when `skip_far`, each group's
-    parts run only where some world needs them (`geom_owner` (ngeom,) int: STATIC, HAND or the
-    object index of each geom), else every pair runs."""
+    `max_geom_pairs` is set); when `skip_far`, each group's parts run only where some world
+    needs them (`geom_owner` (ngeom,) int: STATIC, HAND or the object index of each geom),
+    else every pair runs."""
     if d._impl.ncon == 0 or collision_driver._numeric(m, "max_geom_pairs") > -1:
         return mjx.collision(m, d)
     pairs = collision_driver._geom_groups(m)
