@@ -4,6 +4,7 @@ import copy
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 import pytest
 
@@ -114,36 +115,58 @@ def test_without_skipping_every_pair_runs_as_in_mjx(pair_scene):
         np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
 
 
+def _cube_and_cylinder(cylinder_vertices: np.ndarray) -> mujoco.MjModel:
+    """A table plane, a 5 cm cube and a hull of `cylinder_vertices` (V, 3), each free: three
+    pair types (plane-box, plane-mesh, box-mesh), every contact kept in its own slot."""
+    vertices = " ".join(f"{v:.9g}" for v in cylinder_vertices.ravel())
+    return mujoco.MjModel.from_xml_string(f"""<mujoco>
+      <asset><mesh name="cylinder" vertex="{vertices}"/></asset>
+      <worldbody>
+        <geom name="table" type="plane" size="0.3 0.3 0.01"/>
+        <body name="cube"><freejoint/><geom type="box" size="0.025 0.025 0.025"/></body>
+        <body name="cylinder"><freejoint/><geom type="mesh" mesh="cylinder"/></body>
+      </worldbody></mujoco>""")
+
+
 def test_hull_pairs_through_the_step_are_mjx_up_to_rounding():
     """The cube pressed against the cylinder's side (a box-mesh pair, the grid collider) at
-    five gaps, every pair run (`skip_far=False`) against `mjx.collision`: the same pairs in the
-    same slots, the same normals, and each pair's first two contacts equal to float32
-    rounding (`tests/test_convex.py` compares the contacts themselves)."""
-    scene = build_scene(("a", "e"), objects_collide=True)
-    mj_model = copy.deepcopy(scene.mj_model)
-    mj_model.numeric_data[:] = -1  # every contact kept, in its own slot
+    five gaps, both resting on the table, every pair run (`skip_far=False`) against
+    `mjx.collision`: the same pairs in the same slots, the same normals, each pair's first two
+    contacts equal to float32 rounding (`tests/test_convex.py` compares the contacts
+    themselves). A model of those three geoms alone: the scenes' hand would only lengthen
+    the compile."""
+    scene = build_scene(("e",), objects_collide=False)
+    mesh = int(scene.mj_model.geom_dataid[np.flatnonzero(scene.geom_object == 0)[0]])
+    start, count = scene.mj_model.mesh_vertadr[mesh], scene.mj_model.mesh_vertnum[mesh]
+    mj_model = _cube_and_cylinder(scene.mj_model.mesh_vert[start:start + count])
     model = mjx.put_model(mj_model)
-    cube = np.flatnonzero(scene.geom_object == 0)[0]
-    cylinder = np.flatnonzero(scene.geom_object == 1)[0]
-    mesh = int(mj_model.geom_dataid[cylinder])
-    start, count = mj_model.mesh_vertadr[mesh], mj_model.mesh_vertnum[mesh]
-    radius = np.linalg.norm(mj_model.mesh_vert[start:start + count, :2], axis=1).max()
-    reach = radius + mj_model.geom_size[cube, 0]
+    table, cube, cylinder = 0, 1, 2
+    assert list(mj_model.geom_type) == [mjx.GeomType.PLANE, mjx.GeomType.BOX, mjx.GeomType.MESH]
+    at_origin = mujoco.MjData(mj_model)  # the hull's vertices in the world, its body at the origin
+    at_origin.qpos[7:10] = 0.0
+    mujoco.mj_kinematics(mj_model, at_origin)
+    placed = at_origin.geom_xmat[cylinder].reshape(3, 3)
+    vertices = at_origin.geom_xpos[cylinder] + mj_model.mesh_vert @ placed.T
+    radius = np.linalg.norm(vertices[:, :2], axis=1).max()
     worlds = 5
-    pos = np.zeros((worlds, 2, 3))
-    pos[:, 0, 0] = reach * np.linspace(0.8, 1.0, worlds)  # the cube 0-20 % into the cylinder
-    quat = np.tile([1.0, 0.0, 0.0, 0.0], (worlds, 2, 1))
-    template = mjx.make_data(mj_model)
-    data = jax.vmap(lambda p, q: reset(scene, template, p, q, np.ones(2, bool)))(pos, quat)
+    qpos = np.tile(mj_model.qpos0, (worlds, 1))
+    qpos[:, 0] = (radius + 0.025) * np.linspace(0.8, 1.0, worlds)  # cube 0-20 % into the cylinder
+    qpos[:, 2] = 0.025 - 0.0005  # both 0.5 mm into the table
+    qpos[:, 7:10] = (0.0, 0.0, -vertices[:, 2].min() - 0.0005)
+    data = jax.vmap(lambda q: mjx.make_data(mj_model).replace(qpos=q))(jnp.asarray(qpos))
+    owner = np.array([STATIC, 0, 1])
     ours = jax.jit(jax.vmap(lambda d: collision.collision(
-        model, mjx.kinematics(model, d), scene.geom_owner, skip_far=False)))(data)._impl.contact
+        model, mjx.kinematics(model, d), owner, skip_far=False)))(data)._impl.contact
     theirs = jax.jit(jax.vmap(lambda d: mjx.collision(model, mjx.kinematics(model, d))))(
         data)._impl.contact
     np.testing.assert_array_equal(ours.geom, theirs.geom)
     np.testing.assert_allclose(ours.frame, theirs.frame, atol=1e-5)
-    hull_pair = np.all(np.sort(np.asarray(theirs.geom[0]), 1) == sorted((cube, cylinder)), 1)
+    pairs = np.sort(np.asarray(theirs.geom[0]), 1)
+    hull_pair = np.all(pairs == (cube, cylinder), 1)
+    assert {tuple(p) for p in pairs} == {(table, cube), (table, cylinder), (cube, cylinder)}
     first_two = hull_pair & (np.arange(hull_pair.size) % 4 < 2)
     assert (np.asarray(theirs.dist)[:, hull_pair] < 0).any()  # the grid collider made contact
+    assert (np.asarray(theirs.dist)[:, ~hull_pair] < 0).any(1).all()  # resting on the table
     np.testing.assert_allclose(ours.dist[:, first_two], theirs.dist[:, first_two], atol=1e-6)
     np.testing.assert_allclose(ours.pos[:, first_two], theirs.pos[:, first_two], atol=1e-6)
     rest = ~hull_pair

@@ -4,9 +4,10 @@ conftest starts this in a second process when the session starts, while the suit
 modules leave a core idle (XLA compiles mostly on one). It runs `test_experiment`'s CLI
 commands (`WARM_RUNS`), whose programs' exported forms and compiled code the module's fixtures
 then load (about 3 minutes of tracing and compiling on the 2-core machine), and builds the a-f
-and g-l scenes' `conftest.Worlds`, whose physics programs compile ahead of time into the
-persistent compilation cache for `test_physics`, their first user (about 45 s each). A test
-module reached before its programs are ready compiles them itself.
+and g-l scenes' `conftest.Worlds` and the narrow gripper's, whose physics programs compile
+ahead of time into the persistent compilation cache for `test_physics`, their first user
+(about 45 s each on an idle machine, 90-170 s beside the suite). A test module reached
+before its programs are ready compiles them itself.
 
 A program's cache key hashes its lowered text, and that text depends on what the process
 traced before: JAX lowers each nested jitted function (`jnp.where`, `jnp.remainder`, ...) once
@@ -30,14 +31,15 @@ def main() -> None:
     from test_experiment import WARM_RUNS
 
     from graspjax.cli import main as cli
-    from graspjax.config import Config
-    from graspjax.sim import scene_for
+    from graspjax.config import Config, GripperConfig
+    from graspjax.sim import build_scene, scene_for
 
     with tempfile.TemporaryDirectory() as folder:  # the runs' files are not needed
         for i, args in enumerate(WARM_RUNS):
             cli([*args, "--out", os.path.join(folder, str(i))])
     for letters, collide in (("abcdef", True), ("ghijkl", False)):
         Worlds(scene_for(tuple(letters), Config(), collide))
+    Worlds(build_scene("a", gripper=GripperConfig(opening=0.04)))  # test_physics' narrow gripper
 
 
 if __name__ == "__main__":
