@@ -115,44 +115,46 @@ def test_without_skipping_every_pair_runs_as_in_mjx(pair_scene):
         np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
 
 
-def _cube_and_cylinder(cylinder_vertices: np.ndarray) -> mujoco.MjModel:
-    """A table plane, a 5 cm cube and a hull of `cylinder_vertices` (V, 3), each free: three
-    pair types (plane-box, plane-mesh, box-mesh), every contact kept in its own slot."""
+def _cube_and_cylinder(cylinder_vertices: np.ndarray, half: float) -> mujoco.MjModel:
+    """A table plane, a cube of half side `half` and a hull of `cylinder_vertices` (V, 3), the
+    cube and the hull each free: three pair types (plane-box, plane-mesh, box-mesh), each
+    with 4 contact slots, every contact kept in its own slot."""
     vertices = " ".join(f"{v:.9g}" for v in cylinder_vertices.ravel())
     return mujoco.MjModel.from_xml_string(f"""<mujoco>
       <asset><mesh name="cylinder" vertex="{vertices}"/></asset>
       <worldbody>
         <geom name="table" type="plane" size="0.3 0.3 0.01"/>
-        <body name="cube"><freejoint/><geom type="box" size="0.025 0.025 0.025"/></body>
+        <body name="cube"><freejoint/><geom type="box" size="{half} {half} {half}"/></body>
         <body name="cylinder"><freejoint/><geom type="mesh" mesh="cylinder"/></body>
       </worldbody></mujoco>""")
 
 
 def test_hull_pairs_through_the_step_are_mjx_up_to_rounding():
-    """The cube pressed against the cylinder's side (a box-mesh pair, the grid collider) at
-    five gaps, both resting on the table, every pair run (`skip_far=False`) against
-    `mjx.collision`: the same pairs in the same slots, the same normals, each pair's first two
-    contacts equal to float32 rounding (`tests/test_convex.py` compares the contacts
+    """The cube pressed against the upright cylinder's side (a box-mesh pair, the grid
+    collider) at five gaps, the cube 0.5 mm and the cylinder 1 mm into the table, every pair
+    run (`skip_far=False`) against `mjx.collision`: the same pairs in the same slots, the same
+    normals, the hull pair's first two contacts (distances, points) and the table pairs'
+    distances equal to float32 rounding (`tests/test_convex.py` compares the hull contacts
     themselves). A model of those three geoms alone: the scenes' hand would only lengthen
     the compile."""
     scene = build_scene(("e",), objects_collide=False)
     mesh = int(scene.mj_model.geom_dataid[np.flatnonzero(scene.geom_object == 0)[0]])
     start, count = scene.mj_model.mesh_vertadr[mesh], scene.mj_model.mesh_vertnum[mesh]
-    mj_model = _cube_and_cylinder(scene.mj_model.mesh_vert[start:start + count])
+    half = 0.025
+    mj_model = _cube_and_cylinder(scene.mj_model.mesh_vert[start:start + count], half)
     model = mjx.put_model(mj_model)
     table, cube, cylinder = 0, 1, 2
     assert list(mj_model.geom_type) == [mjx.GeomType.PLANE, mjx.GeomType.BOX, mjx.GeomType.MESH]
-    at_origin = mujoco.MjData(mj_model)  # the hull's vertices in the world, its body at the origin
-    at_origin.qpos[7:10] = 0.0
+    at_origin = mujoco.MjData(mj_model)  # the hull's vertices in the world, its body at qpos0
     mujoco.mj_kinematics(mj_model, at_origin)
     placed = at_origin.geom_xmat[cylinder].reshape(3, 3)
-    vertices = at_origin.geom_xpos[cylinder] + mj_model.mesh_vert @ placed.T
+    vertices = at_origin.geom_xpos[cylinder] + mj_model.mesh_vert @ placed.T  # the only mesh
     radius = np.linalg.norm(vertices[:, :2], axis=1).max()
     worlds = 5
     qpos = np.tile(mj_model.qpos0, (worlds, 1))
-    qpos[:, 0] = (radius + 0.025) * np.linspace(0.8, 1.0, worlds)  # cube 0-20 % into the cylinder
-    qpos[:, 2] = 0.025 - 0.0005  # both 0.5 mm into the table
-    qpos[:, 7:10] = (0.0, 0.0, -vertices[:, 2].min() - 0.0005)
+    qpos[:, 0] = (radius + half) * np.linspace(0.8, 1.0, worlds)  # cube 0-20 % into the cylinder
+    qpos[:, 2] = half - 0.0005
+    qpos[:, 7:10] = (0.0, 0.0, -vertices[:, 2].min() - 0.001)
     data = jax.vmap(lambda q: mjx.make_data(mj_model).replace(qpos=q))(jnp.asarray(qpos))
     owner = np.array([STATIC, 0, 1])
     ours = jax.jit(jax.vmap(lambda d: collision.collision(
@@ -162,15 +164,16 @@ def test_hull_pairs_through_the_step_are_mjx_up_to_rounding():
     np.testing.assert_array_equal(ours.geom, theirs.geom)
     np.testing.assert_allclose(ours.frame, theirs.frame, atol=1e-5)
     pairs = np.sort(np.asarray(theirs.geom[0]), 1)
-    hull_pair = np.all(pairs == (cube, cylinder), 1)
-    assert {tuple(p) for p in pairs} == {(table, cube), (table, cylinder), (cube, cylinder)}
-    first_two = hull_pair & (np.arange(hull_pair.size) % 4 < 2)
-    assert (np.asarray(theirs.dist)[:, hull_pair] < 0).any()  # the grid collider made contact
-    assert (np.asarray(theirs.dist)[:, ~hull_pair] < 0).any(1).all()  # resting on the table
-    np.testing.assert_allclose(ours.dist[:, first_two], theirs.dist[:, first_two], atol=1e-6)
-    np.testing.assert_allclose(ours.pos[:, first_two], theirs.pos[:, first_two], atol=1e-6)
-    rest = ~hull_pair
-    np.testing.assert_allclose(ours.dist[:, rest], theirs.dist[:, rest], atol=1e-6)
+    assert [tuple(p) for p in pairs[::4]] == [(table, cube), (table, cylinder), (cube, cylinder)]
+    assert (pairs.reshape(3, 4, 2) == pairs[::4, None]).all()  # 4 slots a pair, in MJX's order
+    want = np.asarray(theirs.dist).reshape(worlds, 3, 4)
+    assert (want[:-1, 2, :2] < 0).all()  # the hull pair touches where the cube presses in
+    np.testing.assert_allclose(want[:, 0].min(1), -0.0005, atol=1e-6)  # the cube on the table
+    np.testing.assert_allclose(want[:, 1].min(1), -0.001, atol=1e-6)  # the cylinder on it
+    got, got_pos = np.asarray(ours.dist).reshape(worlds, 3, 4), np.asarray(ours.pos)
+    np.testing.assert_allclose(got[:, 2, :2], want[:, 2, :2], atol=1e-6)
+    np.testing.assert_allclose(got_pos[:, 8:10], np.asarray(theirs.pos)[:, 8:10], atol=1e-6)
+    np.testing.assert_allclose(got[:, :2], want[:, :2], atol=1e-6)
 
 
 def test_the_step_is_mjx_stage_by_stage(pair_scene):
