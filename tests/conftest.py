@@ -175,22 +175,43 @@ class Worlds:
         return GraspPose(nan, nan, nan, jnp.zeros(SIM_BATCH, bool))
 
 
-@pytest.fixture(scope="session")
-def basic_sim():
+def basic_scene():
     """The a-f scene with object-object contacts (Setups 2, 3)."""
     from graspjax.config import Config
     from graspjax.sim import scene_for
 
-    return Worlds(scene_for(tuple("abcdef"), Config(), True))
+    return scene_for(tuple("abcdef"), Config(), True)
 
 
-@pytest.fixture(scope="session")
-def industrial_sim():
+def industrial_scene():
     """The g-l scene (Setup 1; objects never meet)."""
     from graspjax.config import Config
     from graspjax.sim import scene_for
 
-    return Worlds(scene_for(tuple("ghijkl"), Config(), False))
+    return scene_for(tuple("ghijkl"), Config(), False)
+
+
+def narrow_gripper_scene():
+    """The cube (a) alone, under a gripper opening 4 cm (narrower than the cube)."""
+    from graspjax.config import GripperConfig
+    from graspjax.sim import build_scene
+
+    return build_scene("a", gripper=GripperConfig(opening=0.04))
+
+
+# The scenes whose `Worlds` programs `test_physics` compiles, in the order it first uses them:
+# warm_cache.py compiles the same programs beside the suite.
+PHYSICS_SCENES = (basic_scene, industrial_scene, narrow_gripper_scene)
+
+
+@pytest.fixture(scope="session")
+def basic_sim():
+    return Worlds(basic_scene())
+
+
+@pytest.fixture(scope="session")
+def industrial_sim():
+    return Worlds(industrial_scene())
 
 
 def hull_solid(points, rotation, translation):

@@ -189,12 +189,9 @@ def test_a_world_steps_the_same_whatever_its_batch(industrial_sim):
 
 def test_side_wider_than_the_opening_is_not_grasped():
     """A 4 cm gripper over the 5 cm cube: the fingers come down on its top and are stopped."""
-    from conftest import Worlds
+    from conftest import Worlds, narrow_gripper_scene
 
-    from graspjax.config import GripperConfig
-    from graspjax.sim import build_scene
-
-    narrow = Worlds(build_scene("a", gripper=GripperConfig(opening=0.04)))
+    narrow = Worlds(narrow_gripper_scene())
     data = _place(narrow, [{0: (0.0, 0.0, 0.0)}] * SIM_BATCH)
     rows = [((0, 0, 0.03), (np.cos(a), np.sin(a), 0), True)
             for a in np.linspace(0, np.pi / 2, SIM_BATCH)]

@@ -3,8 +3,8 @@
 conftest starts this in a second process when the session starts, while the suite's first
 modules leave a core idle (XLA compiles mostly on one). It runs `test_experiment`'s CLI
 commands (`WARM_RUNS`), whose programs' exported forms and compiled code the module's fixtures
-then load (about 3 minutes of tracing and compiling on the 2-core machine), and builds the a-f
-and g-l scenes' `conftest.Worlds` and the narrow gripper's, whose physics programs compile
+then load (about 3 minutes of tracing and compiling on the 2-core machine), and builds the
+`conftest.Worlds` of `conftest.PHYSICS_SCENES`, whose physics programs compile
 ahead of time into the persistent compilation cache for `test_physics`, their first user
 (about 45 s each on an idle machine, 90-170 s beside the suite). A test module reached
 before its programs are ready compiles them itself.
@@ -22,7 +22,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from conftest import Worlds  # noqa: E402  (also sets the cache and XLA_FLAGS)
+from conftest import PHYSICS_SCENES, Worlds  # noqa: E402  (also sets the cache and XLA_FLAGS)
 
 
 def main() -> None:
@@ -31,15 +31,12 @@ def main() -> None:
     from test_experiment import WARM_RUNS
 
     from graspjax.cli import main as cli
-    from graspjax.config import Config, GripperConfig
-    from graspjax.sim import build_scene, scene_for
 
     with tempfile.TemporaryDirectory() as folder:  # the runs' files are not needed
         for i, args in enumerate(WARM_RUNS):
             cli([*args, "--out", os.path.join(folder, str(i))])
-    for letters, collide in (("abcdef", True), ("ghijkl", False)):
-        Worlds(scene_for(tuple(letters), Config(), collide))
-    Worlds(build_scene("a", gripper=GripperConfig(opening=0.04)))  # test_physics' narrow gripper
+    for scene in PHYSICS_SCENES:
+        Worlds(scene())
 
 
 if __name__ == "__main__":
