@@ -285,8 +285,15 @@ def _run_experiment(args, grid_items=None) -> int:
     from graspjax import experiment
 
     request = _experiment_request(args, grid_items)
-    result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
-                            args.quiet)
+    from graspjax.batch import players
+
+    try:
+        result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
+                                args.quiet, players.count(args.processes))
+    except players.HelperFailed as exc:
+        print(f"graspjax: error: {exc} (the finished chunks are kept: the same command with "
+              "--resume continues)", file=sys.stderr)
+        return 1
     if not result.files:
         print(f"part {part}/{parts} done; {result.chunks_done} of {result.chunks} chunks of the "
               f"run are done in {result.folder} (the part that completes the last chunk writes "
@@ -389,6 +396,10 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--part", metavar="I/N",
                    help="run every N-th chunk from chunk I, into a folder shared by N processes "
                         "(one per host; see docs/running.md)")
+    p.add_argument("--processes", type=int, metavar="N",
+                   help="CPU: play the run's groups (programs) in up to N processes side by side "
+                        "(default: GRASPJAX_PROCESSES, else one per core, at most 4; a GPU takes "
+                        "1); the same attempts as one process")
     p.add_argument("--fast", action="store_true",
                    help="GPU: allow non-deterministic XLA ops (the bin scene steps about 1.1x as fast; "
                         "not bit-reproducible)")

@@ -21,8 +21,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from graspjax.batch.plan import Job, chunks, default_batch, plan
-from graspjax.batch.program import run_chunks, trace_workers
+from graspjax.batch.plan import Group, Job, chunks, default_batch, plan, share
+from graspjax.batch.players import Helper, cores_of, kept_to
+from graspjax.batch.players import Job as HelperJob
+from graspjax.batch.program import program, run_chunks, trace_workers
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.config import Config, differences
 from graspjax.io import jsonable, write_atomic
@@ -91,11 +93,12 @@ class RunResult:
 
 
 def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite: bool = False,
-        part: int = 0, parts: int = 1, quiet: bool = False) -> RunResult:
+        part: int = 0, parts: int = 1, quiet: bool = False, processes: int = 1) -> RunResult:
     """Run an experiment into the folder `out` (`outputs.RunFolder`), chunk by chunk, then
     write its report. With `parts` > 1 this process runs every `parts`-th chunk from `part`
     into a folder shared with the other parts; the one that completes the last chunk writes
-    the results."""
+    the results. With `processes` > 1 (CPU) helper processes play some of its groups side by
+    side with it (`plan.share`, `batch.players`; not while views are kept)."""
     from graspjax.views import ViewSaver
 
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
@@ -115,10 +118,21 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
             **provenance()}
     meta = {"run_id": run_id(meta), **meta}
     columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
-    folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1)
-    skip = folder.done | {c.index for c in planned if c.index % parts != part}
-    per_chunk = {c.index: len(c.worlds) * groups[c.group].attempts for c in planned
-                 if c.index % parts == part}
+    ours = [c for c in planned if c.index % parts == part]
+    folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1,
+                       append=parts == 1 and (processes == 1 or experiment.save_views != "none"))
+    work: dict[int, float] = {}  # per group, the device work of its chunks still to play
+    for c in ours:
+        if c.index not in folder.done:
+            work[c.group] = (work.get(c.group, 0.0)
+                             + groups[c.group].work * len(c.worlds) / len(groups[c.group].worlds))
+    shares = share(work, processes if experiment.save_views == "none" else 1)
+    # The run plays the lightest share itself: its XLA threads were started for every core
+    # before it keeps to its block, so its chunks run slower than a helper's, whose threads
+    # start on its block alone (README's command warm: 115-122 s the other way round).
+    mine = {c.index for c in ours if c.group in shares[-1]}
+    skip = folder.done | {c.index for c in planned if c.index not in mine}
+    per_chunk = {c.index: len(c.worlds) * groups[c.group].attempts for c in ours}
     bar, log = progress_bar(sum(per_chunk.values()), quiet,
                             sum(n for c, n in per_chunk.items() if c in folder.done))
     if experiment.sweep:
@@ -126,15 +140,37 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
             + (f"every point has seed {experiment.seed} (paired)" if experiment.paired
                else f"point i has seed {experiment.seed} + i"))
     saver = ViewSaver(out, experiment.save_views, experiment.max_views, configs)
+    lock = threading.Lock()  # the helpers' progress comes from threads of their own
+
+    def progress(attempts: int) -> None:
+        with lock:
+            bar.update(attempts)
+
     with bar:
-        for result in run_chunks(groups, configs, batch, skip,
-                                 keep_views=experiment.save_views != "none",
-                                 progress=bar.update, log=log):
-            frame = attempt_rows(result, columns)
-            folder.add(result.chunk.index, frame, round_rows(result, columns), result.timings)
-            if result.views is not None:
-                saver.save(result.chunk, frame, result.views)
-            import_in_background("graspjax.report")
+        helpers = []
+        try:
+            # Each process keeps to cores of its own only when every program loads from the
+            # store: a process compiling on one core could not take the core another is done
+            # with (README's command cold, 2 cores: 500 s kept apart, 429 s in one process).
+            warm = len(shares) > 1 and all(program(groups[g], batch, keep_views=False).stored()
+                                           for g in work)
+            for process, groups_of_helper in enumerate(shares[:-1], start=1):
+                todo = tuple(c.index for c in ours
+                             if c.group in groups_of_helper and c.index not in folder.done)
+                if todo:
+                    helpers.append(Helper(play_helper_share, experiment, str(out), meta, process,
+                                          len(shares), todo, progress, keep_to_cores=warm))
+            if helpers:
+                log(f"playing the groups in {len(helpers) + 1} processes side by side")
+            with kept_to(cores_of(0, len(shares)) if helpers and warm else None):
+                _play(groups, configs, batch, skip, folder, columns, progress, log,
+                      saver=saver, keep_views=experiment.save_views != "none",
+                      after_chunk=lambda: [helper.check() for helper in helpers])
+            for helper in helpers:
+                helper.wait()
+        finally:
+            for helper in helpers:
+                helper.stop()
     files = folder.finish()
     if not files:
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
@@ -143,6 +179,37 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     files += write_report(out)
     success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
     return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()))
+
+
+def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int],
+          folder: RunFolder, columns: RunColumns, progress, log, process: int = 0,
+          saver=None, keep_views: bool = False, after_chunk=lambda: None) -> None:
+    """Play every chunk not in `skip` into `folder`: its rows, layouts and timings, and its
+    views (with `saver`, when kept); `after_chunk()` once each is kept (the run: a helper that
+    failed stops it). `process`: which of the run's processes plays them."""
+    for result in run_chunks(groups, configs, batch, skip, keep_views=keep_views,
+                             progress=progress, log=log, process=process):
+        frame = attempt_rows(result, columns)
+        folder.add(result.chunk.index, frame, round_rows(result, columns), result.timings)
+        if result.views is not None:
+            saver.save(result.chunk, frame, result.views)
+        if process == 0:
+            import_in_background("graspjax.report")
+        after_chunk()
+
+
+def play_helper_share(job: HelperJob, progress) -> None:
+    """A helper process's part of a run (`batch.players`): the same plan as the run's, its
+    chunks into the run's folder, and `progress(attempts)` as each call finishes."""
+    experiment = job.experiment
+    configs = [c for _, c in experiment.points]
+    groups = plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+    planned = chunks(groups, job.meta["batch"])
+    columns = RunColumns(job.meta["run_id"], configs, experiment.keys, experiment.base)
+    folder = RunFolder(job.out, job.meta, len(planned), resume=True, shared=True)
+    skip = {c.index for c in planned} - set(job.chunks)
+    _play(groups, configs, job.meta["batch"], skip, folder, columns, progress, lambda m: None,
+          process=job.process)
 
 
 def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str], Config]],

@@ -8,7 +8,8 @@ While a run is going:
   `parts/attempts-NNNNN.parquet`: one set per finished chunk, each written
   atomically; a chunk is done when its attempts part exists;
 - `attempts.csv`: the rows of each finished chunk appended at once (in the
-  order chunks finish, before its parts), to watch a long run with any tool.
+  order chunks finish, before its parts), to watch a long run with any tool
+  (not while several processes write the folder: it then appears at the end).
 
 When every chunk is done, `attempts.csv`, `attempts.parquet` and
 `rounds.csv` (one row per Setup 2/3 round: how dense its layout was) are
@@ -83,15 +84,18 @@ class RunFolder:
 
     A chunk is done when its part file exists (parts are written atomically),
     so several processes may share one folder, each running its own chunks
-    (`--part I/N`); they do not append to `attempts.csv` then, and whichever
-    finds every chunk done assembles the results.
+    (`--part I/N` on several hosts, `shared`: whichever finds every chunk done
+    assembles the results and keeps the parts for the others; or helper
+    processes of one run, `batch.players`: the run assembles them). Processes
+    that share a folder do not append to `attempts.csv` (`append`).
     """
 
     def __init__(self, folder: str | Path, meta: dict, chunks: int, resume: bool,
-                 shared: bool = False):
+                 shared: bool = False, append: bool | None = None):
         self.folder = Path(folder)
         self.parts = self.folder / "parts"
         self.chunks, self.meta, self.shared = chunks, meta, shared
+        self.append = not shared if append is None else append
         config = self.folder / "config.json"
         if config.is_file() and (resume or shared):
             old = json.loads(config.read_text())
@@ -109,8 +113,10 @@ class RunFolder:
         if not self.finished:
             self.parts.mkdir(exist_ok=True)
             write_atomic(config, (json.dumps(meta, indent=2, default=str) + "\n").encode())
-            if not shared:
+            if self.append:
                 self._rewrite_csv()
+            elif not shared:  # written when the run ends; an earlier run's appends would mislead
+                (self.folder / "attempts.csv").unlink(missing_ok=True)
 
     @property
     def done(self) -> set[int]:
@@ -136,7 +142,7 @@ class RunFolder:
         frame.to_parquet(buffer, index=False)
         rounds = io.BytesIO()
         layouts.to_parquet(rounds, index=False)
-        if not self.shared:
+        if self.append:
             csv = self.folder / "attempts.csv"
             with open(csv, "ab") as handle:
                 handle.write(_csv(frame, header=csv.stat().st_size == 0))

@@ -17,6 +17,9 @@ from graspjax.synthetic import render_depth, top_down_pose
 # A persistent compilation cache makes local reruns fast (CI starts cold); the CLI in a
 # subprocess shares it through GRASPJAX_CACHE.
 os.environ.setdefault("GRASPJAX_CACHE", os.path.expanduser("~/.cache/graspjax-tests"))
+# The suite's runs play in one process: on 2 cores a run of several groups would start a helper
+# process that loads its programs again. test_experiment's helper test asks for two.
+os.environ["GRASPJAX_PROCESSES"] = "1"
 # The flags the CLI sets before JAX starts (`cli._xla_flags`), set here for the whole
 # session: XLA_FLAGS is part of a compiled program's cache key, so the programs compiled in this
 # process and those of a CLI subprocess share their cache entries only if both see them.

@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 from graspjax import experiment, procedure
-from graspjax.batch import exported, plan, program
+from graspjax.batch import exported, plan, players, program
 from graspjax.cli import main
 from graspjax.config import Config, override
 from graspjax.io import InputError
@@ -396,6 +396,64 @@ def test_a_worker_process_traces_the_second_program_and_the_rows_stay(methods_sw
     pd.testing.assert_frame_equal(ours, reference)
 
 
+def test_helper_processes_play_groups_side_by_side_and_the_files_stay(methods_sweep, tmp_path):
+    """Two processes (`batch.players`): the run plays one method's group, a helper process the
+    other's, on a core of its own; the run assembles their parts into the files one process
+    writes, byte for byte, and timings.csv says which process played each chunk."""
+    out = tmp_path / "sweep"
+    assert main([*METHODS_SWEEP, "--out", str(out), "--processes", "2"]) == 0
+    for name in ("attempts.csv", "rounds.csv"):
+        assert (out / name).read_bytes() == (methods_sweep / name).read_bytes()
+    timings = pd.read_csv(out / "timings.csv")
+    assert timings.groupby("group")["process"].nunique().eq(1).all()  # a group stays together
+    assert sorted(timings["process"].unique()) == [0, 1]
+    assert not (out / "parts").exists()
+
+
+def test_a_failed_helper_stops_the_run_with_one_line_and_keeps_the_finished_chunks(
+        methods_sweep, tmp_path, monkeypatch, capsys):
+    """A helper that fails while the run plays its own share: the run stops the helpers, exits
+    non-zero with the helper's last words in one line, and keeps its own finished chunks for
+    --resume; no results are assembled."""
+    stopped = []
+
+    class FailingHelper:
+        def __init__(self, *args, **options):
+            self.chunks = args[6]  # (play, experiment, out, meta, process, processes, chunks, ...)
+
+        def check(self):
+            raise players.HelperFailed("a helper process of the run failed: MemoryError")
+
+        wait = check
+
+        def stop(self):
+            stopped.append(self.chunks)
+
+    monkeypatch.setattr(experiment, "Helper", FailingHelper)
+    out = tmp_path / "sweep"
+    assert main([*METHODS_SWEEP, "--out", str(out), "--processes", "2"]) == 1
+    err = capsys.readouterr().err
+    assert err == ("graspjax: error: a helper process of the run failed: MemoryError (the "
+                   "finished chunks are kept: the same command with --resume continues)\n")
+    assert len(stopped) == 1 and stopped[0]  # the one helper, which had chunks to play
+    done = {int(p.stem.split("-")[1]) for p in (out / "parts").glob("attempts-*.parquet")}
+    assert done and done.isdisjoint(stopped[0])  # the run's own first chunk, none of the helper's
+    assert not (out / "attempts.parquet").exists()
+
+
+@pytest.mark.parametrize("work, processes, expected", [
+    ({0: 120, 1: 840, 2: 120}, 2, [[1], [0, 2]]),  # README's command: the rounds alone
+    ({0: 120, 1: 840, 2: 120}, 1, [[0, 1, 2]]),
+    ({0: 5, 1: 5}, 4, [[0], [1]]),  # never more shares than groups
+    ({3: 10, 5: 9, 7: 8, 9: 7}, 2, [[3, 9], [5, 7]]),  # 10, 9, then the lighter: 9+8, 10+7
+    ({2: 1}, 3, [[2]]),
+    ({0: 10, 1: 6, 2: 5}, 2, [[1, 2], [0]]),  # 6 + 5 outweighs 10: the lightest share is last
+    ({}, 2, [[]]),  # every chunk done already
+])
+def test_groups_are_shared_among_processes_most_work_first(work, processes, expected):
+    assert plan.share(work, processes) == expected
+
+
 def test_a_stored_program_loads_and_lowers_without_its_scene(tiny_run, monkeypatch):
     """A warm start finds its programs in the store by their key alone and lowers them before
     the scene exists (the run builds it beside the load, `Program.prepare`); the scene is then
@@ -609,6 +667,7 @@ def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_r
     (["run", "--table", "3"], "--table must be among"),
     (["run", "--setup", "1", "--part", "2/2"], "0 <= I < N"),
     (["run", "--setup", "1", "--part", "x"], "--part takes I/N"),
+    (["run", "--setup", "1", "--processes", "0"], "--processes must be >= 1, got 0"),
     (["run", "--setup", "1", "--resume", "--overwrite"], "not both"),
     (["sweep", "--setup", "1", "--grid", "align.window_px=5,x"], "must be int"),
     (["sweep", "--setup", "1"], "needs at least one --grid"),

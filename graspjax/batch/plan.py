@@ -160,3 +160,18 @@ def padded_size(worlds: int, batch: int) -> int:
     return -(-size // devices) * devices
 
 
+def share(work: dict[int, float], processes: int) -> list[list[int]]:
+    """Groups (id -> the `Group.work` of their chunks still to play) split among at most
+    `processes` processes that play them side by side: the most work first, each to the share
+    with the least so far (ties: the first share), so that the shares end near the same time.
+    Each share lists its groups in plan order; the shares come heaviest first, so the last is
+    the lightest. A group is never split: its program would compile in every process that
+    plays it."""
+    shares: list[list[int]] = [[] for _ in range(max(1, min(processes, len(work))))]
+    load = [0.0] * len(shares)
+    for group in sorted(work, key=lambda g: (-work[g], g)):
+        lightest = load.index(min(load))
+        shares[lightest].append(group)
+        load[lightest] += work[group]
+    order = sorted(range(len(shares)), key=lambda i: (-load[i], i))
+    return [sorted(shares[i]) for i in order]

@@ -466,7 +466,8 @@ class ChunkResult:
     group: Group
     drop: Record  # the drop's record (k = -1): the settled layout's statistics; leading axis batch
     records: list[Record]  # attempt k's records (numpy, leading axis batch; padding included)
-    timings: dict  # program (traced / worker / loaded), trace_s, compile_s, started_s, wall_s, ...
+    timings: dict  # program (traced / worker / loaded), trace_s, compile_s, started_s, wall_s,
+    # peak_gib, process
     views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
 
 
@@ -481,8 +482,8 @@ def peak_gib(devices: list[jax.Device]) -> float | None:
 
 def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
                keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
-               log: Callable[[str], None] = lambda m: None, overlap: bool = True
-               ) -> Iterator[ChunkResult]:
+               log: Callable[[str], None] = lambda m: None, overlap: bool = True,
+               process: int = 0) -> Iterator[ChunkResult]:
     """Play every chunk not in `done`; yield each as it finishes. While the caller handles a
     yielded chunk, the next one whose program is ready already plays on the devices (unless
     views are kept), so closing the generator early waits for that chunk to end.
@@ -495,7 +496,8 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     a worker process or loaded from the store of exported programs (`program`), what tracing or
     loading and compiling took (`trace_s`, `compile_s`, on a group's first chunk) and when it
     started (`started_s`, seconds since this call began: gaps are the device waiting for a
-    compile), and the device memory it had needed at most so far (`peak_gib`)."""
+    compile), the device memory it had needed at most so far (`peak_gib`) and which of the
+    run's processes played it (`process`: 0 the run's own, else a helper's, `players.py`)."""
     began = time.perf_counter()
     plan_ = chunks(groups, batch)
     todo = [c for c in plan_ if c.index not in done]
@@ -542,7 +544,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
                        "started_s": round(start - began, 3),
                        "wall_s": round(wall_s, 3),
-                       "peak_gib": peak_gib(prog.devices)}
+                       "peak_gib": peak_gib(prog.devices), "process": process}
             return ChunkResult(chunk, prog.group, drop, records, timings, views)
 
         # One thread plays the chunks, one after another. While the caller turns a chunk into
