@@ -159,7 +159,8 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
                              if c.group in groups_of_helper and c.index not in folder.done)
                 if todo:
                     helpers.append(Helper(play_helper_share, experiment, str(out), meta, process,
-                                          len(shares), todo, progress, keep_to_cores=warm))
+                                          todo, progress, cores_of(process, len(shares))
+                                          if warm else None))
             if helpers:
                 log(f"playing the groups in {len(helpers) + 1} processes side by side")
             with kept_to(cores_of(0, len(shares)) if helpers and warm else None):

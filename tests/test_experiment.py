@@ -419,7 +419,7 @@ def test_a_failed_helper_stops_the_run_with_one_line_and_keeps_the_finished_chun
 
     class FailingHelper:
         def __init__(self, *args, **options):
-            self.chunks = args[6]  # (play, experiment, out, meta, process, processes, chunks, ...)
+            self.chunks = args[5]  # (play, experiment, out, meta, process, chunks, ...)
 
         def check(self):
             raise players.HelperFailed("a helper process of the run failed: MemoryError")

@@ -95,8 +95,8 @@ def test_every_thread_keeps_to_the_cores_inside_the_block_and_gets_its_own_back(
 def test_a_failed_helper_fails_the_run_with_its_last_words():
     """A helper that cannot play its job (here: no experiment) ends with an error: waiting for
     it raises its last line."""
-    helper = players.Helper(experiment.play_helper_share, None, "/nonexistent", {}, 1, 2, (0,),
-                            lambda attempts: None)
+    helper = players.Helper(experiment.play_helper_share, None, "/nonexistent", {}, 1, (0,),
+                            lambda attempts: None, players.cores_of(1, 2))
     try:
         with pytest.raises(players.HelperFailed, match="a helper process of the run failed: "
                                                        "AttributeError: 'NoneType' object"):

@@ -120,23 +120,22 @@ class HelperFailed(RuntimeError):
 
 class Helper:
     """One helper process, started at once; `progress(attempts)` is called from a thread of its
-    own as the helper reports them. With `keep_to_cores` it keeps to its block (`cores_of`)."""
+    own as the helper reports them. It keeps to `cores` (`cores_of`; None: every core)."""
 
     def __init__(self, play: Callable, experiment: object, out: str, meta: dict, process: int,
-                 processes: int, chunks: tuple[int, ...], progress: Callable[[int], None],
-                 keep_to_cores: bool = True):
+                 chunks: tuple[int, ...], progress: Callable[[int], None],
+                 cores: set[int] | None = None):
         import jax
 
         job = Job(play, experiment, out, meta, process, chunks,
                   {k: getattr(jax.config, k) for k in SETTINGS})
         self._stderr = tempfile.TemporaryFile()  # a file: a full pipe would stall the helper
-        # Its cores (`cores_of`) are set first, before any import starts a thread.
-        cores = sorted(cores_of(process, processes) or ()) if keep_to_cores else []
+        # Its cores are set first, before any import starts a thread.
         command = ("import os, sys; cores = [int(c) for c in sys.argv[1:]]; "
                    "cores and os.sched_setaffinity(0, cores); "
                    "from graspjax.batch.players import main; sys.exit(main())")
         # It runs in the folder that holds this graspjax package, so that it imports this one.
-        self._process = subprocess.Popen([sys.executable, "-c", command, *map(str, cores)],
+        self._process = subprocess.Popen([sys.executable, "-c", command, *map(str, sorted(cores or ()))],
                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                          stderr=self._stderr, cwd=exported.SOURCES.parent)
         self._process.stdin.write(pickle.dumps(job))
@@ -179,7 +178,6 @@ class Helper:
 
 def main() -> int:
     """A helper: play the job on stdin (`Job.play`)."""
-
     _end_with_the_run()
     job: Job = pickle.load(sys.stdin.buffer)
     import jax
