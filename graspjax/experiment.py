@@ -103,9 +103,8 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
 
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
     out = check_output_folder(out, resume or parts > 1, overwrite)
-    configs = [c for _, c in experiment.points]
     batch = experiment.batch or default_batch()
-    groups = plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+    configs, groups = _grouped(experiment)
     planned = chunks(groups, batch)
     meta = {"seed": experiment.seed, "paired": experiment.paired, "preset": experiment.preset,
             "jobs": [dataclasses.asdict(j) for j in experiment.jobs],
@@ -182,6 +181,13 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()))
 
 
+def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:
+    """The run's grid points and groups: one derivation for the run and its helpers, which
+    must plan (and so number the chunks) alike."""
+    configs = [c for _, c in experiment.points]
+    return configs, plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+
+
 def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int],
           folder: RunFolder, columns: RunColumns, progress, log, process: int = 0,
           saver=None, keep_views: bool = False, after_chunk=lambda: None) -> None:
@@ -203,8 +209,7 @@ def play_helper_share(job: HelperJob, progress) -> None:
     """A helper process's part of a run (`batch.players`): the same plan as the run's, its
     chunks into the run's folder, and `progress(attempts)` as each call finishes."""
     experiment = job.experiment
-    configs = [c for _, c in experiment.points]
-    groups = plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+    configs, groups = _grouped(experiment)
     planned = chunks(groups, job.meta["batch"])
     columns = RunColumns(job.meta["run_id"], configs, experiment.keys, experiment.base)
     folder = RunFolder(job.out, job.meta, len(planned), resume=True, shared=True)
