@@ -16,6 +16,8 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception import align_tool, detect_grasp
+from graspjax.perception.support import known_support, plane_height
+from graspjax.perception.target import best_candidate, follow_target, target_candidates
 from graspjax.perception.workspace import block_factors
 from graspjax.provenance import device_line, provenance
 
@@ -40,7 +42,7 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
                          repeats: int = 10, unique: int = 256, seed: int = 0,
                          config: Config = Config(), progress=print) -> dict:
     """Images/s of detect_grasp + align_tool batched, and single-image latency after compile."""
-    from graspjax.synthetic import random_scene
+    from graspjax.synthetic import random_scene, top_down_pose
 
     camera = Camera.kinect(width, height)
     rng = np.random.default_rng(seed)
@@ -53,11 +55,33 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
         return (detect_grasp(d, camera, config.detect, config.gripper),
                 align_tool(d, camera, config.align))
 
+    def target(d):
+        """A simulated view's depth-only target steps: the pixels above the calibrated table
+        (`random_scene`'s camera, 0.5 m straight down), then the surface around the point of
+        the nearest one, found again from that point (`target.follow_target`)."""
+        table = known_support(jnp.asarray(top_down_pose(0.5)[0], jnp.float32),
+                              jnp.array([0.0, 0.0, 0.5]), jnp.array([0.0, 0.0, 1.0]), 0.0)
+        height_ = plane_height(camera.unproject(camera.pixel_grid(), d), table.normal,
+                               table.distance)
+        candidate, _ = target_candidates(d, camera, height_, table.found,
+                                         min_height=config.perception.min_height,
+                                         tolerance=config.detect.surface_tolerance)
+        _, (u, v) = best_candidate(candidate, -d)
+        point = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), d[v, u])
+        return follow_target(d, camera, candidate, point, config.perception.surface_step,
+                             config.perception.follow_distance)[0]
+
+    def view(d):
+        surface = target(d)
+        return (detect_grasp(d, camera, config.detect, config.gripper, seed_mask=surface),
+                align_tool(d, camera, config.align, seed_mask=surface))
+
     results = {"batch": batch, "width": width, "height": height, "unique_scenes": unique,
                "repeats": repeats, **provenance()}
     for name, fn in (("detect+align", both),
                      ("detect", lambda d: detect_grasp(d, camera, config.detect, config.gripper)),
-                     ("align", lambda d: align_tool(d, camera, config.align))):
+                     ("align", lambda d: align_tool(d, camera, config.align)),
+                     ("target", target), ("view", view)):
         progress(f"compiling {name} (batch {batch}) ...")
         compiled, compile_s = _compile(jax.vmap(fn), depth)
         jax.block_until_ready(compiled(depth))  # warm-up
@@ -84,11 +108,13 @@ def format_perception(r: dict) -> str:
         f"{r['unique_scenes']} distinct random scenes ({100 * r['grasp_found_fraction']:.0f}% graspable)",
         f"{'kernel':<14}{'compile s':>11}{'batch ms':>11}{'images/s':>12}",
     ]
-    for name in ("detect+align", "detect", "align"):
+    for name in ("detect+align", "detect", "align", "target", "view"):
         lines.append(f"{name:<14}{r[name + '_compile_s']:>11.1f}{1e3 * r[name + '_batch_s']:>11.1f}"
                      f"{r[name + '_images_per_s']:>12,.0f}")
     lines.append(f"single image (detect+align): {r['single_latency_ms']:.2f} ms after a "
                  f"{r['single_compile_s']:.1f} s compile")
+    lines.append("target: a simulated view's depth-only target steps (candidates above the table, "
+                 "the followed surface); view: target, detect and align on it")
     return "\n".join(lines)
 
 

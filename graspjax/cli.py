@@ -456,7 +456,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10 or "
-                        "scene.max_targets=1")
+                        "image.max_targets=1")
     p.set_defaults(func=cmd_detect)
 
     p = sub.add_parser("run", help="grasp attempts in simulation: attempts, tables, figures")

@@ -120,6 +120,8 @@ class DetectorConfig:
     """Grasp point detection with the double T-beam (paper section 3.1)."""
 
     surface_tolerance: float = traced(0.005)  # half-width of the depth band of the target surface (m)
+    band_step: float = 0.0  # ours, 0 = the paper: the band is also parted where 4-neighbours'
+    # depths jump by more than this (m), so a touching neighbour inside the band stays out
     min_surface_pixels: int = traced(12)  # smaller surface clusters are rejected
     max_contour: int = 1024  # contour buffer length (pixels); longer contours are truncated
     tangent_window: int = 3  # contour points each side for the edge direction (max; contour/16 if less)
@@ -151,6 +153,7 @@ class DetectorConfig:
         _require(self.max_contour >= 16, "DetectorConfig.max_contour must be >= 16")
         _require(self.finger_samples >= 2, "DetectorConfig.finger_samples must be >= 2")
         _in_range(self, "tbeam_positions", 1, 16)
+        _require(self.band_step >= 0, f"DetectorConfig.band_step must be >= 0, got {self.band_step!r}")
 
 
 @_config
@@ -342,6 +345,29 @@ class LayoutConfig:
         _require(self.drop_height >= 0, "LayoutConfig.drop_height must be >= 0")
 
 
+@_config
+class PerceptionConfig:
+    """What the method may see and know (simulated and real images alike): where targets are
+    chosen and how a chosen target is found again in the next view (docs/method.md)."""
+
+    oracle: bool = traced(False)  # ablation only, never in a preset: in the simulation, the
+    # renderer's labels of the target replace its depth-connected surface in every view, and
+    # the overview picks among the objects not yet attempted by their identity
+    min_height: float = traced(0.01)  # a target stands at least this far above the support (m)
+    surface_step: float = traced(0.01)  # a target's depth-connected surface: the largest depth
+    # step between 4-neighbours inside it (m); a larger step parts it from what lies behind
+    follow_distance: float = traced(0.02)  # a target is found again in a new view at the
+    # visible surface point nearest its 3-D point, within this distance (m)
+    wall_margin: float = traced(0.005)  # Setup 3: the workspace is the bin's interior, this
+    # far inside its walls (m); the robot knows the bin's pose and size by calibration
+
+    def __post_init__(self):
+        _require(self.min_height >= 0, f"PerceptionConfig.min_height must be >= 0, got {self.min_height!r}")
+        _positive(self, "surface_step", "follow_distance")
+        _require(self.wall_margin >= 0,
+                 f"PerceptionConfig.wall_margin must be >= 0, got {self.wall_margin!r}")
+
+
 MAX_REORIENTATIONS = 3  # the re-alignment loop's static length; the budget is traced
 
 
@@ -353,6 +379,10 @@ class ProcedureConfig:
     camera_height: float = traced(0.5)  # overview and centred views: camera height above the table (m)
     min_view_height: float = traced(0.05)  # a re-aligned camera must stay this high above the table (m)
     centre: bool = traced(True)  # move the camera over the target before detecting (paper: yes)
+    remove_failed: bool = traced(True)  # the paper's protocol (round_attempts = 0), Setups 2
+    # and 3: after a failed attempt the experimenter takes its object out by hand, so each
+    # object gets one attempt per round; false leaves it where it ends up (clutter removal,
+    # round_attempts > 0, always leaves it)
     view_tilt_deg: float = traced(0.0)  # ours, 0 = the paper: the centred view looks at the
     # target this far off vertical (azimuth uniform), so every top is sloped to the camera as on
     # a ramp: the variant that needs re-alignment (docs/realignment.md)
@@ -492,6 +522,7 @@ class Config:
     sim: SimConfig = SimConfig()  # physics and grasp execution
     layout: LayoutConfig = LayoutConfig()  # random scenes of the three setups
     procedure: ProcedureConfig = ProcedureConfig()  # the grasping procedure
+    perception: PerceptionConfig = PerceptionConfig()  # what the method sees and knows
     baseline: BaselineConfig = BaselineConfig()  # the other grasp methods' settings
 
     def __post_init__(self):
@@ -525,7 +556,6 @@ class RealImageConfig:
     plane_refits: int = 2  # least-squares refits of the best plane to pixels within half the threshold
     max_plane_tilt_deg: float = 45.0  # the support plane faces the camera within this angle
     min_plane_fraction: float = 0.1  # the support plane holds at least this share of valid pixels
-    min_height: float = 0.01  # a target stands at least this far above the support plane (m)
     max_tilt_deg: float = 3.0  # a support plane tilted more than this is seen in a virtual view
     max_targets: int = 8  # surfaces tried in order of height until top_k grasps pass (paper: 1)
     target_window_px: int = 5  # side of the square window of the speck test (support pixels, odd)
@@ -565,7 +595,6 @@ class RealImageConfig:
         _require(self.duplicate_distance >= 0,
                  f"RealImageConfig.duplicate_distance must be >= 0, got {self.duplicate_distance!r}")
         _positive(self, "plane_threshold", "min_target_pixels")
-        _require(self.min_height >= 0, f"RealImageConfig.min_height must be >= 0, got {self.min_height!r}")
         _require(self.target_window_px % 2 == 1 and 1 <= self.target_window_px <= 15,
                  f"RealImageConfig.target_window_px must be odd, 1 to 15, got {self.target_window_px!r}")
         _require(self.min_target_pixels <= self.target_window_px ** 2,

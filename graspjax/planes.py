@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 from mujoco import mjx
@@ -35,6 +36,7 @@ from graspjax.procedure import (
     eligible_objects,
     first_look,
     plane_truth,
+    round_goes_on,
     target_faces,
     view,
     view_keys,
@@ -49,12 +51,13 @@ class FirstView:
     """A world's first view of its first attempt, with the ground truth to judge planes."""
 
     depth: jax.Array  # (H, W) metric depth the method sees
-    surface: jax.Array  # (H, W) int32 `Surface` of each pixel
+    mask: jax.Array  # (H, W) bool the target's surface the method found (where it takes z_min)
+    surface: jax.Array  # (H, W) int32 `Surface` of each pixel (ground truth, to judge)
     rotation: jax.Array  # (3, 3) camera-to-world rotation of the view
     face_normals: jax.Array  # (F, 3) outward unit normals of the target's faces (world)
     face_real: jax.Array  # (F,) bool real faces of the target (not padding)
     key: jax.Array  # () PRNG key of the view's alignment (random hypotheses)
-    target: jax.Array  # () int32 object index of the target (-1: none)
+    target: jax.Array  # () int32 the object the target point lies on (-1: none)
     grasp_found: jax.Array  # () bool the T-beam found a grasp (the attempt would not re-align)
 
 
@@ -63,22 +66,24 @@ def first_view(scene, state: RoundState, spec: WorldSpec) -> FirstView:
     config = spec.config
     camera = config.camera.camera()
     data = mjx.kinematics(physics_model(scene, config), state.data)
-    eligible = eligible_objects(state, spec)
+    eligible, attempting = eligible_objects(state, spec), round_goes_on(state, spec)
+    in_bin = spec.setup == 3
     k_search, _ = attempt_keys(state, 0)
-    target, (rotation, position), _, k_views = first_look(scene, data, eligible, k_search, config)
+    target, aimed, point, (rotation, position), _, k_views = first_look(
+        scene, data, eligible, attempting, in_bin, k_search, config)
+    target = jnp.where(aimed, target, -1)
     key = jax.random.fold_in(k_views, 0)
-    first = view(scene, data, rotation, position, target, camera, config, key)
+    first = view(scene, data, rotation, position, target, point, in_bin, camera, config, key)
     normals, real = target_faces(scene, data, target)
-    return FirstView(depth=first.depth, surface=first.surface, rotation=rotation,
+    return FirstView(depth=first.depth, mask=first.mask, surface=first.surface, rotation=rotation,
                      face_normals=normals, face_real=real, key=view_keys(key)[1], target=target,
-                     grasp_found=first.grasp.found & (target >= 0))
+                     grasp_found=first.grasp.found & aimed)
 
 
 def judge(view: FirstView, align: AlignConfig, config: Config) -> PlaneTruth:
     """The plane the re-alignment would choose on one view under `align`, and its ground truth."""
     camera = config.camera.camera()
-    alignment = align_tool(view.depth, camera, align, view.key,
-                           seed_mask=view.surface == Surface.TARGET)
+    alignment = align_tool(view.depth, camera, align, view.key, seed_mask=view.mask)
     normal = view.rotation @ alignment.normal  # world; the re-aligned view looks along -normal
     return plane_truth(view.surface, plane_inliers(view.depth, camera, alignment, align), normal,
                        (view.face_normals, view.face_real), alignment.found & (view.target >= 0),

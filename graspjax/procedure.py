@@ -6,19 +6,20 @@ k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
 
 1. Overview: the tool camera looks straight down from `camera_height` over
    the workspace centre.
-2. Select: the nearest point (z_min) among the objects still to be
-   attempted picks the target. (Which objects are "still to be attempted" is
-   protocol bookkeeping and uses the simulator's object identities;
-   everything the method itself decides uses depth alone. In the paper's
-   protocol every object of a round gets one attempt; with
-   `procedure.round_attempts` any object still in the scene may be tried
-   again, until the scene is empty or `stuck_after` attempts in a row fail.)
+2. Select: the nearest point (z_min) of the workspace that stands above the
+   table is the target point (`perception/target.py`). The method sees the
+   depth image and what a calibrated robot knows: the camera's pose and
+   intrinsics, the table plane and the workspace (Setup 3: the bin's
+   interior). The attempt is credited to the object that point lies on;
+   that lookup in the renderer's labels is for the record only.
 3. Centre: the camera moves parallel to the table until its optical axis
    passes through that point, and looks again (`procedure.centre`: the
    paper does, "otherwise the influence of shadows increases").
 4. Detect a grasp with the configured method (`Config.method`: the paper's
-   double T-beam, or a baseline from `perception/baselines.py`), with z_min
-   taken on the target's pixels.
+   double T-beam, or a baseline from `perception/baselines.py`). In every
+   view the target is found again from its 3-D point alone: the visible
+   point nearest to it, and the depth-connected surface around that point
+   (`target.follow_target`), on which z_min is taken.
 5. Re-align when none is found: the camera turns to look along the negative
    normal of the best neighbour plane, at the same distance from the plane's
    inliers, and detects again; at most `max_reorientations` times (a
@@ -28,14 +29,23 @@ k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
    pose that would put the open hand inside a part, the bin or the table is
    refused (`COLLISION`); approach (stopped by a contact force above
    `approach_force_limit`: `COLLISION`), close, lift, hold; the lifted
-   object leaves the scene, a failed one stays where it ends up, the hand
-   returns home and the scene settles for the next attempt.
+   object leaves the scene, the hand returns home and the scene settles
+   for the next attempt.
+
+The protocol between attempts is the experimenter's and may use identity
+(docs/method.md): in the paper's protocol each object of a Setup 2/3 round
+gets one attempt, so a failed object is taken out by hand
+(`procedure.remove_failed`; false leaves it where it ends up); with
+`procedure.round_attempts` the round goes on until the scene is empty or
+`stuck_after` attempts in a row fail. `perception.oracle` (an ablation,
+never a preset) hands the method the renderer's labels of its target
+instead, as graspjax did before it saw depth alone.
 
 Every attempt ends with ONE reason code (`Reason`), computed here with this
 precedence: a diverged simulation; else the physical outcome of an executed
-grasp; else no visible target; else the alignment failure that ended the
-search (no plane, or its view unreachable); else the detection failure of
-the last view searched.
+grasp; else no target point; else the alignment failure that ended the
+search (no plane, or its view unreachable); else a target not found again
+in the last view; else the detection failure of the last view searched.
 
 Batch with `jax.vmap` at the edge (`batch/program.py`).
 """
@@ -62,6 +72,9 @@ from graspjax.perception import (
 )
 from graspjax.perception.baselines import grasp_method
 from graspjax.perception.cluster import nearest_pixel
+from graspjax.perception.support import known_support, plane_height
+from graspjax.perception.target import best_candidate, follow_target, target_candidates
+from graspjax.perception.workspace import box_workspace
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
 from graspjax.sim.raycast import render_depth_and_piece, world_planes
@@ -95,8 +108,9 @@ class Reason(IntEnum):
     COLLISION = Outcome.COLLISION  # executed: the approach was blocked
     WRONG_OBJECT = Outcome.WRONG_OBJECT  # executed: another object was lifted
     DIVERGED = Outcome.DIVERGED  # the simulation state became non-finite
-    NO_TARGET = 6  # no object still to be attempted is visible
+    NO_TARGET = 6  # nothing in the workspace stands above the table (or the protocol stopped)
     VIEW_UNREACHABLE = 7  # the re-aligned view would sink below min_view_height or face down
+    TARGET_LOST = 8  # the target point was not found again in the last view (hidden, out of view)
     ALIGN_NO_DEPTH = ALIGN_BASE + AlignReason.NO_DEPTH  # re-alignment: no valid depth
     ALIGN_NO_PLANE = ALIGN_BASE + AlignReason.NO_PLANE  # re-alignment: every hypothesis degenerate
     ALIGN_TOO_FEW_INLIERS = ALIGN_BASE + AlignReason.TOO_FEW_INLIERS  # re-alignment: weak plane
@@ -120,6 +134,8 @@ class Reason(IntEnum):
             return self.name
         if self == Reason.NO_TARGET:
             return "no target"
+        if self == Reason.TARGET_LOST:
+            return "target lost"
         if self.name.startswith("DETECT_"):
             return "detection: " + self.name[len("DETECT_"):]
         return "alignment: " + self.name.removeprefix("ALIGN_")
@@ -173,7 +189,9 @@ class PlaneTruth:
 class Record:
     """One attempt of one world, fixed-shape (`batch/rows.py` turns it into one CSV row)."""
 
-    target: jax.Array  # () int32 scene object attempted, -1 if none was visible
+    target: jax.Array  # () int32 scene object the attempt is credited to: the one the target
+    # point lies on (ground truth, for the record only); -1 if none
+    aimed: jax.Array  # () bool the method chose a target point (an attempt was made)
     reason: jax.Array  # () int32 Reason
     outcome: jax.Array  # () int32 Outcome (NOT_EXECUTED without a grasp)
     grasp_found: jax.Array  # () bool
@@ -187,6 +205,11 @@ class Record:
     approach: jax.Array  # (3,) planned grasp: approach direction
     closing: jax.Array  # (3,) planned grasp: closing axis
     realign: PlaneTruth  # (R,) the plane of each re-alignment taken, judged by ground truth
+    grasp_object: jax.Array  # () int32 object under the planned grasp centre (ground truth; -1:
+    # none, or no grasp)
+    segment_precision: jax.Array  # () share of the centred view's target surface (where z_min
+    # was taken) on the credited object (ground truth; nan: empty)
+    segment_recall: jax.Array  # () share of the credited object's visible pixels in that surface
     layout: LayoutStats  # the scene's density after this call's settling
 
 
@@ -195,7 +218,9 @@ class Views:
     """Every image of one attempt, for debug pictures: the overview, then V = R + 1 views."""
 
     depth: jax.Array  # (1 + V, H, W) metric depth
-    target_mask: jax.Array  # (1 + V, H, W) bool pixels of the target object
+    target_mask: jax.Array  # (1 + V, H, W) bool pixels of the credited object (ground truth)
+    seed_mask: jax.Array  # (1 + V, H, W) bool where the method took z_min: the overview's
+    # candidates, then the target's surface in each view
     rotation: jax.Array  # (1 + V, 3, 3) camera-to-world rotation
     position: jax.Array  # (1 + V, 3) camera centre
     looked: jax.Array  # (1 + V,) bool the procedure took this image
@@ -217,6 +242,11 @@ class _View:
     truth: PlaneTruth  # the chosen plane, judged by ground truth
     depth: jax.Array  # (H, W) the image
     surface: jax.Array  # (H, W) int32 `Surface` of each pixel (ground truth)
+    mask: jax.Array  # (H, W) bool the target's surface the method found (or the oracle's labels)
+    lost: jax.Array  # () bool the target was not found in this view
+    grasp_object: jax.Array  # () int32 object under the grasp centre (ground truth; -1: none)
+    precision: jax.Array  # () share of `mask` on the target (ground truth; nan: empty)
+    recall: jax.Array  # () share of the target's visible pixels in `mask` (nan: none visible)
 
 
 _NO_LAYOUT = LayoutStats(objects=np.int32(-1), touching=np.int32(-1), stacked=np.int32(-1),
@@ -287,7 +317,7 @@ def _look(scene: Scene, data, rotation, position, camera: Camera, config: Config
 
 def _surfaces(objects: jax.Array, table: jax.Array, depth: jax.Array, target) -> jax.Array:
     """`Surface` (H, W) int32 of each pixel, from the object index (H, W) and the table (H, W)."""
-    return jnp.select([~(depth > 0), objects == target, objects >= 0, table],
+    return jnp.select([~(depth > 0), (objects == target) & (target >= 0), objects >= 0, table],
                       [Surface.NONE, Surface.TARGET, Surface.OTHER_OBJECT, Surface.TABLE],
                       Surface.BIN).astype(jnp.int32)
 
@@ -324,17 +354,45 @@ def overview_pose(config: Config):
     return look_down(jnp.array([0.0, 0.0, 1.0]) * config.procedure.camera_height)
 
 
-def select_target(scene: Scene, data, eligible: jax.Array, camera: Camera, config: Config, key):
-    """Steps 1-2 (state after kinematics): the overview image; the nearest pixel among
-    `eligible` (n,) objects picks the target. Returns its index () (-1 if none is visible), its
-    z_min point (3,) in the world, and the image (H, W) with its object index per pixel (H, W)."""
+def _candidates(depth: jax.Array, rotation, position, in_bin, camera: Camera, config: Config
+                ) -> jax.Array:
+    """Pixels (H, W) bool of a view that may be a target, from its depth (H, W) and what a
+    calibrated robot knows: the camera's pose (rotation (3, 3), position (3,)), the table
+    (z = 0) and the workspace (the bin's interior when `in_bin`, () bool; else the table)."""
+    table = known_support(rotation, position, jnp.array([0.0, 0.0, 1.0]), 0.0)
+    points = camera.unproject(camera.pixel_grid(), depth)
+    height = plane_height(points, table.normal, table.distance)
+    inner = config.layout.bin_size / 2 - config.perception.wall_margin
+    half = jnp.where(in_bin, inner, jnp.inf)
+    workspace = box_workspace(depth, camera, rotation, position,
+                              jnp.stack([-half, -half, -jnp.inf]), jnp.stack([half, half, jnp.inf]))
+    candidate, _ = target_candidates(jnp.where(workspace, depth, 0.0), camera, height,
+                                     jnp.array(True), min_height=config.perception.min_height,
+                                     tolerance=config.detect.surface_tolerance)
+    return candidate
+
+
+def select_target(scene: Scene, data, eligible: jax.Array, attempting, in_bin, camera: Camera,
+                  config: Config, key):
+    """Steps 1-2 (state after kinematics): the overview image and its target point, z_min among
+    the candidates (`_candidates`); with `perception.oracle`, the nearest pixel of the
+    `eligible` (n,) objects by the renderer's labels. Returns the object the point lies on ()
+    (ground truth, -1 if none), whether a point was chosen () (never when not `attempting`),
+    the point (3,) in the world, the image (H, W), its object index per pixel (H, W) and its
+    candidates (H, W)."""
     rotation, position = overview_pose(config)
     depth, objects, _ = _look(scene, data, rotation, position, camera, config, key)
-    allowed = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
-    (u, v), _ = nearest_pixel(depth, allowed)
+    candidate = _candidates(depth, rotation, position, in_bin, camera, config)
+    _, pixel = best_candidate(candidate, -depth)  # z_min
+    labelled = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
+    oracle_pixel, _ = nearest_pixel(depth, labelled)
+    oracle = config.perception.oracle
+    u, v = jnp.where(oracle, oracle_pixel, pixel)
+    aimed = jnp.where(oracle, jnp.any(labelled), jnp.any(candidate)) & attempting
     point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth[v, u])
-    index = jnp.where(allowed[v, u], objects[v, u], -1).astype(jnp.int32)
-    return index, rotation @ point_cam + position, depth, objects
+    credited = jnp.where(aimed, objects[v, u], -1).astype(jnp.int32)
+    return (credited, aimed, rotation @ point_cam + position, depth, objects,
+            jnp.where(oracle, labelled, candidate))
 
 
 _TILT_STREAM = 7  # fold_in tag of the centred view's tilt azimuth (leaves every other draw as it was)
@@ -362,13 +420,19 @@ def view_keys(key: jax.Array) -> tuple[jax.Array, jax.Array]:
     return jax.random.split(key)
 
 
-def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Camera,
-         config: Config, key) -> _View:
-    """Look from a pose: detect a grasp and score re-alignment planes on the target."""
+def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.Array, in_bin,
+         camera: Camera, config: Config, key) -> _View:
+    """Look from a pose: find the target from its world `point` (3,), detect a grasp on it and
+    score re-alignment planes around it. `target` () (the credited object) only judges."""
     k_render, k_align = view_keys(key)
     depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
     surface = _surfaces(obj, table, depth, target)
-    mask = surface == Surface.TARGET
+    on_target = surface == Surface.TARGET
+    candidate = _candidates(depth, rotation, position, in_bin, camera, config)
+    followed, _, _ = follow_target(depth, camera, candidate, rotation.T @ (point - position),
+                                   config.perception.surface_step,
+                                   config.perception.follow_distance)
+    mask = jnp.where(config.perception.oracle, on_target, followed)
     grasp = grasp_method(config.method)(depth, camera, config, mask)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
@@ -380,36 +444,48 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, camera: Came
     # Re-aligned view: optical axis along the negative plane normal, at the same distance
     # from the inliers' centroid, turned from the current view by the smallest rotation.
     normal = rotation @ alignment.normal
-    point = rotation @ alignment.point + position
+    point_plane = rotation @ alignment.point + position
     next_rotation = rotation_between(approach, -normal) @ rotation
-    next_position = point + jnp.linalg.norm(alignment.point) * normal
+    next_position = point_plane + jnp.linalg.norm(alignment.point) * normal
     reachable = (next_position[2] >= config.procedure.min_view_height) & (normal[2] > 0)
     truth = plane_truth(surface, plane_inliers(depth, camera, alignment, config.align), normal,
                         target_faces(scene, data, target), alignment.found, next_rotation[:, 2])
+    # Ground truth for the record: what the grasp centre and the found surface lie on.
+    g = jnp.round(jnp.where(grasp.found, grasp.pixel, 0.0)).astype(jnp.int32)
+    inside = (g[0] >= 0) & (g[0] < camera.width) & (g[1] >= 0) & (g[1] < camera.height)
+    under = obj[jnp.clip(g[1], 0, camera.height - 1), jnp.clip(g[0], 0, camera.width - 1)]
+    hits = jnp.sum(mask & on_target)
     return _View(grasp=grasp, alignment=alignment, grasp_pose=pose,
                  next_rotation=jnp.where(alignment.found, next_rotation, rotation),
                  next_position=jnp.where(alignment.found, next_position, position),
                  can_realign=alignment.found & reachable, truth=truth, depth=depth,
-                 surface=surface)
+                 surface=surface, mask=mask, lost=~jnp.any(mask),
+                 grasp_object=jnp.where(grasp.found & inside, under, -1).astype(jnp.int32),
+                 precision=jnp.where(jnp.any(mask), hits / jnp.maximum(jnp.sum(mask), 1), jnp.nan),
+                 recall=jnp.where(jnp.any(on_target), hits / jnp.maximum(jnp.sum(on_target), 1),
+                                  jnp.nan))
 
 
-def first_look(scene: Scene, data, eligible, key, config: Config):
-    """Steps 1-3 on a settled state (after kinematics): the target () among `eligible` (n,), the
-    centred camera pose (rotation (3, 3), position (3,)), the overview image (H, W) with its
-    object index per pixel (H, W), and the key of the views that follow (view r: fold_in r)."""
+def first_look(scene: Scene, data, eligible, attempting, in_bin, key, config: Config):
+    """Steps 1-3 on a settled state (after kinematics): the credited object (), whether a
+    target point was chosen (), the point (3,) (world), the centred camera pose (rotation
+    (3, 3), position (3,)), the overview image (H, W) with its object index per pixel (H, W)
+    and candidates (H, W), and the key of the views that follow (view r: fold_in r)."""
     k_overview, k_views = jax.random.split(key)
     camera = config.camera.camera()
-    target, point, depth, objects = select_target(scene, data, eligible, camera, config, k_overview)
-    return (target, centred_pose(point, config, jax.random.fold_in(key, _TILT_STREAM)),
-            (depth, objects), k_views)
+    target, aimed, point, depth, objects, candidate = select_target(
+        scene, data, eligible, attempting, in_bin, camera, config, k_overview)
+    return (target, aimed, point, centred_pose(point, config, jax.random.fold_in(key, _TILT_STREAM)),
+            (depth, objects, candidate), k_views)
 
 
-def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool):
-    """Steps 1-5 on a settled state (after kinematics): target, grasp pose, the search's record
-    fields and, if `keep_views`, every image."""
+def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Config, keep_views: bool):
+    """Steps 1-5 on a settled state (after kinematics): the credited object, whether a target
+    point was chosen, the grasp pose, the search's record fields and, if `keep_views`, every
+    image."""
     camera = config.camera.camera()
-    target, (centre_rot, centre_pos), (depth, objects), k_views = first_look(scene, data, eligible,
-                                                                             key, config)
+    target, aimed, point, (centre_rot, centre_pos), (depth, objects, candidate), k_views = (
+        first_look(scene, data, eligible, attempting, in_bin, key, config))
     budget = config.procedure.max_reorientations  # traced; at most MAX_REORIENTATIONS + 1 views
     views_at_most = MAX_REORIENTATIONS + 1
 
@@ -421,10 +497,14 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     def look(loop):
         """View r of a world that still searches (a world that stopped keeps its carry)."""
         r, carry, kept = loop
-        rot, pos, _, _, pose, turns, _, align_reason = carry
-        v = view(scene, data, rot, pos, target, camera, config, jax.random.fold_in(k_views, r))
-        found = v.grasp.found & (target >= 0)
+        rot, pos, _, _, pose, turns, _, align_reason, _, under, first = carry
+        v = view(scene, data, rot, pos, target, point, in_bin, camera, config,
+                 jax.random.fold_in(k_views, r))
+        found = v.grasp.found & aimed
         pose = where_tree(found, v.grasp_pose, pose)
+        under = jnp.where(found, v.grasp_object, under)
+        first = jax.tree.map(lambda new, old: jnp.where(r == 0, new, old), (v.precision, v.recall),
+                             first)
         detect_reason = v.grasp.reason
         may_turn = ~found & (r < budget)  # the last view never re-aligns
         move = may_turn & v.can_realign
@@ -433,7 +513,7 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
         rot = jnp.where(move, v.next_rotation, rot)
         pos = jnp.where(move, v.next_position, pos)
         carry = (rot, pos, found, blocked, pose, turns + move.astype(jnp.int32), detect_reason,
-                 align_reason)
+                 align_reason, v.lost, under, first)
         taken = where_tree(move, v.truth, _NO_PLANE)
         kept = jax.tree.map(lambda buffer, x: buffer.at[r].set(x), kept,
                             ((v, jnp.array(True)) if keep_views else None, taken))
@@ -442,20 +522,21 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
     no_pose = GraspPose(nan3, nan3, nan3, jnp.array(False))
     carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
-             jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1))
+             jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1), jnp.array(False), jnp.int32(-1),
+             (jnp.float32(jnp.nan), jnp.float32(jnp.nan)))
     # Views not taken keep these: no plane, and (kept views) blank images marked not looked.
     # The view's shapes cost a trace of its own, so only kept views ask for them.
     kept = None
     if keep_views:
-        blank = jax.eval_shape(lambda: view(scene, data, centre_rot, centre_pos, target, camera,
-                                            config, k_views))
+        blank = jax.eval_shape(lambda: view(scene, data, centre_rot, centre_pos, target, point,
+                                            in_bin, camera, config, k_views))
         kept = jax.tree.map(lambda x: jnp.zeros((views_at_most,) + x.shape, x.dtype),
                             (blank, jax.ShapeDtypeStruct((), bool)))
     kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), _NO_PLANE))
     # A masked loop: it ends when no world of a batch still searches (vmap runs it until then).
     _, carry, (per_view, taken) = jax.lax.while_loop(searching, look, (jnp.int32(0), carry, kept))
-    _, _, found, blocked, pose, turns, detect_reason, align_reason = carry
-    pose = dataclasses.replace(pose, valid=found & (target >= 0))
+    _, _, found, blocked, pose, turns, detect_reason, align_reason, lost, under, first = carry
+    pose = dataclasses.replace(pose, valid=found & aimed)
     realign = jax.tree.map(lambda x: x[:MAX_REORIENTATIONS], taken)  # the last view never turns
     views = None
     if keep_views:
@@ -464,11 +545,13 @@ def _search(scene: Scene, data, eligible, key, config: Config, keep_views: bool)
         views = Views(depth=jnp.concatenate([depth[None], v.depth]),
                       target_mask=jnp.concatenate([(objects == target)[None],
                                                    v.surface == Surface.TARGET]),
+                      seed_mask=jnp.concatenate([candidate[None], v.mask]),
                       rotation=jnp.concatenate([rotation[None], _view_poses(centre_rot, v.next_rotation)]),
                       position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
                       looked=jnp.concatenate([jnp.array([True]), searched]),
                       grasp=v.grasp, alignment=v.alignment, state=physics_state(data))
-    return target, pose, (blocked, turns, detect_reason, align_reason, realign), views
+    progress = (blocked, turns, detect_reason, align_reason, lost & ~found, realign, under, first)
+    return target, aimed, pose, progress, views
 
 
 def _view_poses(first: jax.Array, following: jax.Array) -> jax.Array:
@@ -502,12 +585,22 @@ def settle(scene: Scene, state: RoundState, spec: WorldSpec) -> RoundState:
 
 
 def eligible_objects(state: RoundState, spec: WorldSpec) -> jax.Array:
-    """The objects (n,) bool the next attempt may target: the paper's protocol, those of the
-    layout not yet attempted nor lifted; a continued round (`procedure.round_attempts`), any
-    still in the scene, none once it is stuck."""
+    """The objects (n,) bool the oracle (`perception.oracle`) may pick by identity: the paper's
+    protocol, those of the layout not yet attempted nor removed; a continued round
+    (`procedure.round_attempts`), any still in the scene, none once it is stuck."""
     present = spec.members & ~state.removed
     if spec.config.procedure.round_attempts == 0:
         return present & ~state.attempted
+    return present & (state.failures < spec.config.procedure.stuck_after)
+
+
+def round_goes_on(state: RoundState, spec: WorldSpec) -> jax.Array:
+    """The protocol lets the next attempt happen () bool: an object is still in the scene (and,
+    in a continued round, the round is not stuck). The experimenter sees the scene; the method
+    is told nothing of it."""
+    present = jnp.any(spec.members & ~state.removed)
+    if spec.config.procedure.round_attempts == 0:
+        return present
     return present & (state.failures < spec.config.procedure.stuck_after)
 
 
@@ -526,20 +619,22 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     config = spec.config
     model = physics_model(scene, config)
     n = scene.num_objects
-    eligible = eligible_objects(state, spec)
+    eligible, attempting = eligible_objects(state, spec), round_goes_on(state, spec)
+    in_bin = spec.setup == 3  # the workspace is the bin's interior (known by calibration)
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     k_search, k_error = attempt_keys(state, k)
     searched = []  # the search's output shapes, recorded by its trace
 
     def search(_):
         kin = mjx.kinematics(model, state.data)
-        target, pose, progress, views = _search(scene, kin, eligible, k_search, config, keep_views)
+        target, aimed, pose, progress, views = _search(scene, kin, eligible, attempting, in_bin,
+                                                       k_search, config, keep_views)
         # The pre-grasp pose must leave the open hand clear of every part, the bin and the table.
         reached = _with_error(pose, k_error, config)
         waypoints, _ = hand_waypoints(scene, reached, config)
         rotation = frame_from_axes(reached.approach, reached.closing)
         clear = hand_clear(scene, kin, waypoints[0], rotation)
-        out = target, pose, reached, clear, progress, views
+        out = target, aimed, pose, reached, clear, progress, views
         searched.append(jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), out))
         return out
 
@@ -549,44 +644,55 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
         shapes = searched[-1] if searched else jax.eval_shape(search, None)
         return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
-    target, pose, reached, clear, (blocked, turns, detect_reason, align_reason, realign), views = (
-        jax.lax.cond(k >= 0, search, idle, None))
+    target, aimed, pose, reached, clear, progress, views = jax.lax.cond(k >= 0, search, idle, None)
+    blocked, turns, detect_reason, align_reason, lost, realign, under, first = progress
     realign = where_tree(k >= 0, realign, jax.tree.map(
         lambda x: jnp.broadcast_to(x, (MAX_REORIENTATIONS,)), _NO_PLANE))
-    target = jnp.where(k >= 0, target, -1)
-    valid = pose.valid & finite & (k >= 0)
+    aimed = aimed & (k >= 0)
+    target = jnp.where(aimed, target, -1)
+    valid = pose.valid & finite & aimed
     pose = dataclasses.replace(pose, valid=valid)
+    # The paper's protocol: the experimenter takes a failed object out before the next attempt.
+    take_out = aimed & (target >= 0) & config.procedure.remove_failed
+    if config.procedure.round_attempts > 0:  # clutter removal leaves it
+        take_out = jnp.array(False)
     data, done = play(scene, model, state.data, dataclasses.replace(reached, valid=valid),
-                      jnp.maximum(target, 0), _settle_segments(spec, k, config), k >= 0, config,
-                      reachable=clear)
+                      target, _settle_segments(spec, k, config), k >= 0, config,
+                      reachable=clear, take_out=take_out)
 
-    attempted = state.attempted | ((jnp.arange(n) == target) & (target >= 0))
-    failures = jnp.where(target >= 0, jnp.where(done.outcome == Outcome.SUCCESS, 0,
-                                                state.failures + 1), state.failures)
-    removed = state.removed | ((jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0))
+    mine = (jnp.arange(n) == target) & (target >= 0)
+    attempted = state.attempted | mine
+    failures = jnp.where(aimed, jnp.where(done.outcome == Outcome.SUCCESS, 0,
+                                          state.failures + 1), state.failures)
+    lifted = (jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0)
+    removed = state.removed | lifted | (mine & take_out)
     state = RoundState(data=data, attempted=attempted, failures=failures.astype(jnp.int32),
                        removed=removed, key=state.key)
     density = layout_stats(scene, data) if {2, 3} & set(setups) else _NO_LAYOUT
-    return state, _record(target, pose, done, finite, blocked, turns, detect_reason,
-                          align_reason, realign, density), views
+    return state, _record(target, aimed, pose, done, finite, blocked, turns, detect_reason,
+                          align_reason, lost, realign, under, first, density), views
 
 
-def _record(target, pose: GraspPose, done: Execution, finite, blocked, turns, detect_reason,
-            align_reason, realign: PlaneTruth, stats: LayoutStats) -> Record:
+def _record(target, aimed, pose: GraspPose, done: Execution, finite, blocked, turns,
+            detect_reason, align_reason, lost, realign: PlaneTruth, under, first,
+            stats: LayoutStats) -> Record:
     """The attempt's record, with its one reason (precedence: module docstring)."""
     stopped_by_alignment = blocked & (align_reason >= 0) & (align_reason != AlignReason.FOUND)
     reason = jnp.select(
-        [~finite | (done.outcome == Outcome.DIVERGED), pose.valid, target < 0, stopped_by_alignment,
-         blocked],
+        [~finite | (done.outcome == Outcome.DIVERGED), pose.valid, ~aimed, stopped_by_alignment,
+         blocked, lost],
         [Reason.DIVERGED, done.outcome, Reason.NO_TARGET, ALIGN_BASE + align_reason,
-         Reason.VIEW_UNREACHABLE],
+         Reason.VIEW_UNREACHABLE, Reason.TARGET_LOST],
         DETECT_BASE + detect_reason).astype(jnp.int32)
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    precision, recall = first
     return Record(
-        target=target.astype(jnp.int32), reason=reason, outcome=done.outcome,
+        target=target.astype(jnp.int32), aimed=aimed, reason=reason, outcome=done.outcome,
         grasp_found=pose.valid, reorientations=turns, detect_reason=detect_reason,
         align_reason=align_reason, lifted_object=done.lifted_object, rise=done.rise,
         opening=done.opening, tcp=jnp.where(pose.valid, pose.tcp, nan3),
         approach=jnp.where(pose.valid, pose.approach, nan3),
-        closing=jnp.where(pose.valid, pose.closing, nan3), realign=realign, layout=stats)
-
+        closing=jnp.where(pose.valid, pose.closing, nan3), realign=realign,
+        grasp_object=jnp.where(pose.valid, under, -1).astype(jnp.int32),
+        segment_precision=jnp.where(aimed, precision, jnp.nan).astype(jnp.float32),
+        segment_recall=jnp.where(aimed, recall, jnp.nan).astype(jnp.float32), layout=stats)

@@ -2,7 +2,8 @@
 
 `graspjax run --save-views failed|all` keeps, for the chosen attempts (at
 most `--max-views`), one compressed `views/<attempt>.npz` each: the depth
-image and target mask of the overview and of every view the procedure took,
+image of the overview and of every view the procedure took, the pixels where the
+method took z_min and the credited object's pixels (ground truth),
 the camera poses, the detection of each view (its surface cluster, contour,
 straight edges and every T-beam placement) and its alignment planes, about
 0.2 MB per attempt. `graspjax report DIR --debug N` draws the first N as the
@@ -84,8 +85,9 @@ class ViewSaver:
             config = self.points[row.point]
             camera = config.camera.camera()
             seed, cluster, z_s, contour = self._contour(view.depth[1:], config.detect,
-                                                        view.target_mask[1:])
+                                                        view.seed_mask[1:])
             arrays = {"depth": view.depth, "target_mask": view.target_mask,
+                      "seed_mask": view.seed_mask,
                       "rotation": view.rotation, "position": view.position, "looked": view.looked,
                       "seed": np.asarray(seed), "cluster": np.asarray(cluster),
                       "surface_depth": np.asarray(z_s),
@@ -104,7 +106,8 @@ class SavedAttempt:
 
     label: str
     depth: np.ndarray  # (1 + V, H, W)
-    target_mask: np.ndarray  # (1 + V, H, W) bool
+    target_mask: np.ndarray  # (1 + V, H, W) bool the credited object (ground truth)
+    seed_mask: np.ndarray  # (1 + V, H, W) bool where the method took z_min
     looked: np.ndarray  # (1 + V,) bool
     camera: np.ndarray  # (4,) fx, fy, cx, cy
     seed: np.ndarray  # (V, 2) z_min pixel of each view
@@ -124,7 +127,9 @@ def load(path: str | Path) -> SavedAttempt:
     with np.load(path) as data:
         arrays = dict(data)
     return SavedAttempt(label=str(arrays["label"][0]), depth=arrays["depth"],
-                        target_mask=arrays["target_mask"], looked=arrays["looked"],
+                        target_mask=arrays["target_mask"],
+                        seed_mask=arrays["seed_mask"],
+                        looked=arrays["looked"],
                         camera=arrays["camera"], seed=arrays["seed"], cluster=arrays["cluster"],
                         surface_depth=arrays["surface_depth"],
                         contour=_build("contour", arrays), grasp=_build("grasp", arrays),

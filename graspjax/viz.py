@@ -120,17 +120,29 @@ def _draw_alignment(ax, depth, alignment: Alignment, inliers: np.ndarray) -> Non
         ax.set_title(f"alignment: none ({int(counts.max(initial=0))} inliers at best)")
 
 
+def _masks(ax, seed_mask: np.ndarray, target_mask: np.ndarray) -> None:
+    """Where the method took z_min (white, translucent) and the credited object's pixels by
+    the renderer's labels (red: ground truth, never seen by the method)."""
+    overlay = np.zeros((*seed_mask.shape, 4))
+    overlay[seed_mask] = (1.0, 1.0, 1.0, 0.35)
+    overlay[target_mask & ~seed_mask] = (1.0, 0.2, 0.2, 0.45)
+    overlay[target_mask & seed_mask] = (1.0, 0.6, 0.6, 0.45)
+    ax.imshow(overlay, interpolation="nearest")
+
+
 def _draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignment, seed,
-               cluster, z_s: float, contour, config: Config, label: str = "depth") -> None:
-    """Three panels of one view: depth and z_min; detection; alignment."""
+               cluster, z_s: float, contour, config: Config, masks, label: str = "depth") -> None:
+    """Three panels of one view: depth, z_min and the masks (seed mask, target mask (H, W)
+    bool); detection; alignment."""
     inliers = np.asarray(jax.jit(plane_inliers)(depth, camera, alignment, config.align))
     for ax in axes:
         _frame(ax, camera)
     im = axes[0].imshow(_shown(depth), cmap="viridis", interpolation="nearest")
     fig.colorbar(im, ax=axes[0], fraction=0.035, label="depth (m)")
+    _masks(axes[0], *masks)
     axes[0].plot(*np.asarray(seed), "r+", ms=12, mew=2, label="z_min")
     axes[0].legend(loc="lower right", fontsize=8)
-    axes[0].set_title(f"{label} and nearest point z_min")
+    axes[0].set_title(f"{label}: target surface (white), object (red), z_min", fontsize=9)
     _zoom(axes[1:], camera, cluster | inliers, z_s, config)
     _draw_detection(axes[1], depth, camera, grasp, cluster, contour, z_s, config)
     _draw_alignment(axes[2], depth, alignment, inliers)
@@ -147,16 +159,15 @@ def attempt_figure(saved, config: Config = Config()) -> bytes:
     _frame(axes[0, 0], camera)
     image = axes[0, 0].imshow(_shown(saved.depth[0]), cmap="viridis", interpolation="nearest")
     fig.colorbar(image, ax=axes[0, 0], fraction=0.035, label="depth (m)")
-    outline = np.zeros((height, width, 4))
-    outline[saved.target_mask[0]] = (1.0, 0.2, 0.2, 0.5)
-    axes[0, 0].imshow(outline, interpolation="nearest")
-    axes[0, 0].set_title("overview: the target (red) holds z_min")
+    _masks(axes[0, 0], saved.seed_mask[0], saved.target_mask[0])
+    axes[0, 0].set_title("overview: candidates (white); the credited object (red)", fontsize=9)
     for ax in axes[0, 1:]:
         ax.axis("off")
     for r, v in enumerate(rows, start=1):
         grasp, alignment, contour = saved.view(v)
         _draw_view(fig, axes[r], saved.depth[v + 1], camera, grasp, alignment, saved.seed[v],
                    saved.cluster[v], float(saved.surface_depth[v]), contour, config,
+                   (saved.seed_mask[v + 1], saved.target_mask[v + 1]),
                    label="centred view" if v == 0 else f"re-aligned view {v}")
     return png(fig, saved.label)
 

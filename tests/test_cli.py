@@ -132,7 +132,7 @@ def _bad_inputs(folder, tmp_path):
         ([a, str(tmp_path / "small.npy")], "all images must have one size"),
         ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),
         ([a, b, "--figure", str(tmp_path / "f.png")], "--figure takes one image"),
-        ([a, "--set", "image.min_heigth=0.02"], "did you mean image.min_height"),
+        ([a, "--set", "image.max_targts=2"], "did you mean image.max_targets"),
         ([a, "--top", "0"], "--top must be >= 1"),
         ([a, "--set", "image.top_k=100"], "RealImageConfig.top_k must be in [1, 64]"),
         (["missing.npy"], "no such file"),

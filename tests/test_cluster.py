@@ -3,10 +3,12 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from scipy import ndimage
 
 from graspjax.perception.cluster import (
     boundary_pixels,
+    connected_surface,
     nearest_pixel,
     surface_cluster,
     target_surface,
@@ -67,6 +69,66 @@ def test_flood_fill_follows_a_serpentine_across_word_boundaries():
     assert got[height - 1, 2:-2].all() and not got[:, 0].any()
 
 
+def _surface_by_search(depth, allowed, seed, step):
+    """Reference: breadth-first search from `seed` (u, v) over allowed 4-neighbours whose
+    depths differ by at most `step`."""
+    height, width = depth.shape
+    out = np.zeros_like(allowed)
+    if not allowed[seed[1], seed[0]]:
+        return out
+    out[seed[1], seed[0]] = True
+    frontier = [(seed[1], seed[0])]
+    while frontier:
+        v, u = frontier.pop()
+        for dv, du in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+            y, x = v + dv, u + du
+            if (0 <= y < height and 0 <= x < width and allowed[y, x] and not out[y, x]
+                    and abs(float(depth[y, x]) - float(depth[v, u])) <= step):
+                out[y, x] = True
+                frontier.append((y, x))
+    return out
+
+
+def test_connected_surface_matches_a_breadth_first_search():
+    rng = np.random.default_rng(3)
+    surface = jax.jit(connected_surface)
+    for height, width in [(40, 50), (33, 31), (25, 33), (17, 70), (12, 1), (1, 40)]:
+        for _ in range(3):
+            depth = (ndimage.gaussian_filter(rng.random((height, width)), 2) * 0.3).astype(np.float32)
+            depth += np.where(rng.random(depth.shape) < 0.05, 0.05, 0.0).astype(np.float32)  # steps
+            allowed = rng.random(depth.shape) > 0.03
+            seed = np.array([rng.integers(width), rng.integers(height)])
+            step = 0.01
+            got = np.asarray(surface(jnp.asarray(depth), jnp.asarray(allowed), jnp.asarray(seed),
+                                     step))
+            np.testing.assert_array_equal(got, _surface_by_search(depth, allowed, seed, step))
+
+
+def test_connected_surface_of_boxes_seen_from_above(camera, render):
+    """From the 5 cm box's top: a 3 cm box touching it lies beyond a 2 cm step and stays out;
+    a top sloped 25 degrees (a box cut by a tilted plane) is one surface, though its depth
+    spans far more than a depth band."""
+    from graspjax.synthetic import Solid, box
+
+    depth = render([box((0.05, 0.05, 0.05), (-0.025, 0.0, 0.0)),
+                    box((0.05, 0.05, 0.03), (0.025, 0.0, 0.0))])
+    standing = depth < 0.499  # above the table
+    surface = jax.jit(connected_surface)
+    seed = jnp.array([camera.width // 2 - 5, camera.height // 2])
+    got = np.asarray(surface(jnp.asarray(depth), jnp.asarray(standing), seed, 0.01))
+    np.testing.assert_array_equal(got, standing & np.isclose(depth, 0.45, atol=1e-4))
+
+    cube = box((0.06, 0.06, 0.08))
+    up = np.array([-np.sin(np.deg2rad(25.0)), 0.0, np.cos(np.deg2rad(25.0))])
+    cut = Solid(np.vstack([cube.normals, up]), np.concatenate([cube.offsets, [up @ [0, 0, 0.05]]]))
+    depth = render([cut])
+    top = depth < 0.47  # the sloped top: depths 0.436 to 0.464
+    assert np.ptp(depth[top]) > 0.02
+    got = np.asarray(surface(jnp.asarray(depth), jnp.asarray(depth < 0.499),
+                             jnp.array([camera.width // 2, camera.height // 2]), 0.01))
+    np.testing.assert_array_equal(got, top)
+
+
 def test_boundary_is_the_complement_of_the_4_erosion():
     rng = np.random.default_rng(1)
     mask = ndimage.gaussian_filter(rng.random((30, 30)), 2) > 0.5
@@ -88,3 +150,24 @@ def test_target_surface_recovers_a_noisy_face(camera, render):
     assert np.asarray(mask)[face].mean() > 0.98
     assert not np.asarray(mask)[~face].any()
     assert abs(float(z_s) - 0.45) < 0.0005
+
+
+def test_a_band_step_parts_a_touching_neighbour_inside_the_band(camera, render):
+    """Two touching boxes whose tops differ by 3 mm lie in one 5 mm band; with `max_step`
+    2 mm the band stops at the 3 mm step and keeps the seed's box alone (ours; the paper's
+    band, `max_step` 0, takes both)."""
+    from graspjax.synthetic import box
+
+    depth = render([box((0.05, 0.05, 0.050), (-0.025, 0.0, 0.0)),
+                    box((0.05, 0.05, 0.047), (0.025, 0.0, 0.0))])
+    d = jnp.asarray(depth)
+    valid = valid_mask(d)
+    seed, z_min = nearest_pixel(d, valid)
+    surface = jax.jit(target_surface, static_argnums=5)
+    both, _ = surface(d, valid, seed, z_min, 0.005, 0.0)
+    mine, z_s = surface(d, valid, seed, z_min, 0.005, 0.002)
+    tops = depth < 0.49
+    higher = np.isclose(depth, 0.45, atol=1e-4)
+    np.testing.assert_array_equal(np.asarray(both), tops)
+    np.testing.assert_array_equal(np.asarray(mine), higher)
+    assert float(z_s) == pytest.approx(0.45, abs=1e-4)

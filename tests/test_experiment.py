@@ -571,7 +571,7 @@ class _FakeProgram:
     def play(self, worlds, points, progress):
         self.started[self.calls].set()
         self.calls += 1
-        record = types.SimpleNamespace(target=np.zeros(self.batch, np.int32))
+        record = types.SimpleNamespace(aimed=np.ones(self.batch, bool))
         return record, [record], None
 
 

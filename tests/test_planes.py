@@ -29,7 +29,8 @@ def _box_view(tilt_deg: float) -> FirstView:
     depth = render_depth(camera, rotation, position, [solid])
     on_box = render_depth(camera, rotation, position, [solid], ground=None) > 0
     surface = np.where(on_box, Surface.TARGET, np.where(depth > 0, Surface.TABLE, Surface.NONE))
-    return FirstView(depth=jnp.asarray(depth), surface=jnp.asarray(surface, jnp.int32),
+    return FirstView(depth=jnp.asarray(depth), mask=jnp.asarray(on_box),
+                     surface=jnp.asarray(surface, jnp.int32),
                      rotation=jnp.asarray(rotation, jnp.float32),
                      face_normals=jnp.asarray(solid.normals, jnp.float32),
                      face_real=jnp.ones(len(solid.normals), bool), key=jax.random.key(0),

@@ -98,21 +98,22 @@ def test_specks_smaller_than_the_area_are_never_the_target():
         return target_candidates(jnp.asarray(d), camera, jnp.asarray(0.8 - d),
                                  jnp.asarray(has_plane), **args)
 
-    cand, _, reason = candidates(depth)
+    cand, reason = candidates(depth)
     assert not np.any(cand) and int(reason) == TargetReason.NO_SURFACE
-    assert int(candidates(table)[2]) == TargetReason.NO_OBJECT
-    assert int(candidates(np.zeros_like(table))[2]) == TargetReason.EMPTY_WORKSPACE
+    assert int(candidates(table)[1]) == TargetReason.NO_OBJECT
+    assert int(candidates(np.zeros_like(table))[1]) == TargetReason.EMPTY_WORKSPACE
 
     depth[20:25, 30:35] = 0.6  # a 5 x 5 top, lower than the specks: the target
-    cand, score, reason = candidates(depth)
+    cand, reason = candidates(depth)
+    score = jnp.asarray(0.8 - depth)
     assert int(reason) == TargetReason.FOUND
     assert np.array_equal(np.argwhere(np.asarray(cand)), np.argwhere(depth == 0.6))
     seed, pixel = best_candidate(cand, score)
     assert tuple(np.asarray(pixel)) == (30, 20)  # ties: the first in row-major order
     assert np.argwhere(np.asarray(seed)).tolist() == [[20, 30]]
     # Without a support plane the nearest candidate wins, and the table is a candidate too.
-    cand, score, _ = candidates(depth, has_plane=False)
-    assert np.asarray(cand)[0, 0] and tuple(np.asarray(best_candidate(cand, score)[1])) == (30, 20)
+    cand, _ = candidates(depth, has_plane=False)
+    assert np.asarray(cand)[0, 0] and tuple(np.asarray(best_candidate(cand, -depth)[1])) == (30, 20)
 
 
 @pytest.mark.parametrize("slope_deg", [20.0, 60.0])
@@ -196,13 +197,12 @@ def test_the_papers_nearest_point_on_a_tilted_table_is_its_near_edge(support):
     height = plane_height(WORK.unproject(WORK.pixel_grid(), depth), plane.normal, plane.distance)
     cfg = RealImageConfig()
     args = dict(window=cfg.target_window_px, min_pixels=cfg.min_target_pixels,
-                max_slope_deg=cfg.max_target_slope_deg, min_height=cfg.min_height,
-                tolerance=0.005)
-    cand, score, _ = target_candidates(depth, WORK, height, jnp.asarray(False), **args)
-    _, nearest = best_candidate(cand, score)
+                max_slope_deg=cfg.max_target_slope_deg, min_height=0.01, tolerance=0.005)
+    cand, _ = target_candidates(depth, WORK, height, jnp.asarray(False), **args)
+    _, nearest = best_candidate(cand, -depth)
     assert int(nearest[1]) >= 236  # the table's bottom rows (a box pixel is never that low)
-    cand, score, _ = target_candidates(depth, WORK, height, plane.found, **args)
-    _, highest = best_candidate(cand, score)
+    cand, _ = target_candidates(depth, WORK, height, plane.found, **args)
+    _, highest = best_candidate(cand, height)
     top = WORK.project(jnp.asarray(rotation.T @ (np.array([0.02, 0.15, 0.04]) - eye)))
     assert np.linalg.norm(np.asarray(highest) - np.asarray(top)) < 14  # on the 4 x 7 cm top
     assert float(height[highest[1], highest[0]]) == pytest.approx(0.04, abs=1e-3)
@@ -219,3 +219,44 @@ def test_scene_config_refuses_bad_values(kwargs, match):
     with pytest.raises(ConfigError, match=match) as info:
         RealImageConfig(**kwargs)
     assert "\n" not in str(info.value)
+
+
+def test_known_support_is_the_table_seen_from_a_tilted_camera():
+    """The calibrated table (z = 0) in the camera frame: every pixel of a rendered bare table
+    lies on it (height 0), and a 4 cm box top stands 4 cm above it, whatever the tilt."""
+    from graspjax.perception.support import known_support
+
+    for tilt in (0.0, 25.0):
+        rotation, eye = tilted_pose(0.6, tilt)
+        plane = known_support(jnp.asarray(rotation, jnp.float32), jnp.asarray(eye, jnp.float32),
+                              jnp.array([0.0, 0.0, 1.0]), 0.0)
+        assert bool(plane.found)
+        assert np.degrees(float(plane.tilt)) == pytest.approx(tilt, abs=1e-3)
+
+        heights = []
+        for solids in ([], [box((0.05, 0.05, 0.04))]):
+            depth = jnp.asarray(render_depth(WORK, rotation, eye, solids))
+            assert bool(jnp.all(depth > 0))
+            heights.append(np.asarray(plane_height(WORK.unproject(WORK.pixel_grid(), depth),
+                                                   plane.normal, plane.distance)))
+        assert np.abs(heights[0]).max() < 2e-4
+        assert heights[1].max() == pytest.approx(0.04, abs=2e-4)
+
+
+def test_box_workspace_keeps_the_points_inside_the_box():
+    """Straight down from 0.5 m: the pixels whose point has |x| <= 5 cm are the columns an
+    analytic pinhole puts there; a side open to infinity leaves that axis free."""
+    from graspjax.perception.workspace import box_workspace
+
+    camera = Camera.kinect()
+    rotation, eye = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]]), np.array([0.0, 0.0, 0.5])
+    depth = np.full((camera.height, camera.width), 0.5, np.float32)
+    depth[0, 0] = 0.0  # no depth: never inside
+    inside = np.asarray(box_workspace(jnp.asarray(depth), camera, jnp.asarray(rotation),
+                                      jnp.asarray(eye), jnp.array([-0.05, -jnp.inf, -jnp.inf]),
+                                      jnp.array([0.05, jnp.inf, jnp.inf])))
+    u = np.arange(camera.width)
+    x = (u - camera.cx) * 0.5 / camera.fx
+    expected = np.broadcast_to(np.abs(x) <= 0.05, depth.shape).copy()
+    expected[0, 0] = False
+    np.testing.assert_array_equal(inside, expected)

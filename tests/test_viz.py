@@ -17,6 +17,7 @@ def test_attempt_figure_of_an_overview_and_one_view(camera, detect, align, rende
     views = jax.tree.map(lambda x: np.asarray(x)[None], (grasp, plane, contour))
     saved = SavedAttempt(
         label="box", depth=np.stack([depth, depth]), target_mask=np.stack([depth < 0.49] * 2),
+        seed_mask=np.stack([depth < 0.48] * 2),
         looked=np.array([True, True]), camera=np.array([camera.fx, camera.fy, camera.cx, camera.cy]),
         seed=np.asarray(seed)[None], cluster=np.asarray(cluster)[None],
         surface_depth=np.asarray(z_s)[None], contour=views[2], grasp=views[0], alignment=views[1])

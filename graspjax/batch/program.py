@@ -533,7 +533,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             drop, records, views = prog.play(chunk.worlds, points, progress)
             wall_s = time.perf_counter() - start
             real = len(chunk.worlds)
-            attempts = sum(int(np.sum(np.asarray(r.target)[:real] >= 0)) for r in records)
+            attempts = sum(int(np.sum(np.asarray(r.aimed)[:real])) for r in records)
             first = chunk.group in fresh  # a group's first chunk carries its compile time
             fresh.discard(chunk.group)
             timings = {"chunk": chunk.index, "group": chunk.group,

@@ -91,7 +91,7 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[World, ...], records: l
     frames = []
     for k, record in enumerate(records):
         r = jax.tree.map(lambda x: np.asarray(x)[:n_real], record)
-        keep = np.flatnonzero(r.target >= 0)
+        keep = np.flatnonzero(r.aimed)
         if not len(keep):
             continue
         reason = r.reason[keep]
@@ -108,6 +108,9 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[World, ...], records: l
         frame["detect_reason"] = [GraspReason(c).name for c in r.detect_reason[keep]]
         frame["align_reason"] = [AlignReason(c).name if c >= 0 else "" for c in r.align_reason[keep]]
         frame["lifted_object"] = letters[r.lifted_object[keep]]
+        frame["grasp_object"] = letters[r.grasp_object[keep]]
+        frame["segment_precision"] = r.segment_precision[keep]
+        frame["segment_recall"] = r.segment_recall[keep]
         frame["rise_m"] = r.rise[keep]
         frame["jaw_opening_m"] = 2 * r.opening[keep]
         for name in ("tcp", "approach", "closing"):
@@ -135,10 +138,9 @@ def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     real = len(worlds)
     stats = jax.tree.map(lambda x: np.asarray(x)[:real], drop.layout)
     keep = [w for w, world in enumerate(worlds) if world.setup > 1]
-    target = np.stack([np.asarray(r.target)[:real] for r in result.records], 1)  # (B, A)
     lifted = np.stack([np.asarray(r.lifted_object)[:real] for r in result.records], 1)
     success = np.stack([np.asarray(r.reason)[:real] == Outcome.SUCCESS for r in result.records], 1)
-    tried = target >= 0
+    tried = np.stack([np.asarray(r.aimed)[:real] for r in result.records], 1)  # (B, A)
     attempts, successes = tried.sum(1), (success & tried).sum(1)
     placed = np.array([len(w.objects) for w in worlds])
     removed = np.array([len({int(o) for o in row if o >= 0}) for row in lifted])
@@ -183,9 +185,11 @@ def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
 
 
 def _unattempted(letters, worlds, records: list[Record]) -> pd.DataFrame:
-    """Objects of a Setup 2/3 round that never got their attempt: removed with another, or unseen."""
+    """Objects of a Setup 2/3 round that never got an attempt credited to them: lifted with
+    another's, left when the round's attempts ran out, or never a target point."""
     n_real = len(worlds)
     target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
+    aimed = np.stack([np.asarray(r.aimed)[:n_real] for r in records], 1)
     lifted = np.stack([np.asarray(r.lifted_object)[:n_real] for r in records], 1)
     index, objects, why = [], [], []
     for w, world in enumerate(worlds):
@@ -194,7 +198,8 @@ def _unattempted(letters, worlds, records: list[Record]) -> pd.DataFrame:
             if i not in target[w]:
                 index.append(w)
                 objects.append(c)
-                why.append("removed with another object" if i in lifted[w] else "not visible")
+                why.append("removed with another object" if i in lifted[w] else
+                           "attempts used up" if aimed[w].all() else "not visible")
     frame = _world_columns(worlds, index, objects)
     frame["attempt"] = -1
     frame["success"] = 0

@@ -45,7 +45,8 @@ def _band(depth: jax.Array, config: DetectorConfig, seed_mask: jax.Array | None)
     valid = valid_mask(depth)
     any_valid = jnp.any(valid if seed_mask is None else valid & seed_mask)
     seed, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
-    cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance)
+    cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
+                                  config.band_step)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
     return valid, any_valid, seed, cluster, z_s, jnp.sum(cluster)
 

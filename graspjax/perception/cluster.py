@@ -42,17 +42,45 @@ def _unpack_rows(packed: jax.Array, width: int) -> jax.Array:
     return bits.reshape(packed.shape[0], -1)[:, :width].astype(bool)
 
 
-def _grow4_packed(rows: jax.Array) -> jax.Array:
-    """One step of 4-neighbour dilation of packed rows `(H, words)` uint32 (bits carry across
-    word boundaries; nothing enters from outside the image)."""
+def _shifts(rows: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array, jax.Array]:
+    """Packed rows `(H, words)` uint32 moved one pixel right, left, down and up (bits carry
+    across word boundaries; nothing enters from outside the image)."""
     zero_word, zero_row = jnp.zeros_like(rows[:, :1]), jnp.zeros_like(rows[:1])
     before = jnp.concatenate([zero_word, rows[:, :-1]], 1)  # the word to the left
     after = jnp.concatenate([rows[:, 1:], zero_word], 1)  # the word to the right
-    right = (rows << 1) | (before >> (_BITS - 1))  # every pixel moved one column right
+    right = (rows << 1) | (before >> (_BITS - 1))
     left = (rows >> 1) | (after << (_BITS - 1))
     down = jnp.concatenate([zero_row, rows[:-1]], 0)
     up = jnp.concatenate([rows[1:], zero_row], 0)
+    return right, left, down, up
+
+
+def _grow4_packed(rows: jax.Array) -> jax.Array:
+    """One step of 4-neighbour dilation of packed rows `(H, words)` uint32."""
+    right, left, down, up = _shifts(rows)
     return rows | right | left | down | up
+
+
+def _flood(start: jax.Array, allowed_rows: jax.Array, grow, width: int,
+           steps_per_iteration: int) -> jax.Array:
+    """The region `(H, W)` bool reached from the packed `start` by repeated `grow` steps inside
+    the packed `allowed_rows`, until nothing changes (tested every `steps_per_iteration`
+    steps, each its own inner loop step: unrolled steps fuse into one kernel that recomputes
+    its inputs)."""
+    def step(state):
+        region, _ = state
+        new = lax.fori_loop(0, steps_per_iteration, lambda _, rows: grow(rows) & allowed_rows,
+                            region)
+        return new, jnp.any(new != region)
+
+    region, _ = lax.while_loop(lambda s: s[1], step, (start, jnp.array(True)))
+    return _unpack_rows(region, width)
+
+
+def _seed_rows(allowed: jax.Array, seed: jax.Array) -> jax.Array:
+    """The packed seed pixel `(u, v)` if it is allowed, else nothing."""
+    start = jnp.zeros(allowed.shape, bool).at[seed[1], seed[0]].set(allowed[seed[1], seed[0]])
+    return _pack_rows(start)
 
 
 def surface_cluster(depth: jax.Array, valid: jax.Array, seed: jax.Array, low, high,
@@ -61,42 +89,73 @@ def surface_cluster(depth: jax.Array, valid: jax.Array, seed: jax.Array, low, hi
 
     depth: metric depth (H, W); valid: (H, W) bool; seed: (u, v) int32 pixel.
     Returns the cluster mask (H, W) bool, empty if the seed is outside the
-    band. A flood fill by repeated masked dilation until nothing changes, on
-    rows packed 32 pixels to a word (a 192-pixel row is 6 words); the loop
-    tests for change every `steps_per_iteration` dilations, each its own inner
-    loop step (unrolled steps fuse into one kernel that recomputes its inputs).
+    band. A flood fill by repeated masked dilation on rows packed 32 pixels
+    to a word (a 192-pixel row is 6 words).
     """
     allowed = valid & (depth >= low) & (depth <= high)
-    start = jnp.zeros(depth.shape, bool).at[seed[1], seed[0]].set(allowed[seed[1], seed[0]])
-    allowed_rows = _pack_rows(allowed)
+    return _flood(_seed_rows(allowed, seed), _pack_rows(allowed), _grow4_packed, depth.shape[1],
+                  steps_per_iteration)
 
-    def grow(state):
-        region, _ = state
-        new = lax.fori_loop(0, steps_per_iteration,
-                            lambda _, rows: _grow4_packed(rows) & allowed_rows, region)
-        return new, jnp.any(new != region)
 
-    region, _ = lax.while_loop(lambda s: s[1], grow, (_pack_rows(start), jnp.array(True)))
-    return _unpack_rows(region, depth.shape[1])
+def connected_surface(depth: jax.Array, allowed: jax.Array, seed: jax.Array, max_step,
+                      steps_per_iteration: int = 8) -> jax.Array:
+    """The depth-connected surface around `seed`: allowed pixels reached from it through
+    4-neighbours whose depths differ by at most `max_step` (m).
+
+    depth: metric depth (H, W); allowed: (H, W) bool; seed: (u, v) int32 pixel.
+    Returns the mask (H, W) bool, empty if the seed is not allowed. Unlike a
+    depth band, a surface may span any depth range as long as it has no jump:
+    one object's visible faces, cut off where a depth step separates it from
+    what lies behind or in front (objects that touch at equal height stay one
+    surface: depth alone cannot part them).
+    """
+    z = jnp.where(allowed, depth, 0.0)
+    east = allowed[:, :-1] & allowed[:, 1:] & (jnp.abs(z[:, 1:] - z[:, :-1]) <= max_step)
+    south = allowed[:-1] & allowed[1:] & (jnp.abs(z[1:] - z[:-1]) <= max_step)
+    no_col, no_row = jnp.zeros_like(allowed[:, :1]), jnp.zeros_like(allowed[:1])
+    # Each direction's links at the pixel a step leaves from: to the east, west, south, north.
+    links = [_pack_rows(m) for m in (jnp.concatenate([east, no_col], 1),
+                                     jnp.concatenate([no_col, east], 1),
+                                     jnp.concatenate([south, no_row], 0),
+                                     jnp.concatenate([no_row, south], 0))]
+
+    def grow(rows):
+        right, _, _, _ = _shifts(rows & links[0])
+        _, left, _, _ = _shifts(rows & links[1])
+        _, _, down, _ = _shifts(rows & links[2])
+        _, _, _, up = _shifts(rows & links[3])
+        return rows | right | left | down | up
+
+    return _flood(_seed_rows(allowed, seed), _pack_rows(allowed), grow, depth.shape[1],
+                  steps_per_iteration)
 
 
 def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
-                   tolerance: float) -> tuple[jax.Array, jax.Array]:
+                   tolerance: float, max_step: float = 0.0) -> tuple[jax.Array, jax.Array]:
     """The surface cluster of the nearest object and its depth.
 
     A first pass takes the band `[z_min, z_min + tolerance]`; its mean depth
     z_s then centres a second pass `[z_s - tolerance, z_s + tolerance]`. On a
     noise-free face seen head-on both passes agree; with sensor noise, z_min
-    is an outlier and the second pass recovers the whole face. Returns the
-    mask (H, W) bool and z_s (the mean depth of the final cluster).
+    is an outlier and the second pass recovers the whole face. With
+    `max_step` > 0 (static; ours, 0 = the paper) the band is also parted
+    where 4-neighbours' depths jump by more than `max_step` (m): a touching
+    neighbour whose top lies within the band, a step away, stays out.
+    Returns the mask (H, W) bool and z_s (the mean depth of the final cluster).
     """
     def mean_depth(mask):
         n = jnp.sum(mask)
         return jnp.sum(jnp.where(mask, depth, 0.0)) / jnp.maximum(n, 1)
 
-    first = surface_cluster(depth, valid, seed, z_min, z_min + tolerance)
+    def band(low, high):
+        if max_step > 0:
+            return connected_surface(depth, valid & (depth >= low) & (depth <= high), seed,
+                                     max_step)
+        return surface_cluster(depth, valid, seed, low, high)
+
+    first = band(z_min, z_min + tolerance)
     z_first = mean_depth(first)
-    cluster = surface_cluster(depth, valid, seed, z_first - tolerance, z_first + tolerance)
+    cluster = band(z_first - tolerance, z_first + tolerance)
     return cluster, mean_depth(cluster)
 
 

@@ -113,7 +113,8 @@ def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
     """
     valid = valid_mask(depth)
     seed, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
-    cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance)
+    cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
+                                 config.band_step)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
     return seed, cluster, z_s, trace_contour(cluster, config.max_contour)
 

@@ -18,7 +18,9 @@
 5. Detect (`detect_grasp`) at the detection resolution, in a `crop_px`
    square window of the virtual view centred on the target (the same camera
    with a shifted principal point, so nothing else changes), with the
-   target's 3 x 3 pixels as `seed_mask` and `tbeam_positions` T-beams per
+   target's depth-connected surface in the window as `seed_mask`, found
+   from its 3-D point as the simulated robot finds its target in each new
+   view (`target.follow_target`), and `tbeam_positions` T-beams per
    edge. Its `candidates_per_target` most central placements are checked on
    the full-resolution image (`jaws.py`: width, the jaws' paths, the wall
    where the jaws touch), scored (`_score`) and pooled. The next target is
@@ -50,7 +52,7 @@ from graspjax.perception.grasp import Grasp, detect_grasp
 from graspjax.perception.jaws import JawCheck, check_jaws
 from graspjax.perception.reasons import GraspReason, SupportReason, furthest_reason
 from graspjax.perception.support import SupportPlane, plane_height, support_plane
-from graspjax.perception.target import best_candidate, target_candidates
+from graspjax.perception.target import best_candidate, follow_target, target_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
 from graspjax.perception.workspace import working_views
 from graspjax.tree import pytree_dataclass
@@ -125,16 +127,29 @@ def _no_support() -> SupportPlane:
 
 
 def _window(fine: jax.Array, fine_camera: Camera, view: Camera, rotation: jax.Array,
-            point: jax.Array, size: int) -> tuple[jax.Array, Camera, jax.Array]:
-    """The `size`-square detection window of the view centred on a camera-frame `point` (3,):
-    its depth (S, S), its camera, and the seed mask (S, S) of the 3 x 3 pixels at its centre."""
-    uv = view.project(rotation.T @ point)
+            point: jax.Array, size: int) -> tuple[jax.Array, Camera]:
+    """The `size`-square detection window of the view centred on a view-frame `point` (3,):
+    its depth (S, S) and its camera (the view's, principal point shifted)."""
+    uv = view.project(point)
     origin = jnp.round(jnp.where(jnp.isfinite(uv), uv, 0.0)) - size // 2  # whole pixels
     camera = Camera(size, size, view.fx, view.fy, view.cx - origin[0], view.cy - origin[1])
-    depth = warp_depth(fine, fine_camera, camera, rotation)
-    centre = jnp.zeros((size, size), bool).at[size // 2 - 1: size // 2 + 2,
-                                              size // 2 - 1: size // 2 + 2].set(True)
-    return depth, camera, centre & (depth > 0)
+    return warp_depth(fine, fine_camera, camera, rotation), camera
+
+
+def _followed(window: jax.Array, camera: Camera, point: jax.Array, support: SupportPlane,
+              rotation: jax.Array, config: Config) -> jax.Array:
+    """The target's depth-connected surface (S, S) bool in its detection window, found from its
+    view-frame `point` (3,) as the simulated robot finds it in each new view (`follow_target`):
+    the pixels where the detector and the alignment take z_min."""
+    perception = config.perception
+    points = camera.unproject(camera.pixel_grid(), window)
+    height = plane_height(points, rotation.T @ support.normal, support.distance)
+    candidate, _ = target_candidates(window, camera, height, support.found,
+                                     min_height=perception.min_height,
+                                     tolerance=config.detect.surface_tolerance)
+    surface, _, _ = follow_target(window, camera, candidate, point, perception.surface_step,
+                                  perception.follow_distance)
+    return surface
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,10 +190,11 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
     points = view.unproject(view.pixel_grid(), view_depth)
     height = jnp.where(support.found,
                        plane_height(points, rotation.T @ support.normal, support.distance), jnp.nan)
-    candidate, score, reason = target_candidates(
+    candidate, reason = target_candidates(
         view_depth, view, height, support.found, window=image.target_window_px,
         min_pixels=image.min_target_pixels, max_slope_deg=image.max_target_slope_deg,
-        min_height=image.min_height, tolerance=tolerance)
+        min_height=config.perception.min_height, tolerance=tolerance)
+    score = jnp.where(support.found, height, -view_depth)  # highest above it; else z_min
     return _Targets(fine, fine_camera, work, work_camera, support, virtual, rotation, view,
                     view_depth, points, height, candidate, score, reason)
 
@@ -245,9 +261,10 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         results and its detector result."""
         chosen, target = best_candidate(candidate & ~tried, score)
         has_target = jnp.any(chosen)
-        point = jnp.where(has_target, rotation @ points[target[1], target[0]], 0.0)
-        window, window_camera, seed = _window(fine, fine_camera, fine_view, rotation, point,
-                                              image.crop_px)
+        point = jnp.where(has_target, points[target[1], target[0]], 0.0)  # view frame
+        window, window_camera = _window(fine, fine_camera, fine_view, rotation, point,
+                                        image.crop_px)
+        seed = _followed(window, window_camera, point, prep.support, rotation, config)
         grasp = detect_grasp(window, window_camera, window_detect, config.gripper,
                              seed_mask=seed & has_target)
         surface, _ = target_surface(view_depth, valid & has_target, target,
@@ -316,9 +333,10 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         more, lambda state: attempt(*state), attempt(0, nothing_tried, pool, best))
     chosen, ranked_ok = distinct(pool)
     pick = jnp.clip(chosen, 0)
-    window, window_camera, seed = _window(fine, fine_camera, fine_view, rotation,
-                                          pool["points"][best], image.crop_px)
-    seed = seed & pool["has_target"][best]
+    window, window_camera = _window(fine, fine_camera, fine_view, rotation,
+                                    pool["points"][best], image.crop_px)
+    seed = _followed(window, window_camera, pool["points"][best], prep.support, rotation,
+                     config) & pool["has_target"][best]
     alignment = align_tool(window, window_camera, config.align, jax.random.key(image.seed),
                            seed_mask=seed)
 
@@ -339,9 +357,9 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     grasp = _as_chosen(best_grasp, top, pool["reasons"][best])
 
     target = pool["pixels"][best]
-    has_target = jnp.any(seed)
+    has_target = pool["has_target"][best]
     found = ranked_ok[0] & has_target
-    target_point = jnp.where(has_target, rotation @ points[target[1], target[0]], jnp.nan)
+    target_point = jnp.where(has_target, rotation @ pool["points"][best], jnp.nan)
     views = RealImageViews(work=prep.work, work_camera=prep.work_camera, depth=view_depth,
                            camera=prep.view, height=height, window=window,
                            window_camera=window_camera)

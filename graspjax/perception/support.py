@@ -1,10 +1,12 @@
 """The support plane (table or bin floor) of a depth image, for one image.
 
-The paper assumes a camera looking perpendicular at a table with nothing
-but objects nearer than it. A real camera is tilted, so the table's near
-edge is nearer than the objects on it. The plane the objects stand on is
-found here, so that "nearest object" can mean "highest above the support"
-and the view can be turned to face it (`perception/virtual.py`).
+A simulated robot knows its table by calibration (`known_support`); a real
+image's support is fitted (`support_plane`). The paper assumes a camera
+looking perpendicular at a table with nothing but objects nearer than it.
+A real camera is tilted, so the table's near edge is nearer than the
+objects on it. The plane the objects stand on is found here, so that
+"nearest object" can mean "highest above the support" and the view can be
+turned to face it (`perception/virtual.py`).
 
 RANSAC: `plane_hypotheses` triangles of valid pixels drawn at random (one
 fixed key, so the same image always gives the same plane), each oriented
@@ -50,6 +52,23 @@ def plane_height(points: jax.Array, normal: jax.Array, distance) -> jax.Array:
     """Signed height `(...)` of camera-frame points `(..., 3)` above the plane (toward the camera)."""
     return (points[..., 0] * normal[0] + points[..., 1] * normal[1] + points[..., 2] * normal[2]
             + distance)
+
+
+def known_support(rotation: jax.Array, position: jax.Array, normal: jax.Array, offset
+                  ) -> SupportPlane:
+    """The support plane known by calibration, in the camera frame of a camera at a known pose.
+
+    rotation: (3, 3) camera-to-world; position: (3,) camera centre; the plane
+    is `normal . x = offset` in the world, `normal` (3,) unit, pointing to
+    the side the objects stand on (the table z = 0: normal (0, 0, 1), offset
+    0). The same plane `support_plane` fits to a real image.
+    """
+    normal_cam = rotation.T @ normal
+    distance = jnp.dot(normal, position) - offset
+    return SupportPlane(found=jnp.array(True), reason=jnp.int32(SupportReason.FOUND),
+                        normal=normal_cam, distance=distance,
+                        tilt=jnp.arccos(jnp.clip(-normal_cam[2], -1.0, 1.0)),
+                        inliers=jnp.int32(0), fraction=jnp.float32(1.0))
 
 
 def _least_squares(points: jax.Array, weight: jax.Array) -> tuple[jax.Array, jax.Array]:

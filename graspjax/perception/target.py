@@ -1,11 +1,16 @@
-"""The target point on a real depth image: highest above the support, never a speck (one image).
+"""Choosing a target on a depth image and following it from view to view (one image).
 
-The paper's target is the nearest point z_min. On a real image the nearest
-point is often an outlier pixel or a speck of a few, and on a tilted table
-it is the table's near edge. Here a pixel may be the target only if
+The same steps serve the simulated robot and `graspjax detect` on a real
+image; what differs is an input: the workspace (a calibrated box, or a
+user's region of interest) and the support plane (the calibrated table, or
+one fitted to the image).
 
-- it stands at least `min_height` above the support plane (when one was
-  found);
+The paper's target is the nearest point z_min. A pixel may be the target
+(`target_candidates`) only if it lies in the workspace (the caller
+invalidates the rest) and stands at least `min_height` above the support
+plane, so that on a tilted view the table's near edge is never the target.
+Real images add two outlier tests:
+
 - at least `min_target_pixels` valid pixels of its `target_window_px`
   square window (itself included) lie within the surface tolerance of its
   depth: a speck smaller than that never qualifies; and
@@ -13,10 +18,14 @@ it is the table's near edge. Here a pixel may be the target only if
   changes by at most tan(slope) times the lateral distance over half the
   window, on the smoother side along each image axis (so the pixels of an
   object's top next to its edge still qualify). A bin wall seen from the
-  side is not a target: the detector could not cluster a surface there;
+  side is not a target: the detector could not cluster a surface there.
 
-and the target is the qualifying pixel highest above the plane (the nearest
-one when there is no plane).
+`best_candidate` takes the best-ranked candidate: the nearest (z_min) in a
+simulated view, the highest above the fitted plane in a real image's view
+that faces it (the same order within `max_tilt_deg`). `follow_target`
+finds a chosen target again in the next view from its 3-D point alone and
+returns its depth-connected surface, where the detector and the alignment
+take z_min.
 """
 
 from __future__ import annotations
@@ -26,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.perception.cluster import valid_mask
+from graspjax.perception.cluster import connected_surface, valid_mask
 from graspjax.perception.reasons import TargetReason
 
 
@@ -77,25 +86,29 @@ def surface_slope(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
 
 
 def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_plane: jax.Array,
-                      *, window: int, min_pixels: int, max_slope_deg: float, min_height: float,
-                      tolerance: float) -> tuple[jax.Array, jax.Array, jax.Array]:
-    """Pixels that may be the target: (candidates (H, W) bool, score (H, W), TargetReason ()).
+                      *, min_height, tolerance: float, window: int = 1, min_pixels: int = 1,
+                      max_slope_deg: float = 90.0) -> tuple[jax.Array, jax.Array]:
+    """Pixels that may be the target: (candidates (H, W) bool, TargetReason ()).
 
     depth: metric depth (H, W) of the view seen by `camera`, 0 or nan =
-    invalid; height: (H, W) height above the support plane (m), used when
-    `has_plane` (() bool). The score ranks candidates: the height, or minus
-    the depth without a plane.
+    invalid (pixels outside the workspace must already be invalid); height:
+    (H, W) height above the support plane (m), used when `has_plane` (()
+    bool). The speck test (`window`, `min_pixels`) and the slope test
+    (`max_slope_deg`) are for real images' outliers; their defaults leave
+    them out. Rank the candidates with `best_candidate`.
     """
     valid = valid_mask(depth)
-    score = jnp.where(has_plane, height, -depth)  # without a plane: the nearest point
     standing = valid & (~has_plane | (height >= min_height))
-    solid = similar_neighbours(depth, window, tolerance) >= min_pixels
-    facing = surface_slope(depth, camera, max(1, window // 2)) <= np.tan(np.deg2rad(max_slope_deg))
-    candidate = standing & solid & facing
+    candidate = standing
+    if min_pixels > 1:
+        candidate = candidate & (similar_neighbours(depth, window, tolerance) >= min_pixels)
+    if max_slope_deg < 90.0:
+        step = max(1, window // 2)
+        candidate = candidate & (surface_slope(depth, camera, step) <= np.tan(np.deg2rad(max_slope_deg)))
     reason = jnp.select([~jnp.any(valid), ~jnp.any(standing), ~jnp.any(candidate)],
                         [TargetReason.EMPTY_WORKSPACE, TargetReason.NO_OBJECT,
                          TargetReason.NO_SURFACE], TargetReason.FOUND).astype(jnp.int32)
-    return candidate, score, reason
+    return candidate, reason
 
 
 def best_candidate(candidate: jax.Array, score: jax.Array, tie: float = 5e-4
@@ -113,3 +126,27 @@ def best_candidate(candidate: jax.Array, score: jax.Array, tie: float = 5e-4
     v, u = jnp.divmod(flat, candidate.shape[1])
     seed = jnp.zeros(candidate.shape, bool).at[v, u].set(candidate.reshape(-1)[flat])
     return seed, jnp.stack([u, v]).astype(jnp.int32)
+
+
+def follow_target(depth: jax.Array, camera: Camera, candidate: jax.Array, point: jax.Array,
+                  max_step, reach) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """A target chosen earlier, found again in a new view: (its surface (H, W) bool, the pixel
+    it was found at (2,) int32 (u, v), found () bool).
+
+    depth: metric depth (H, W) of the new view; candidate: (H, W) bool pixels
+    that may be a target (`target_candidates`); point: (3,) the target's 3-D
+    point in this view's camera frame. The target is found at the candidate
+    pixel whose point lies nearest to `point`, if within `reach` (m); its
+    surface is the depth-connected surface around that pixel
+    (`connected_surface`, steps of at most `max_step` m), the pixels where
+    the detector and the alignment take z_min. Empty when not found (the
+    point is hidden or left the view).
+    """
+    points = camera.unproject(camera.pixel_grid(), jnp.where(candidate, depth, 0.0))
+    gap = jnp.where(candidate, jnp.sum((points - point) ** 2, -1), jnp.inf)
+    flat = jnp.argmin(gap)
+    v, u = jnp.divmod(flat, depth.shape[1])
+    found = gap.reshape(-1)[flat] <= jnp.square(reach)
+    pixel = jnp.stack([u, v]).astype(jnp.int32)
+    surface = connected_surface(depth, candidate & found, pixel, max_step)
+    return surface, pixel, found

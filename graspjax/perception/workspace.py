@@ -1,4 +1,8 @@
-"""From a full-resolution real depth image to the working views, for one image.
+"""The workspace, and from a full-resolution real depth image to the working views (one image).
+
+The workspace is where targets may be chosen: a calibrated box in the
+world (`box_workspace`: the simulation's bin), or a user's region of
+interest or mask on a real image.
 
 Everything outside the workspace (an ROI or mask) and outside the depth
 range `[min_depth, max_depth]` becomes invalid before anything else looks
@@ -109,6 +113,21 @@ def fill_holes(depth: jax.Array, workspace: jax.Array, gap: int, tolerance: floa
         bridge = ~valid & workspace & has_a & has_b & (jnp.abs(a - b) <= tolerance)
         filled = jnp.where(bridge, 0.5 * (a + b), filled)
     return filled
+
+
+def box_workspace(depth: jax.Array, camera: Camera, rotation: jax.Array, position: jax.Array,
+                  lower: jax.Array, upper: jax.Array) -> jax.Array:
+    """Pixels `(H, W)` bool whose 3-D point lies inside a calibrated box, e.g. a bin's interior.
+
+    depth: metric depth (H, W), 0 or nan = invalid (never inside);
+    rotation: (3, 3) camera-to-world; position: (3,) camera centre; lower,
+    upper: (3,) the box's corners in the world (m; +-inf leaves an axis open).
+    """
+    valid = valid_mask(depth)
+    points = camera.unproject(camera.pixel_grid(), jnp.where(valid, depth, 0.0))
+    world = jnp.stack([points[..., 0] * rotation[row, 0] + points[..., 1] * rotation[row, 1]
+                       + points[..., 2] * rotation[row, 2] for row in range(3)], -1) + position
+    return valid & jnp.all((world >= lower) & (world <= upper), -1)
 
 
 def _blocks(image: jax.Array, camera: Camera, factor: int) -> tuple[jax.Array, Camera]:

@@ -303,9 +303,10 @@ def judge(scene: Scene, config: Config, start: Snapshot, approached: Snapshot, c
     (`stopped`: the collision reflex fired during the approach)."""
     rise = held.object_pos[:, 2] - start.object_pos[:, 2]
     lifted = rise >= config.sim.min_lift
-    com_local = held.hand_rot.T @ (held.object_com[target] - held.hand_pos)
+    t = jnp.maximum(target, 0)  # target -1: the attempt is credited to no object
+    com_local = held.hand_rot.T @ (held.object_com[t] - held.hand_pos)
     between = (held.opening > _CLOSED) & (jnp.abs(com_local[0]) <= held.opening + _HELD_MARGIN)
-    success = lifted[target] & between
+    success = lifted[t] & between & (target >= 0)
     others = lifted & (jnp.arange(scene.num_objects) != target)
     lag = jnp.linalg.norm(approached.hand_pos - approached.target_pos)
     blocked = lag > config.sim.approach_tolerance
@@ -360,16 +361,20 @@ class Schedule:
 
 def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, target: jax.Array,
          settle_segments: jax.Array, execute: jax.Array, config: Config,
-         reachable: jax.Array | bool = True) -> tuple[mjx.Data, Execution]:
-    """Execute `grasp` on object `target`, judge it, remove what was lifted, then settle.
+         reachable: jax.Array | bool = True, take_out: jax.Array | bool = False
+         ) -> tuple[mjx.Data, Execution]:
+    """Execute `grasp` on object `target` (-1: none), judge it, remove what was lifted, then
+    settle.
 
     Execution (when `execute` and `grasp.valid`): the hand appears at the
     pre-grasp pose with open jaws, approaches (the collision reflex
     watching), closes, lifts and holds (`Schedule`); the judge then decides
     the outcome, the lifted object is parked and the hand returns home with
     open jaws. A grasp whose pre-grasp pose is not `reachable` (the hand
-    would be inside something) is not executed and ends as `COLLISION`. Then
-    the world settles for `settle_segments` () int32 segments, hand at home.
+    would be inside something) is not executed and ends as `COLLISION`. With
+    `take_out` (() bool, the protocol's hand), a target that was not lifted
+    and held is taken out too, after the attempt. Then the world settles for
+    `settle_segments` () int32 segments, hand at home.
     Worlds that do not execute only settle. `execute` is () bool, the same
     for every world.
     """
@@ -379,7 +384,10 @@ def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, targe
     refused = execute & grasp.valid & ~reachable
     executing = execute & grasp.valid & reachable
     opened = scene.gripper.opening / 2
-    data = where_tree(executing, move_hand(scene, data, waypoints[0], quat, opened=True), data)
+    mine = (jnp.arange(scene.num_objects) == target) & (target >= 0) & take_out
+    # Not executed: the attempt failed; its object is taken out before the world settles.
+    data = where_tree(executing, move_hand(scene, data, waypoints[0], quat, opened=True),
+                      park(scene, data, mine))
     start = snapshot(scene, data)
     no = Execution(outcome=jnp.where(refused, Outcome.COLLISION, Outcome.NOT_EXECUTED).astype(jnp.int32),
                    lifted_object=jnp.int32(-1), rise=jnp.float32(jnp.nan), opening=jnp.float32(jnp.nan))
@@ -408,9 +416,11 @@ def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, targe
         done = i == n_exec - 1
         outcome, lifted = judge(scene, config, start, approached, closed, now, target,
                                 reflex.tripped)
-        rise = now.object_pos[target, 2] - start.object_pos[target, 2]
+        t = jnp.maximum(target, 0)
+        rise = jnp.where(target >= 0, now.object_pos[t, 2] - start.object_pos[t, 2], jnp.nan)
         result = where_tree(done, Execution(outcome, lifted, rise, closed.opening), result)
-        gone = (jnp.arange(scene.num_objects) == lifted) & (lifted >= 0)
+        gone = (((jnp.arange(scene.num_objects) == lifted) & (lifted >= 0))
+                | (mine & (outcome != Outcome.SUCCESS)))
         home = move_hand(scene, park(scene, data, gone), waypoints[3],
                          jnp.asarray(HOME_QUAT, jnp.float32), opened=True)
         data = where_tree(done, home, data)
