@@ -16,7 +16,8 @@
 #   planes-bin        the same on 4,096 Setup 3 rounds
 #   studies           window and threshold, Table 1 protocol, realistic preset
 #                     (experiments/studies.py window threshold)
-#   improve-PRESET    the depth-only improvements, Table 1 at 1,000, paired (docs/method.md)
+#   improve-PRESET    a depth-only improvement against the default, Setups 2 and 3, 1,000
+#                     rounds, paired: IMPROVE=KEY=V1,V2,... names the grid (results/depth_only/)
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-300}
@@ -58,8 +59,8 @@ for name in "$@"; do
       echo "== studies: exit $? after $((SECONDS - start)) s"
       for s in window threshold; do gzip -f "$out/studies/$s/attempts.csv"; rm -f "$out/studies/$s/attempts.parquet"; done
       tar -C "$out" -czf "$out/studies.tar.gz" studies && rm -rf "${out:?}/studies" ;;
-    improve-*) step "improve_$preset" sweep --table 1 --trials 1000 --paired --preset "$preset" \
-      --grid "${IMPROVE:?set IMPROVE to the --grid of the improvements}" ;;
+    improve-*) step "improve_$preset" sweep --setup 2,3 --trials 1000 --paired --preset "$preset" \
+      --grid "${IMPROVE:?set IMPROVE to the --grid of the improvement}" ;;
     *) echo "unknown step $name" >&2; exit 2 ;;
   esac
 done

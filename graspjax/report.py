@@ -81,8 +81,22 @@ def sweep_axes(frame: pd.DataFrame) -> list[list[str]]:
     return axes
 
 
+def object_outcomes(frame: pd.DataFrame) -> pd.DataFrame:
+    """One row per object and trial or round, as the paper's tables count: an object tried
+    more than once in a round (a failed object left in the scene, or clutter removal) is a
+    success when any attempt credited to it succeeded (that row), else its first attempt."""
+    keys = [c for c in ("point", *varying_config(frame)) if c in frame.columns]
+    keys += ["setup", "trial", "object"]
+    attempt = frame["attempt"] if "attempt" in frame.columns else pd.Series(0, frame.index)
+    order = frame.assign(_first=attempt.where(attempt >= 0, 99))
+    order = order.sort_values(["success", "_first"], ascending=[False, True], kind="stable")
+    kept = order.drop_duplicates(keys).drop(columns="_first")
+    return kept.sort_index()
+
+
 def summarize(frame: pd.DataFrame) -> pd.DataFrame:
-    """Per cell: n, successes, rate, Wilson interval, the paper's rate, outcome counts."""
+    """Per cell, from `object_outcomes`' rows: n, successes, rate, Wilson interval, the
+    paper's rate, outcome counts."""
     keys = [*varying_config(frame), "setup", "object"]
     grouped = frame.groupby(keys, dropna=False)
     summary = grouped["success"].agg(n="size", successes="sum").reset_index()
@@ -377,6 +391,7 @@ def clutter_summary(rounds: pd.DataFrame | None) -> pd.DataFrame | None:
 
 def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, bytes]:
     """Every report file (name -> bytes) from the attempt rows (and the round rows)."""
+    frame = object_outcomes(frame)
     summary = summarize(frame)
     files = {"summary.csv": summary.to_csv(index=False).encode()}
     if not varying_config(frame):

@@ -4,7 +4,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from graspjax.report import build, paper_tables, parse_attempts, summarize, sweep_axes
+from graspjax.report import (
+    build,
+    object_outcomes,
+    paper_tables,
+    parse_attempts,
+    summarize,
+    sweep_axes,
+)
 from graspjax.stats import wilson
 
 
@@ -132,3 +139,17 @@ def test_summary_and_tables_split_success_into_first_view_and_rescued():
     assert row["rescue_rate"] == pytest.approx(0.75)
     table1 = build(parse_attempts(frame.to_csv(index=False)))["table1.md"].decode()
     assert "| Setup 1, of which rescued | 30 % |" in table1
+
+
+def test_an_object_tried_twice_in_a_round_counts_once():
+    """A failed object left in the scene may be tried again: the paper's tables count objects
+    per round, so a round where its second attempt lifted it is one success, n = 1."""
+    rows = [(0, "a", 0, 0, "MISSED"), (0, "a", 2, 1, "SUCCESS"), (0, "b", 1, 0, "SLIPPED"),
+            (0, "b", 3, 0, "MISSED"), (1, "a", 0, 1, "SUCCESS"), (1, "b", -1, 0, "NOT_EXECUTED")]
+    frame = pd.DataFrame([{"setup": 2, "trial": t, "round": t, "object": o, "attempt": k,
+                           "seed": 0, "success": s, "outcome": out, "reason": out}
+                          for t, o, k, s, out in rows])
+    summary = summarize(object_outcomes(frame)).set_index("object")
+    assert summary.loc["a", ["n", "successes"]].tolist() == [2, 2]
+    assert summary.loc["b", ["n", "successes"]].tolist() == [2, 0]
+    assert summary.loc["b", "n_slipped"] == 1  # its first attempt's outcome
