@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from graspjax.config import (
+    PRESETS,
     AlignConfig,
     Config,
     ConfigError,
@@ -14,6 +15,7 @@ from graspjax.config import (
     differences,
     override,
     parse_assignments,
+    preset,
     stack_configs,
 )
 
@@ -130,3 +132,27 @@ def test_max_geom_pairs_reaches_the_model_only_when_set():
     assert numerics(SimConfig(max_geom_pairs=8)) == {"max_contact_points": 48, "max_geom_pairs": 8}
     with pytest.raises(ConfigError, match="max_geom_pairs"):
         override(Config(), ["sim.max_geom_pairs=-1"])
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_no_preset_hands_the_method_the_labels(name):
+    """`perception.oracle` is an ablation: false in every preset, and the paper's protocol
+    takes a failed object out in both."""
+    config = preset(name)
+    assert config.perception.oracle is False
+    assert config.procedure.remove_failed is True
+
+
+def test_the_reference_results_were_made_without_the_labels():
+    """Every committed reference table (`results/*_gpu_1000`, `results/*_cpu_10`) ran with
+    `perception.oracle` false: it is neither overridden nor a grid key there."""
+    import json
+    import pathlib
+
+    results = pathlib.Path(__file__).parent.parent / "results"
+    folders = sorted(results.glob("*_gpu_1000")) + sorted(results.glob("*_cpu_10"))
+    assert len(folders) == 4
+    for folder in folders:
+        meta = json.loads((folder / "config.json").read_text())
+        assert meta["config"]["perception.oracle"] is False, folder
+        assert "perception.oracle" not in meta["grid"], folder
