@@ -28,7 +28,7 @@ from graspjax.batch.program import program, run_chunks, trace_workers
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.config import Config, differences
 from graspjax.io import jsonable, write_atomic
-from graspjax.outputs import RunFolder, check_output_folder, run_id
+from graspjax.outputs import RunFolder, check_output_folder, run_id, writing
 from graspjax.provenance import provenance
 from graspjax.tree import named_fields
 
@@ -99,10 +99,17 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     into a folder shared with the other parts; the one that completes the last chunk writes
     the results. With `processes` > 1 (CPU) helper processes play some of its groups side by
     side with it (`plan.share`, `batch.players`; not while views are kept)."""
-    from graspjax.views import ViewSaver
-
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
     out = check_output_folder(out, resume or parts > 1, overwrite)
+    with writing(out, shared=parts > 1):  # one process writes a folder (a shared run's parts: several)
+        return _run(experiment, out, resume, part, parts, quiet, processes)
+
+
+def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int, quiet: bool,
+         processes: int) -> RunResult:
+    """`run`, with the folder checked and locked."""
+    from graspjax.views import ViewSaver
+
     batch = experiment.batch or default_batch()
     configs, groups = _grouped(experiment)
     planned = chunks(groups, batch)

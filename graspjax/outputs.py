@@ -22,14 +22,21 @@ from the parts (dropping an append whose chunk is not done) and runs only the
 chunks not done.
 
 `attempts.csv` is deterministic: wall-clock times live in `timings.csv`.
+
+A folder is a run's own only when its `config.json` is graspjax's (`holds_graspjax_output`);
+`--overwrite` removes only the files graspjax writes (`OWN_FILES`), and while a run writes a
+folder it holds its lock (`writing`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
+import os
 import shutil
+import socket
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -38,13 +45,54 @@ import pandas as pd
 from graspjax.batch.rows import sort_attempts
 from graspjax.io import InputError, write_atomic
 
+LOCK = ".graspjax.lock"  # held (an OS lock) by the process that writes the folder
+# Everything a run, a sweep, `graspjax report` or `graspjax planes` writes into its folder, as
+# glob patterns: the run's own files. `--overwrite` removes these and nothing else.
+OWN_FILES = ("config.json", LOCK, "attempts.csv", "attempts.parquet", "rounds.csv",
+             "timings.csv", "summary.csv", "rounds_summary.csv", "sweep_summary.csv",
+             "table[12].md", "table[12].tex", "success_by_object.png", "outcomes.png",
+             "comparison.md", "comparison.png", "sweep_*.png", "planes.csv.gz",
+             "planes_summary.csv", "parts/attempts-[0-9]*.parquet",
+             "parts/rounds-[0-9]*.parquet", "parts/timings-[0-9]*.json",
+             "views/p[0-9][0-9][0-9]_s[123]_r*.npz", "debug/p[0-9][0-9][0-9]_s[123]_r*.png")
+
+
+def holds_graspjax_output(folder: Path) -> bool:
+    """Whether `folder` is graspjax's own: its `config.json` is one that graspjax wrote (the
+    marker: it names graspjax's version)."""
+    try:
+        meta = json.loads((folder / "config.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(meta, dict) and "graspjax" in (meta.get("versions") or {})
+
+
+def _foreign(folder: Path) -> list[str]:
+    """Files under `folder` that graspjax did not write (relative paths, sorted)."""
+    own = {p for pattern in OWN_FILES for p in folder.glob(pattern)}
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*")
+                  if not p.is_dir() and p not in own)
+
+
+def remove_own_files(folder: Path) -> None:
+    """`--overwrite`: remove every file a graspjax run or sweep writes in `folder` (and its
+    sub-folders, once empty), never anything else."""
+    for pattern in OWN_FILES:
+        for path in folder.glob(pattern):
+            if path.name != LOCK:  # held by this process now
+                path.unlink(missing_ok=True)
+    for sub in ("parts", "views", "debug"):
+        if (folder / sub).is_dir() and not any((folder / sub).iterdir()):
+            (folder / sub).rmdir()
+
 
 def check_output_folder(folder: str | Path, resume: bool = False, overwrite: bool = False) -> Path:
     """Fail early (one line) if a run cannot be written to `folder`; creates nothing.
 
     Missing parent folders are fine (they are created when the run starts); a
     folder that already holds a run needs `resume` (continue it; also for the
-    parts of a shared run) or `overwrite`.
+    parts of a shared run) or `overwrite`; a folder that holds anything else is
+    refused (a user's files are never removed or mixed with a run's).
     """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -61,6 +109,11 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
             pass
     except OSError:
         raise InputError(f"--out {folder}: {probe} is not writable") from None
+    if folder.is_dir() and any(folder.iterdir()) and not holds_graspjax_output(folder):
+        files = _foreign(folder)
+        shown = ", ".join(files[:3]) + (f" and {len(files) - 3} more" if len(files) > 3 else "")
+        raise InputError(f"--out {folder} is not empty and holds no graspjax run"
+                         + (f" ({shown})" if shown else "") + ": give a new or empty folder")
     holds_run = (folder / "config.json").is_file()
     if holds_run and not (resume or overwrite):
         raise InputError(f"--out {folder} already holds a run (use --resume to continue it, "
@@ -68,11 +121,57 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
     return folder
 
 
+@contextlib.contextmanager
+def writing(folder: Path, shared: bool = False):
+    """Hold the folder's lock (`LOCK`, an OS lock the OS releases if the process dies) while a
+    run writes it: a second process that would write the same folder stops at once with a
+    one-line error naming the first. The parts of a shared run (`--part I/N`, several hosts)
+    write one folder together by design and take no lock."""
+    if shared:
+        yield
+        return
+    import fcntl
+
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / LOCK, "a+") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            raise InputError(f"--out {folder} is being written by {holder}; wait for it or "
+                             "give another folder") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"process {os.getpid()} on {socket.gethostname()}\n")
+        handle.flush()
+        try:
+            yield
+        finally:
+            handle.seek(0)
+            handle.truncate()
+
+
+RUN_KEYS = ("seed", "paired", "jobs", "overrides", "grid")  # what determines a run's rows
+
+
 def run_id(meta: dict) -> str:
-    """A short id derived from what determines the results (seed, jobs, configuration, grid)."""
-    key = json.dumps({k: meta[k] for k in ("seed", "jobs", "overrides", "grid")}, sort_keys=True,
-                     default=str)
+    """A short id derived from what determines the results (`RUN_KEYS`)."""
+    key = json.dumps({k: meta[k] for k in RUN_KEYS}, sort_keys=True, default=str)
     return hashlib.sha1(key.encode()).hexdigest()[:10]
+
+
+def _difference(old: dict, new: dict) -> str:
+    """The first setting in which two runs' `config.json` differ, in words."""
+    for key in (*RUN_KEYS, "batch"):
+        if old.get(key) != new.get(key):
+            if isinstance(old.get(key), dict) and isinstance(new.get(key), dict):
+                for k in sorted(set(old[key]) | set(new[key])):
+                    if old[key].get(k) != new[key].get(k):
+                        return (f"{key} {k}: {old[key].get(k, 'unset')!r} there, "
+                                f"{new[key].get(k, 'unset')!r} here")
+            return f"{key}: {old.get(key)!r} there, {new.get(key)!r} here"
+    return f"run_id: {old.get('run_id')!r} there, {new.get('run_id')!r} here"
 
 
 def _csv(frame: pd.DataFrame, header: bool) -> bytes:
@@ -99,15 +198,10 @@ class RunFolder:
         config = self.folder / "config.json"
         if config.is_file() and (resume or shared):
             old = json.loads(config.read_text())
-            for key in ("run_id", "batch"):
-                if old.get(key) != meta.get(key):
-                    raise InputError(f"--out {self.folder} holds another run ({key} "
-                                     f"{old.get(key)!r}, this command {meta.get(key)!r})")
+            if any(old.get(key) != meta.get(key) for key in ("run_id", "batch")):
+                raise InputError(f"--out {self.folder} holds another run ({_difference(old, meta)})")
         elif self.folder.exists():  # --overwrite: nothing of the old run may mix with this one
-            for stale in ("parts", "views", "debug"):
-                shutil.rmtree(self.folder / stale, ignore_errors=True)
-            for stale in ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv"):
-                (self.folder / stale).unlink(missing_ok=True)
+            remove_own_files(self.folder)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
         if not self.finished:

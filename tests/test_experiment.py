@@ -3,6 +3,7 @@
 import concurrent.futures
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -178,6 +179,26 @@ def test_a_folder_holding_a_run_needs_resume_or_overwrite(tiny_run, tmp_path, ca
     assert main(["run", *TINY[:-1], "align.window_px=13", "--out", str(copy), "--resume"]) == 2
     assert "holds another run" in capsys.readouterr().err
     assert main(["run", *TINY, "--out", str(copy), "--overwrite"]) == 0
+
+
+def test_a_run_never_removes_or_mixes_in_a_users_files(tiny_run, tmp_path, capsys):
+    """A folder of a user's files is refused, whole; --overwrite onto a run's folder replaces
+    the run's files (a sweep's comparison included) and keeps the user's beside them."""
+    mine = tmp_path / "mine"
+    (mine / "views").mkdir(parents=True)
+    (mine / "views" / "x").write_text("x")
+    assert main(["run", *TINY, "--out", str(mine), "--overwrite"]) == 2
+    assert "holds no graspjax run (views/x)" in capsys.readouterr().err
+    assert sorted(p.name for p in mine.rglob("*")) == ["views", "x"]
+    copy = tmp_path / "copy"
+    shutil.copytree(tiny_run, copy)
+    (copy / "comparison.md").write_text("a sweep's, now stale")
+    (copy / "views").mkdir()
+    (copy / "views" / "notes.txt").write_text("mine")
+    assert main(["run", *TINY, "--out", str(copy), "--overwrite"]) == 0
+    assert not (copy / "comparison.md").exists()
+    assert (copy / "views" / "notes.txt").read_text() == "mine"
+    assert (copy / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
 
 
 def test_a_killed_run_resumes_with_nothing_lost_or_doubled(tiny_run, tmp_path):
