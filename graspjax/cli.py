@@ -126,10 +126,11 @@ def cmd_detect(args) -> int:
 def _detect_settings(preset_name: str | None, top: int | None, sets: list[str] | None
                      ) -> list[str]:
     """`--set` items of a detect command: its preset's, then --top, then the user's own."""
-    from graspjax.config import PRESETS
+    from graspjax.config import PRESETS, parse_assignments
 
     if top is not None and top < 1:
         raise UsageError(f"--top must be >= 1, got {top}")
+    parse_assignments(sets or [])  # the user's own: malformed or twice is an error
     items = [f"{k}={v}" for k, v in PRESETS[preset_name or "paper"].items()]
     items += [f"image.top_k={top}"] if top is not None else []
     return items + (sets or [])
@@ -145,6 +146,13 @@ def cmd_bench(args) -> int:
     check_writable(args.out, "--out")
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
+    for name, value in (("--width", args.width), ("--height", args.height)):
+        if value is not None and value < 16:
+            raise UsageError(f"{name} must be >= 16 pixels, got {value}")
+    if args.trials < 1:
+        raise UsageError(f"--trials must be >= 1, got {args.trials}")
+    if not (math.isfinite(args.seconds) and args.seconds > 0):
+        raise UsageError(f"--seconds must be a positive number, got {args.seconds:g}")
     if args.what == "detect":
         config, image = split_overrides(_detect_settings(args.preset, None, args.set))  # as graspjax detect
     else:
@@ -201,14 +209,15 @@ def _jobs(args):
             raise UsageError("--objects goes with --setup; the tables fix their objects")
         return [table_job(t, args.trials) for t in _ints(args.table, "--table", (1, 2))]
     try:
-        objects = parse_letters(args.objects or "abcdef")
+        objects = parse_letters("abcdef" if args.objects is None else args.objects)
     except ValueError as exc:
-        raise UsageError(str(exc)) from None
+        raise UsageError(f"--objects: {exc}") from None
     return [Job(objects, _ints(args.setup, "--setup", (1, 2, 3)), args.trials)]
 
 
-def _grid(items: list[str], base):
-    """--grid key=v1,v2,... -> (keys, list of (values dict, config)); every point validated.
+def _grid(items: list[str], base, fixed=()):
+    """--grid key=v1,v2,... -> (keys, list of (values dict, config)); every point validated,
+    none twice, no key twice nor among the `fixed` keys of --set.
 
     Keys joined by ':' vary together: --grid camera.width:camera.height=80:60,160:120.
     """
@@ -226,11 +235,23 @@ def _grid(items: list[str], base):
             raise UsageError(f"--grid {name}: every value needs {len(names)} parts joined by ':'")
         axes.append([dict(zip(names, v, strict=True)) for v in values])
     keys = [k for axis in axes for k in axis[0]]
+    twice = sorted({k for k in keys if keys.count(k) > 1} | (set(keys) & set(fixed)))
+    if twice:
+        raise UsageError(f"{twice[0]} is given twice (in two --grid, or in --grid and --set)")
     points = []
     for combo in itertools.product(*axes):
         assignment = {k: v for part in combo for k, v in part.items()}
         points.append((assignment, override(base, assignment)))
+    for i, (assignment, config) in enumerate(points):
+        for earlier, other in points[:i]:
+            if other == config:
+                raise UsageError(f"--grid gives one point twice ({_point(earlier)} and "
+                                 f"{_point(assignment)}): its seeds would be pooled as one cell")
     return keys, points
+
+
+def _point(assignment: dict) -> str:
+    return ", ".join(f"{k}={v}" for k, v in assignment.items())
 
 
 def _part(text: str | None) -> tuple[int, int]:
@@ -248,13 +269,15 @@ def _part(text: str | None) -> tuple[int, int]:
 
 def _experiment_request(args, grid_items):
     """The checked `Experiment` of a run (no grid) or sweep, before anything compiles."""
-    from graspjax.config import override, preset
+    from graspjax.config import override, parse_assignments, preset
     from graspjax.experiment import Experiment
 
     jobs = _jobs(args)
     method = [f"method={args.method}"] if args.method else []
     config = override(preset(args.preset), method + (args.set or []))
-    keys, points = ([], [({}, config)]) if grid_items is None else _grid(grid_items, config)
+    fixed = parse_assignments(args.set or [])
+    keys, points = (([], [({}, config)]) if grid_items is None
+                    else _grid(grid_items, config, fixed))
     return Experiment(jobs=jobs, base=config, points=points, keys=keys, seed=args.seed,
                       batch=args.batch, paired=getattr(args, "paired", False), preset=args.preset,
                       save_views=args.save_views, max_views=args.max_views,
@@ -367,6 +390,10 @@ def cmd_report(args) -> int:
         files = write_report(folder, debug=args.debug)
     except (FileNotFoundError, ValueError) as exc:
         raise InputError(str(exc).splitlines()[0]) from None
+    except KeyError as exc:
+        raise InputError(f"{folder}: attempts.csv lacks the column {exc} the report needs") from None
+    except OSError as exc:
+        raise InputError(f"cannot write the report into {folder}: {exc.strerror or exc}") from None
     print("wrote " + ", ".join(str(p.relative_to(folder)) for p in files) + f" to {folder}")
     return 0
 

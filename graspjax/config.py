@@ -425,9 +425,12 @@ def _parse(text: str, kind: Any, key: str) -> Any:
             return False
         raise ConfigError(f"{key} must be true or false, got {text!r}")
     try:
-        return kind(text)
+        value = kind(text)
     except (TypeError, ValueError):
         raise ConfigError(f"{key} must be {kind.__name__}, got {text!r}") from None
+    if kind is float and not math.isfinite(value):
+        raise ConfigError(f"{key} must be a finite number, got {text!r}")
+    return value
 
 
 def _replace(config: Any, path: list[str], text: str, key: str) -> Any:
@@ -454,6 +457,8 @@ def parse_assignments(items: Iterable[str]) -> dict[str, str]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"expected key=value, got {item!r}")
+        if key.strip() in out:
+            raise ConfigError(f"{key.strip()} is given twice")
         out[key.strip()] = value.strip()
     return out
 

@@ -102,7 +102,7 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
     summary = grouped["success"].agg(n="size", successes="sum").reset_index()
     summary["rate"] = summary["successes"] / summary["n"]
     summary["ci_low"], summary["ci_high"] = wilson(summary["successes"], summary["n"])
-    if "rescued" in frame.columns:  # where the successes came from: the first view or a re-alignment
+    if {"rescued", "reorientations"} <= set(frame.columns):  # first view or a re-alignment
         parts = frame.assign(realigned=frame["reorientations"] > 0).groupby(keys, dropna=False).agg(
             realigned=("realigned", "sum"), rescued=("rescued", "sum")).reset_index()
         summary = summary.merge(parts, on=keys, how="left")

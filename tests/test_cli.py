@@ -134,6 +134,9 @@ def _bad_inputs(folder, tmp_path):
         ([a, b, "--figure", str(tmp_path / "f.png")], "--figure takes one image"),
         ([a, "--set", "image.max_targts=2"], "did you mean image.max_targets"),
         ([a, "--top", "0"], "--top must be >= 1"),
+        ([a, "--fx", "nan"], "the intrinsics must be finite numbers"),
+        ([a, "--fx", "inf"], "the intrinsics must be finite numbers"),
+        ([a, "--set", "image.top_k=2", "--set", "image.top_k=3"], "image.top_k is given twice"),
         ([a, "--set", "image.top_k=100"], "RealImageConfig.top_k must be in [1, 64]"),
         (["missing.npy"], "no such file"),
     ]
@@ -161,6 +164,20 @@ def test_bad_arguments_get_one_line_and_exit_2(kinect_scene, tmp_path, capsys, a
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
     assert not (tmp_path / "f.png").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["detect", "--width", "0"], "--width must be >= 16 pixels, got 0"),
+    (["detect", "--width", "-5", "--height", "3"], "--width must be >= 16 pixels, got -5"),
+    (["pipeline", "--trials", "0"], "--trials must be >= 1, got 0"),
+    (["physics", "--seconds", "-1"], "--seconds must be a positive number, got -1"),
+    (["physics", "--seconds", "nan"], "--seconds must be a positive number, got nan"),
+])
+def test_bench_mistakes_get_one_line_before_anything_compiles(tmp_path, capsys, args, message):
+    out = tmp_path / "bench.json"
+    assert main(["bench", *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and not out.exists()
 
 
 def test_console_script_exit_status(tmp_path):

@@ -692,6 +692,18 @@ def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_r
     (["run", "--setup", "1", "--resume", "--overwrite"], "not both"),
     (["sweep", "--setup", "1", "--grid", "align.window_px=5,x"], "must be int"),
     (["sweep", "--setup", "1"], "needs at least one --grid"),
+    # Settings that used to be dropped or pooled silently (issue 55):
+    (["run", "--setup", "1", "--objects", ""], "--objects: no objects given"),
+    (["run", "--setup", "1", "--set", "align.distance_threshold=inf"], "must be a finite number"),
+    (["run", "--setup", "1", "--set", "align.window_px=5", "--set", "align.window_px=7"],
+     "align.window_px is given twice"),
+    (["sweep", "--setup", "1", "--grid", "align.window_px=10,15", "--grid", "align.window_px=5"],
+     "align.window_px is given twice"),
+    (["sweep", "--setup", "1", "--grid", "align.window_px=10,15", "--set", "align.window_px=5"],
+     "align.window_px is given twice (in two --grid, or in --grid and --set)"),
+    (["sweep", "--setup", "1", "--grid", "align.window_px=10,10"],
+     "--grid gives one point twice (align.window_px=10 and align.window_px=10)"),
+    (["sweep", "--setup", "1", "--grid", "align.distance_threshold=0.3,0.30"], "one point twice"),
 ])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, message):
     out = tmp_path / "out"
@@ -718,6 +730,12 @@ def test_report_errors(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "no such directory" in err and "no attempts.csv" in err
+    # rows with the re-alignment's column but not its companion: one line, no traceback
+    rows = pd.DataFrame({"setup": [1], "object": ["a"], "trial": [0], "round": [None], "seed": [0],
+                         "success": [1], "outcome": ["SUCCESS"], "reason": ["SUCCESS"],
+                         "rescued": [0]})
+    rows.to_csv(tmp_path / "attempts.csv", index=False)
+    assert main(["report", str(tmp_path)]) == 0
 
 
 def test_a_background_import_loads_the_module_once_in_its_own_thread(tmp_path, monkeypatch):

@@ -61,11 +61,20 @@ class IntrinsicsRequest:
     # stand for the resolved values)
 
     def resolve(self, width: int, height: int) -> Intrinsics:
-        """The intrinsics of `width` x `height` images."""
-        if self.focal is not None:
-            fx, fy = self.focal
+        """The intrinsics of `width` x `height` images: finite, the focal lengths > 0."""
+        intrinsics = self._resolve(width, height)
+        if intrinsics.values is not None:
+            fx, fy, cx, cy = intrinsics.values
+            if not all(math.isfinite(v) for v in (fx, fy, cx, cy)):
+                raise InputError(f"the intrinsics must be finite numbers, got fx {fx:g}, fy "
+                                 f"{fy:g}, cx {cx:g}, cy {cy:g} ({intrinsics.source})")
             if fx <= 0 or fy <= 0:
                 raise InputError("focal lengths must be > 0")
+        return intrinsics
+
+    def _resolve(self, width: int, height: int) -> Intrinsics:
+        if self.focal is not None:
+            fx, fy = self.focal
             cx = (width - 1) / 2 if self.centre[0] is None else self.centre[0]
             cy = (height - 1) / 2 if self.centre[1] is None else self.centre[1]
             return Intrinsics((fx, fy, cx, cy), self.source.format(fx=fx, fy=fy, cx=cx, cy=cy))
@@ -116,8 +125,12 @@ _Settings = _settings_type()
 
 
 def split_overrides(items: Sequence[str]) -> tuple[Config, RealImageConfig]:
-    """Settings by dotted name: `image.NAME=V` for `RealImageConfig`, the rest for `Config`."""
-    settings = override(_Settings(), items)
+    """Settings by dotted name: `image.NAME=V` for `RealImageConfig`, the rest for `Config`;
+    applied in order, a later item replacing an earlier one (the user's `--set` over the
+    preset's)."""
+    settings = _Settings()
+    for item in items:
+        settings = override(settings, [item])
     config = Config(**{f.name: getattr(settings, f.name) for f in dataclasses.fields(Config)})
     return config, settings.image
 
