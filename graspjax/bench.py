@@ -16,8 +16,8 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception import align_tool, detect_grasp
-from graspjax.perception.support import known_support, plane_height
-from graspjax.perception.target import best_candidate, follow_target, target_candidates
+from graspjax.perception.support import known_support
+from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.workspace import block_factors
 from graspjax.provenance import device_line, provenance
 
@@ -59,13 +59,11 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
         """A simulated view's depth-only target steps: the pixels above the calibrated table
         (`random_scene`'s camera, 0.5 m straight down), then the surface around the point of
         the nearest one, found again from that point (`target.follow_target`)."""
-        table = known_support(jnp.asarray(top_down_pose(0.5)[0], jnp.float32),
-                              jnp.array([0.0, 0.0, 0.5]), jnp.array([0.0, 0.0, 1.0]), 0.0)
-        height_ = plane_height(camera.unproject(camera.pixel_grid(), d), table.normal,
-                               table.distance)
-        candidate, _ = target_candidates(d, camera, height_, table.found,
-                                         min_height=config.perception.min_height,
-                                         tolerance=config.detect.surface_tolerance)
+        rotation, position = (jnp.asarray(x, jnp.float32) for x in top_down_pose(0.5))
+        table = known_support(rotation, position, jnp.array([0.0, 0.0, 1.0]), 0.0)
+        candidate, _, _ = standing_candidates(d, camera, table,
+                                              min_height=config.perception.min_height,
+                                              tolerance=config.detect.surface_tolerance)
         _, (u, v) = best_candidate(candidate, -d)
         point = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), d[v, u])
         return follow_target(d, camera, candidate, point, config.perception.surface_step,

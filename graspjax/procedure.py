@@ -43,9 +43,10 @@ instead, as graspjax did before it saw depth alone.
 
 Every attempt ends with ONE reason code (`Reason`), computed here with this
 precedence: a diverged simulation; else the physical outcome of an executed
-grasp; else no target point; else the alignment failure that ended the
-search (no plane, or its view unreachable); else a target not found again
-in the last view; else the detection failure of the last view searched.
+grasp; else no target point; else a target not found again in the last view
+taken (nothing to detect on, nothing to re-align around); else the alignment
+failure that ended the search (no plane, or its view unreachable); else the
+detection failure of the last view searched.
 
 Batch with `jax.vmap` at the edge (`batch/program.py`).
 """
@@ -72,8 +73,8 @@ from graspjax.perception import (
 )
 from graspjax.perception.baselines import grasp_method
 from graspjax.perception.cluster import nearest_pixel
-from graspjax.perception.support import known_support, plane_height
-from graspjax.perception.target import best_candidate, follow_target, target_candidates
+from graspjax.perception.support import known_support
+from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.workspace import box_workspace
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
@@ -326,7 +327,7 @@ def target_faces(scene: Scene, data, target) -> tuple[jax.Array, jax.Array]:
     """Outward unit normals (G * P, 3) of the target's faces in the world (state after
     kinematics), and which are real faces (G * P,) bool (not padding, not another piece's)."""
     normals, _ = world_planes(scene.solids, data.geom_xpos, data.geom_xmat)
-    real = (jnp.asarray(scene.piece_object) == target)[:, None] & (
+    real = ((jnp.asarray(scene.piece_object) == target) & (target >= 0))[:, None] & (
         jnp.linalg.norm(scene.solids.planes[..., :3], axis=-1) > 0.5)
     return normals.reshape(-1, 3), real.reshape(-1)
 
@@ -360,15 +361,13 @@ def _candidates(depth: jax.Array, rotation, position, in_bin, camera: Camera, co
     calibrated robot knows: the camera's pose (rotation (3, 3), position (3,)), the table
     (z = 0) and the workspace (the bin's interior when `in_bin`, () bool; else the table)."""
     table = known_support(rotation, position, jnp.array([0.0, 0.0, 1.0]), 0.0)
-    points = camera.unproject(camera.pixel_grid(), depth)
-    height = plane_height(points, table.normal, table.distance)
     inner = config.layout.bin_size / 2 - config.perception.wall_margin
     half = jnp.where(in_bin, inner, jnp.inf)
     workspace = box_workspace(depth, camera, rotation, position,
                               jnp.stack([-half, -half, -jnp.inf]), jnp.stack([half, half, jnp.inf]))
-    candidate, _ = target_candidates(jnp.where(workspace, depth, 0.0), camera, height,
-                                     jnp.array(True), min_height=config.perception.min_height,
-                                     tolerance=config.detect.surface_tolerance)
+    candidate, _, _ = standing_candidates(jnp.where(workspace, depth, 0.0), camera, table,
+                                          min_height=config.perception.min_height,
+                                          tolerance=config.detect.surface_tolerance)
     return candidate
 
 
@@ -543,7 +542,7 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
         v, searched = per_view
         rotation, position = overview_pose(config)
         views = Views(depth=jnp.concatenate([depth[None], v.depth]),
-                      target_mask=jnp.concatenate([(objects == target)[None],
+                      target_mask=jnp.concatenate([((objects == target) & (target >= 0))[None],
                                                    v.surface == Surface.TARGET]),
                       seed_mask=jnp.concatenate([candidate[None], v.mask]),
                       rotation=jnp.concatenate([rotation[None], _view_poses(centre_rot, v.next_rotation)]),
@@ -679,10 +678,10 @@ def _record(target, aimed, pose: GraspPose, done: Execution, finite, blocked, tu
     """The attempt's record, with its one reason (precedence: module docstring)."""
     stopped_by_alignment = blocked & (align_reason >= 0) & (align_reason != AlignReason.FOUND)
     reason = jnp.select(
-        [~finite | (done.outcome == Outcome.DIVERGED), pose.valid, ~aimed, stopped_by_alignment,
-         blocked, lost],
-        [Reason.DIVERGED, done.outcome, Reason.NO_TARGET, ALIGN_BASE + align_reason,
-         Reason.VIEW_UNREACHABLE, Reason.TARGET_LOST],
+        [~finite | (done.outcome == Outcome.DIVERGED), pose.valid, ~aimed, lost,
+         stopped_by_alignment, blocked],
+        [Reason.DIVERGED, done.outcome, Reason.NO_TARGET, Reason.TARGET_LOST,
+         ALIGN_BASE + align_reason, Reason.VIEW_UNREACHABLE],
         DETECT_BASE + detect_reason).astype(jnp.int32)
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
     precision, recall = first

@@ -2,7 +2,8 @@
 
 - `summary.csv`: one row per cell (setup, object, and every configuration
   column that varies in the file): n, successes, rate, 95% Wilson interval,
-  the paper's rate, and counts per outcome.
+  the paper's rate, and counts per outcome, counting one outcome per object
+  and trial or round (`object_outcomes`), as the paper's tables do.
 - `table1.md/.tex`, `table2.md/.tex`: the paper's Table 1 (a-f, Setups 1-3)
   and Table 2 (g-l, Setup 1) layouts, ours beside the paper's.
 - `success_by_object.png`: our rates with intervals beside the paper's bars;
@@ -84,7 +85,9 @@ def sweep_axes(frame: pd.DataFrame) -> list[list[str]]:
 def object_outcomes(frame: pd.DataFrame) -> pd.DataFrame:
     """One row per object and trial or round, as the paper's tables count: an object tried
     more than once in a round (a failed object left in the scene, or clutter removal) is a
-    success when any attempt credited to it succeeded (that row), else its first attempt."""
+    success when any attempt credited to it succeeded (that row), else its first attempt. An
+    attempt credited to no object (its target point lay on none) counts for none."""
+    frame = frame[frame["object"].fillna("") != ""]
     keys = [c for c in ("point", *varying_config(frame)) if c in frame.columns]
     keys += ["setup", "trial", "object"]
     attempt = frame["attempt"] if "attempt" in frame.columns else pd.Series(0, frame.index)
@@ -391,8 +394,8 @@ def clutter_summary(rounds: pd.DataFrame | None) -> pd.DataFrame | None:
 
 def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, bytes]:
     """Every report file (name -> bytes) from the attempt rows (and the round rows)."""
-    frame = object_outcomes(frame)
-    summary = summarize(frame)
+    objects = object_outcomes(frame)  # the tables count objects per round, as the paper's
+    summary = summarize(objects)
     files = {"summary.csv": summary.to_csv(index=False).encode()}
     if not varying_config(frame):
         for table in (1, 2):
@@ -403,8 +406,8 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, 
                 files[f"table{table}.md"] = text.encode()
                 files[f"table{table}.tex"] = table_latex(summary, table).encode()
         files["success_by_object.png"] = success_figure(summary)
-    files["outcomes.png"] = outcomes_figure(frame)
-    files.update(sweep_outputs(frame))
+    files["outcomes.png"] = outcomes_figure(frame)  # every attempt
+    files.update(sweep_outputs(objects))
     if varying_config(frame):
         order = point_order(frame)
         files["comparison.md"] = comparison_markdown(summary, order).encode()

@@ -130,8 +130,9 @@ class Worlds:
         model = physics_model(scene, config)
         template = mjx.make_data(scene.mj_model)
 
-        def one(data, grasp, target, segments, execute):
-            return play(scene, model, data, grasp, target, segments, execute, config)
+        def one(data, grasp, target, segments, execute, take_out):
+            return play(scene, model, data, grasp, target, segments, execute, config,
+                        take_out=take_out)
 
         self._reset = jax.jit(jax.vmap(lambda p, q, a, b: reset(scene, template, p, q, a, b)))
         self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))
@@ -145,8 +146,9 @@ class Worlds:
                               np.zeros((SIM_BATCH, n, 4), np.float32),
                               np.zeros((SIM_BATCH, n), bool))
         steps = jnp.zeros(SIM_BATCH, jnp.int32)
-        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None), axis_name=WORLDS)).lower(
-            data, self.no_grasp(), steps, steps, jnp.array(False)).compile()
+        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None, 0), axis_name=WORLDS)).lower(
+            data, self.no_grasp(), steps, steps, jnp.array(False), jnp.zeros(SIM_BATCH, bool)
+        ).compile()
 
     def reset(self, pos, quat, active, bin_in_place=False):
         """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n); the bin in
@@ -157,15 +159,18 @@ class Worlds:
     def settle(self, data, seconds: float):
         segments = self.scene.sim.segments(seconds)
         return self._play(data, self.no_grasp(), jnp.zeros(SIM_BATCH, jnp.int32),
-                          jnp.full(SIM_BATCH, segments, jnp.int32), jnp.array(False))[0]
+                          jnp.full(SIM_BATCH, segments, jnp.int32), jnp.array(False),
+                          jnp.zeros(SIM_BATCH, bool))[0]
 
-    def execute(self, data, grasp, target):
-        """Approach, close, lift, hold, judge: (data, Execution) per world."""
+    def execute(self, data, grasp, target, take_out=None):
+        """Approach, close, lift, hold, judge: (data, Execution) per world; `take_out` (B,)
+        bool: the protocol takes a target that was not lifted out afterwards."""
         grasp = type(grasp)(*(jnp.asarray(x, jnp.float32) for x in (grasp.tcp, grasp.approach,
                                                                     grasp.closing)),
                             jnp.asarray(grasp.valid, bool))  # the compiled program's types
+        take_out = jnp.zeros(SIM_BATCH, bool) if take_out is None else jnp.asarray(take_out, bool)
         return self._play(data, grasp, jnp.asarray(target, jnp.int32),
-                          jnp.zeros(SIM_BATCH, jnp.int32), jnp.array(True))
+                          jnp.zeros(SIM_BATCH, jnp.int32), jnp.array(True), take_out)
 
     def kinematics(self, data):
         return self._kinematics(data)

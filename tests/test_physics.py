@@ -12,6 +12,7 @@ from conftest import SIM_BATCH
 from graspjax.config import LayoutConfig, SimConfig
 from graspjax.geometry import quat_to_matrix
 from graspjax.sim import GraspPose, Outcome, layout
+from graspjax.sim.world import parked
 
 CFG = LayoutConfig()
 SIM = SimConfig()
@@ -104,6 +105,31 @@ def _grasps(rows):
                      jnp.array([r[2] for r in rows]))
 
 
+def test_the_protocol_takes_a_failed_target_out(basic_sim):
+    """`take_out` (the paper's protocol, `procedure.remove_failed`): after an attempt that did
+    not lift its target, executed or not, the target leaves the scene, as does what was
+    lifted; without `take_out` a failed target stays."""
+    cube, block = 0, 5
+    worlds = [{cube: (0.0, 0.0, 0.0)},  # 0: lifted
+              {cube: (0.0, 0.0, 0.0)},  # 1: 20 cm beside the cube, in the air: MISSED
+              {cube: (0.0, 0.0, 0.0), block: (0.1, 0.0, 0.0)},  # 2: lifts the block instead
+              {cube: (0.0, 0.0, 0.0)},  # 3: no grasp (not executed)
+              {cube: (0.0, 0.0, 0.0)},  # 4: as 1, without take_out
+              {cube: (0.0, 0.0, 0.0)}]  # 5: as 3, without take_out
+    data = _place(basic_sim, worlds)
+    rows = [((0, 0, 0.03), (1, 0, 0), True), ((0.2, 0.0, 0.03), (1, 0, 0), True),
+            ((0.1, 0, 0.01), (0, 1, 0), True), ((0, 0, 0.03), (1, 0, 0), False),
+            ((0.2, 0.0, 0.03), (1, 0, 0), True), ((0, 0, 0.03), (1, 0, 0), False)]
+    take_out = [True, True, True, True, False, False]
+    after, attempt = basic_sim.execute(data, _grasps(rows), jnp.full(SIM_BATCH, cube), take_out)
+    assert [Outcome(o) for o in attempt.outcome] == [
+        Outcome.SUCCESS, Outcome.MISSED, Outcome.WRONG_OBJECT, Outcome.NOT_EXECUTED,
+        Outcome.MISSED, Outcome.NOT_EXECUTED]
+    gone = np.asarray(jax.vmap(lambda d: parked(basic_sim.scene, d))(after))  # (B, n)
+    assert gone[:, cube].tolist() == [True, True, True, True, False, False]
+    assert gone[2, block]  # lifted instead of the cube, it left too
+
+
 def test_grasps_in_the_basic_scene(basic_sim):
     """Cube (a, 5 cm) and block (f, 7 x 4 x 3 cm) grasped top-down, 2 cm below their tops."""
     cube, block = 0, 5
@@ -178,9 +204,11 @@ def test_a_world_steps_the_same_whatever_its_batch(industrial_sim):
     grasps = _grasps(rows)
     segments = jnp.full(SIM_BATCH, 3, jnp.int32)
     target = jnp.arange(SIM_BATCH) % industrial_sim.scene.num_objects
+    keep = jnp.zeros(SIM_BATCH, bool)  # no object taken out
     after_alone, _ = industrial_sim._play(alone, _grasps([rows[0]] * SIM_BATCH), target,
-                                          segments, jnp.array(True))
-    after_beside, attempt = industrial_sim._play(beside, grasps, target, segments, jnp.array(True))
+                                          segments, jnp.array(True), keep)
+    after_beside, attempt = industrial_sim._play(beside, grasps, target, segments, jnp.array(True),
+                                                 keep)
     for state, other in ((alone, beside), (after_alone, after_beside)):
         for field in ("qpos", "qvel", "qacc"):
             np.testing.assert_array_equal(getattr(state, field)[0], getattr(other, field)[0])

@@ -244,19 +244,26 @@ def test_known_support_is_the_table_seen_from_a_tilted_camera():
 
 
 def test_box_workspace_keeps_the_points_inside_the_box():
-    """Straight down from 0.5 m: the pixels whose point has |x| <= 5 cm are the columns an
-    analytic pinhole puts there; a side open to infinity leaves that axis free."""
+    """A camera 25 degrees off vertical over a bare table, an off-centre box: the pixels inside
+    are those whose point, back-projected and moved to the world in float64 here, lies in it
+    (pixels within 0.1 mm of a face left out of the comparison)."""
     from graspjax.perception.workspace import box_workspace
 
-    camera = Camera.kinect()
-    rotation, eye = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]]), np.array([0.0, 0.0, 0.5])
-    depth = np.full((camera.height, camera.width), 0.5, np.float32)
-    depth[0, 0] = 0.0  # no depth: never inside
-    inside = np.asarray(box_workspace(jnp.asarray(depth), camera, jnp.asarray(rotation),
-                                      jnp.asarray(eye), jnp.array([-0.05, -jnp.inf, -jnp.inf]),
-                                      jnp.array([0.05, jnp.inf, jnp.inf])))
-    u = np.arange(camera.width)
-    x = (u - camera.cx) * 0.5 / camera.fx
-    expected = np.broadcast_to(np.abs(x) <= 0.05, depth.shape).copy()
-    expected[0, 0] = False
-    np.testing.assert_array_equal(inside, expected)
+    rotation, eye = tilted_pose(0.6, 25.0)
+    eye = eye + np.array([0.02, -0.03, 0.0])
+    depth = render_depth(WORK, rotation, eye, [])
+    depth[0, :5] = 0.0  # no depth: never inside
+    lower, upper = np.array([-0.03, -0.10, -1.0]), np.array([0.08, 0.02, 1.0])
+    inside = np.asarray(box_workspace(jnp.asarray(depth), WORK, jnp.asarray(rotation, jnp.float32),
+                                      jnp.asarray(eye, jnp.float32), jnp.asarray(lower),
+                                      jnp.asarray(upper)))
+    v, u = np.mgrid[:WORK.height, :WORK.width]
+    z = depth.astype(np.float64)
+    camera_points = np.stack([(u - WORK.cx) * z / WORK.fx, (v - WORK.cy) * z / WORK.fy, z], -1)
+    world = camera_points @ rotation.T + eye
+    expected = (depth > 0) & np.all((world >= lower) & (world <= upper), -1)
+    near_face = np.any(np.abs(world[..., :2, None] - np.stack([lower[:2], upper[:2]], -1)) < 1e-4,
+                       axis=(-1, -2))
+    assert 1000 < expected.sum() < expected.size // 2  # a part of the view, not all of it
+    np.testing.assert_array_equal(inside[~near_face], expected[~near_face])
+    assert not inside[0, :5].any()

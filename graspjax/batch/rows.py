@@ -185,8 +185,9 @@ def _world_columns(worlds, index, objects=None) -> pd.DataFrame:
 
 
 def _unattempted(letters, worlds, records: list[Record]) -> pd.DataFrame:
-    """Objects of a Setup 2/3 round that never got an attempt credited to them: lifted with
-    another's, left when the round's attempts ran out, or never a target point."""
+    """Objects of a world that never got an attempt credited to them: lifted with another's,
+    left when the round's attempts ran out, or never a target point (outside the workspace,
+    lower than `perception.min_height`, or the round stopped: no attempt found a target)."""
     n_real = len(worlds)
     target = np.stack([np.asarray(r.target)[:n_real] for r in records], 1)  # (B, A)
     aimed = np.stack([np.asarray(r.aimed)[:n_real] for r in records], 1)
@@ -199,7 +200,7 @@ def _unattempted(letters, worlds, records: list[Record]) -> pd.DataFrame:
                 index.append(w)
                 objects.append(c)
                 why.append("removed with another object" if i in lifted[w] else
-                           "attempts used up" if aimed[w].all() else "not visible")
+                           "attempts used up" if aimed[w].all() else "never a target point")
     frame = _world_columns(worlds, index, objects)
     frame["attempt"] = -1
     frame["success"] = 0

@@ -51,8 +51,8 @@ from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.grasp import Grasp, detect_grasp
 from graspjax.perception.jaws import JawCheck, check_jaws
 from graspjax.perception.reasons import GraspReason, SupportReason, furthest_reason
-from graspjax.perception.support import SupportPlane, plane_height, support_plane
-from graspjax.perception.target import best_candidate, follow_target, target_candidates
+from graspjax.perception.support import SupportPlane, support_plane
+from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
 from graspjax.perception.workspace import working_views
 from graspjax.tree import pytree_dataclass
@@ -136,17 +136,20 @@ def _window(fine: jax.Array, fine_camera: Camera, view: Camera, rotation: jax.Ar
     return warp_depth(fine, fine_camera, camera, rotation), camera
 
 
+def _in_view(support: SupportPlane, rotation: jax.Array) -> SupportPlane:
+    """The support plane in the frame of a view turned by `rotation` (view-to-camera)."""
+    return dataclasses.replace(support, normal=rotation.T @ support.normal)
+
+
 def _followed(window: jax.Array, camera: Camera, point: jax.Array, support: SupportPlane,
               rotation: jax.Array, config: Config) -> jax.Array:
     """The target's depth-connected surface (S, S) bool in its detection window, found from its
     view-frame `point` (3,) as the simulated robot finds it in each new view (`follow_target`):
     the pixels where the detector and the alignment take z_min."""
     perception = config.perception
-    points = camera.unproject(camera.pixel_grid(), window)
-    height = plane_height(points, rotation.T @ support.normal, support.distance)
-    candidate, _ = target_candidates(window, camera, height, support.found,
-                                     min_height=perception.min_height,
-                                     tolerance=config.detect.surface_tolerance)
+    candidate, _, _ = standing_candidates(window, camera, _in_view(support, rotation),
+                                          min_height=perception.min_height,
+                                          tolerance=config.detect.surface_tolerance)
     surface, _, _ = follow_target(window, camera, candidate, point, perception.surface_step,
                                   perception.follow_distance)
     return surface
@@ -188,10 +191,8 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
     view = view_camera(work_camera, rotation)
     view_depth = jnp.where(virtual, warp_depth(work, work_camera, view, rotation), work)
     points = view.unproject(view.pixel_grid(), view_depth)
-    height = jnp.where(support.found,
-                       plane_height(points, rotation.T @ support.normal, support.distance), jnp.nan)
-    candidate, reason = target_candidates(
-        view_depth, view, height, support.found, window=image.target_window_px,
+    candidate, height, reason = standing_candidates(
+        view_depth, view, _in_view(support, rotation), window=image.target_window_px,
         min_pixels=image.min_target_pixels, max_slope_deg=image.max_target_slope_deg,
         min_height=config.perception.min_height, tolerance=tolerance)
     score = jnp.where(support.found, height, -view_depth)  # highest above it; else z_min

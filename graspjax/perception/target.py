@@ -37,6 +37,7 @@ import numpy as np
 from graspjax.camera import Camera
 from graspjax.perception.cluster import connected_surface, valid_mask
 from graspjax.perception.reasons import TargetReason
+from graspjax.perception.support import SupportPlane, plane_height
 
 
 def similar_neighbours(depth: jax.Array, window: int, tolerance: float) -> jax.Array:
@@ -109,6 +110,23 @@ def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_p
                         [TargetReason.EMPTY_WORKSPACE, TargetReason.NO_OBJECT,
                          TargetReason.NO_SURFACE], TargetReason.FOUND).astype(jnp.int32)
     return candidate, reason
+
+
+def standing_candidates(depth: jax.Array, camera: Camera, support: SupportPlane, *, min_height,
+                        tolerance: float, window: int = 1, min_pixels: int = 1,
+                        max_slope_deg: float = 90.0) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """`target_candidates` of a view whose support plane is known (calibrated) or fitted:
+    (candidates (H, W) bool, height above the support (H, W) (m; nan without one),
+    TargetReason ()). depth: metric depth (H, W) of the view seen by `camera`; support: the
+    plane in that view's camera frame."""
+    points = camera.unproject(camera.pixel_grid(), depth)
+    height = jnp.where(support.found, plane_height(points, support.normal, support.distance),
+                       jnp.nan)
+    candidate, reason = target_candidates(depth, camera, height, support.found,
+                                          min_height=min_height, tolerance=tolerance,
+                                          window=window, min_pixels=min_pixels,
+                                          max_slope_deg=max_slope_deg)
+    return candidate, height, reason
 
 
 def best_candidate(candidate: jax.Array, score: jax.Array, tie: float = 5e-4
