@@ -147,9 +147,8 @@ def writing(folder: Path, shared: bool = False):
         handle.flush()
         try:
             yield
-        finally:
-            handle.seek(0)
-            handle.truncate()
+        finally:  # removed while still held, so no run's folder keeps it
+            (folder / LOCK).unlink(missing_ok=True)
 
 
 RUN_KEYS = ("seed", "paired", "jobs", "overrides", "grid")  # what determines a run's rows
