@@ -355,6 +355,14 @@ def overview_pose(config: Config):
     return look_down(jnp.array([0.0, 0.0, 1.0]) * config.procedure.camera_height)
 
 
+def with_oracle(config: Config, seen, labelled):
+    """What the method works on: `seen`, found from depth alone; only the ablation
+    `perception.oracle` (never in a preset: tests/test_config.py) puts `labelled`, taken from
+    the renderer's labels, in its place. The one place where labels can reach a decision
+    (pytrees of the same structure)."""
+    return where_tree(config.perception.oracle, labelled, seen)
+
+
 def _candidates(depth: jax.Array, rotation, position, in_bin, camera: Camera, config: Config
                 ) -> jax.Array:
     """Pixels (H, W) bool of a view that may be a target, from its depth (H, W) and what a
@@ -385,13 +393,11 @@ def select_target(scene: Scene, data, eligible: jax.Array, attempting, in_bin, c
     _, pixel = best_candidate(candidate, -depth)  # z_min
     labelled = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
     oracle_pixel, _ = nearest_pixel(depth, labelled)
-    oracle = config.perception.oracle
-    u, v = jnp.where(oracle, oracle_pixel, pixel)
-    aimed = jnp.where(oracle, jnp.any(labelled), jnp.any(candidate)) & attempting
+    (u, v), seen = with_oracle(config, (pixel, candidate), (oracle_pixel, labelled))
+    aimed = jnp.any(seen) & attempting
     point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth[v, u])
-    credited = jnp.where(aimed, objects[v, u], -1).astype(jnp.int32)
-    return (credited, aimed, rotation @ point_cam + position, depth, objects,
-            jnp.where(oracle, labelled, candidate))
+    credited = jnp.where(aimed, objects[v, u], -1).astype(jnp.int32)  # ground truth: the credit
+    return credited, aimed, rotation @ point_cam + position, depth, objects, seen
 
 
 _TILT_STREAM = 7  # fold_in tag of the centred view's tilt azimuth (leaves every other draw as it was)
@@ -425,13 +431,13 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.A
     score re-alignment planes around it. `target` () (the credited object) only judges."""
     k_render, k_align = view_keys(key)
     depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
-    surface = _surfaces(obj, table, depth, target)
+    surface = _surfaces(obj, table, depth, target)  # ground truth: it judges below
     on_target = surface == Surface.TARGET
     candidate = _candidates(depth, rotation, position, in_bin, camera, config)
     followed, _, _ = follow_target(depth, camera, candidate, rotation.T @ (point - position),
                                    config.perception.surface_step,
                                    config.perception.follow_distance)
-    mask = jnp.where(config.perception.oracle, on_target, followed)
+    mask = with_oracle(config, followed, on_target)
     grasp = grasp_method(config.method)(depth, camera, config, mask)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
@@ -595,12 +601,11 @@ def eligible_objects(state: RoundState, spec: WorldSpec) -> jax.Array:
 
 def round_goes_on(state: RoundState, spec: WorldSpec) -> jax.Array:
     """The protocol lets the next attempt happen () bool: an object is still in the scene (and,
-    in a continued round, the round is not stuck). The experimenter sees the scene; the method
-    is told nothing of it."""
-    present = jnp.any(spec.members & ~state.removed)
+    in a continued round, the round is not stuck: `eligible_objects`). The experimenter sees
+    the scene; the method is told nothing of it."""
     if spec.config.procedure.round_attempts == 0:
-        return present
-    return present & (state.failures < spec.config.procedure.stuck_after)
+        return jnp.any(spec.members & ~state.removed)
+    return jnp.any(eligible_objects(state, spec))
 
 
 def attempt_keys(state: RoundState, k) -> tuple[jax.Array, jax.Array]:
