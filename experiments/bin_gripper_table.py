@@ -1,7 +1,7 @@
 """Setup 3 over bin size x gripper, from the two sweeps' files alone (experiments/bin_gripper_gpu.sh).
 
-    python3 experiments/bin_gripper_table.py results/studies/bin_gripper_small \
-        results/studies/bin_gripper_franka
+    python3 experiments/bin_gripper_table.py results/target_labels/studies/bin_gripper_small \
+        results/target_labels/studies/bin_gripper_franka
 
 Per grid point: success with its Wilson 95 % interval, the share of attempts that end in
 NO_ROOM and TOO_WIDE, the rescued share, and the layouts' density from rounds.csv (objects

@@ -18,6 +18,9 @@
 #                     (experiments/studies.py window threshold)
 #   improve-PRESET    a depth-only improvement against the default, Setups 2 and 3, 1,000
 #                     rounds, paired: IMPROVE=KEY=V1,V2,... names the grid (results/depth_only/)
+# Committed as: tables-* -> results/PRESET_gpu_1000; ablation, single, sloped, improve ->
+# results/depth_only/; methods-PRESET (TRIALS=300) -> results/methods/PRESET_gpu_300;
+# studies, planes-* -> results/studies/ (each folder's README says which commit made it).
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-300}
