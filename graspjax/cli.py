@@ -387,13 +387,16 @@ def cmd_report(args) -> int:
     if args.debug < 0:
         raise UsageError(f"--debug must be >= 0, got {args.debug}")
     try:
-        files = write_report(folder, debug=args.debug)
+        files, state = write_report(folder, debug=args.debug)
     except (FileNotFoundError, ValueError) as exc:
         raise InputError(str(exc).splitlines()[0]) from None
     except KeyError as exc:
         raise InputError(f"{folder}: attempts.csv lacks the column {exc} the report needs") from None
     except OSError as exc:
         raise InputError(f"cannot write the report into {folder}: {exc.strerror or exc}") from None
+    if state:
+        print(f"graspjax: note: {folder} holds a run not yet finished ({state}); its tables "
+              "say so in their titles", file=sys.stderr)
     print("wrote " + ", ".join(str(p.relative_to(folder)) for p in files) + f" to {folder}")
     return 0
 
@@ -636,6 +639,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("graspjax: interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:  # a write failed: a full disk, a read-only folder, a file size limit
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"graspjax: error: {exc.strerror or exc}{where} (a run keeps every chunk it "
+              "finished: --resume continues it)", file=sys.stderr)
+        return 1
 
 
 def entry() -> None:

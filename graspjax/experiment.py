@@ -17,6 +17,7 @@ import json
 import os
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -125,8 +126,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     meta = {"run_id": run_id(meta), **meta}
     columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
     ours = [c for c in planned if c.index % parts == part]
-    folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1,
-                       append=parts == 1 and (processes == 1 or experiment.save_views != "none"))
+    folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1)
     work: dict[int, float] = {}  # per group, the device work of its chunks still to play
     for c in ours:
         if c.index not in folder.done:
@@ -172,7 +172,12 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
             with kept_to(cores_of(0, len(shares)) if helpers and warm else None):
                 _play(groups, configs, batch, skip, folder, columns, progress, log,
                       saver=saver, keep_views=experiment.save_views != "none",
-                      after_chunk=lambda: [helper.check() for helper in helpers])
+                      after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
+            while any(helper.running() for helper in helpers):  # stream the helpers' rows
+                folder.catch_up()
+                for helper in helpers:
+                    helper.check()
+                time.sleep(0.5)
             for helper in helpers:
                 helper.wait()
         finally:
@@ -183,7 +188,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
     from graspjax.report import write_report
 
-    files += write_report(out)
+    files += write_report(out)[0]
     success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
     return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()))
 

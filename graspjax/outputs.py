@@ -8,8 +8,10 @@ While a run is going:
   `parts/attempts-NNNNN.parquet`: one set per finished chunk, each written
   atomically; a chunk is done when its attempts part exists;
 - `attempts.csv`: the rows of each finished chunk appended at once (in the
-  order chunks finish, before its parts), to watch a long run with any tool
-  (not while several processes write the folder: it then appears at the end).
+  order chunks finish), to watch a long run with any tool. Only the run's own
+  process appends: the chunks of its helper processes (`batch.players`) are
+  appended as it finds their parts (`RunFolder.catch_up`); the parts of a run
+  split over hosts (`--part I/N`) write it only at the end.
 
 When every chunk is done, `attempts.csv`, `attempts.parquet` and
 `rounds.csv` (one row per Setup 2/3 round: how dense its layout was) are
@@ -184,16 +186,16 @@ class RunFolder:
     so several processes may share one folder, each running its own chunks
     (`--part I/N` on several hosts, `shared`: whichever finds every chunk done
     assembles the results and keeps the parts for the others; or helper
-    processes of one run, `batch.players`: the run assembles them). Processes
-    that share a folder do not append to `attempts.csv` (`append`).
+    processes of one run, `batch.players`: the run assembles them). One process at most
+    appends to `attempts.csv` (`append`): the run's own, for its chunks and its helpers'.
     """
 
     def __init__(self, folder: str | Path, meta: dict, chunks: int, resume: bool,
-                 shared: bool = False, append: bool | None = None):
+                 shared: bool = False):
         self.folder = Path(folder)
         self.parts = self.folder / "parts"
         self.chunks, self.meta, self.shared = chunks, meta, shared
-        self.append = not shared if append is None else append
+        self.append = not shared
         config = self.folder / "config.json"
         if config.is_file() and (resume or shared):
             old = json.loads(config.read_text())
@@ -203,13 +205,12 @@ class RunFolder:
             remove_own_files(self.folder)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
+        self.appended: set[int] = set()  # chunks whose rows attempts.csv holds
         if not self.finished:
             self.parts.mkdir(exist_ok=True)
             write_atomic(config, (json.dumps(meta, indent=2, default=str) + "\n").encode())
             if self.append:
                 self._rewrite_csv()
-            elif not shared:  # written when the run ends; an earlier run's appends would mislead
-                (self.folder / "attempts.csv").unlink(missing_ok=True)
 
     @property
     def done(self) -> set[int]:
@@ -223,9 +224,24 @@ class RunFolder:
 
     def _rewrite_csv(self) -> None:
         """attempts.csv = the rows of the chunks done (drops an append whose chunk is not done)."""
+        done = self.done
         frames = self._part_frames()
         text = _csv(pd.concat(frames, ignore_index=True), True) if frames else b""
         write_atomic(self.folder / "attempts.csv", text)
+        self.appended = done
+
+    def _append(self, chunk: int, frame: pd.DataFrame) -> None:
+        csv = self.folder / "attempts.csv"
+        with open(csv, "ab") as handle:
+            handle.write(_csv(frame, header=csv.stat().st_size == 0))
+        self.appended.add(chunk)
+
+    def catch_up(self) -> None:
+        """Append the rows of chunks done by other processes (the run's helpers) that
+        attempts.csv does not hold yet."""
+        if self.append and not self.finished:
+            for chunk in sorted(self.done - self.appended):
+                self._append(chunk, pd.read_parquet(self.parts / f"attempts-{chunk:05d}.parquet"))
 
     def add(self, chunk: int, frame: pd.DataFrame, layouts: pd.DataFrame, timings: dict) -> None:
         """Keep one finished chunk: the CSV append, its timings and round rows, then its attempt
@@ -236,9 +252,7 @@ class RunFolder:
         rounds = io.BytesIO()
         layouts.to_parquet(rounds, index=False)
         if self.append:
-            csv = self.folder / "attempts.csv"
-            with open(csv, "ab") as handle:
-                handle.write(_csv(frame, header=csv.stat().st_size == 0))
+            self._append(chunk, frame)
         write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())

@@ -39,7 +39,11 @@ def paper_tables() -> pd.DataFrame:
 
 
 def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
-    """Attempt rows from CSV text, checking the columns the report needs."""
+    """Attempt rows from CSV text, checking the columns the report needs and that every row is
+    complete (a file cut mid-row is refused: its last row would count as a failure)."""
+    if text and not text.endswith("\n"):
+        raise ValueError(f"{name} ends in an incomplete row (cut while it was written?); "
+                         "--resume the run to rewrite it")
     frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], low_memory=False,
                         dtype={"object": str, "lifted_object": str})
     missing = [c for c in REQUIRED if c not in frame.columns]
@@ -47,6 +51,9 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
         raise ValueError(f"{name} lacks columns: {', '.join(missing)}")
     if frame.empty:
         raise ValueError(f"{name} has no attempts")
+    if "run_id" in frame.columns and frame["run_id"].nunique() > 1:
+        ids = sorted(frame["run_id"].astype(str).unique())
+        raise ValueError(f"{name} mixes the rows of {len(ids)} runs (run_id {', '.join(ids[:3])})")
     return frame
 
 
@@ -62,6 +69,47 @@ def load_attempts(folder: str | Path) -> pd.DataFrame:
         return parse_attempts(text, str(path.with_suffix(".csv.gz")))
     raise FileNotFoundError(f"no attempts.csv in {folder}")
 
+
+def planned_worlds(meta: dict) -> int:
+    """How many worlds a run plays, from its `config.json`: per grid point and job, each object's
+    trials in Setup 1 and one round per trial in Setups 2 and 3 (`batch.plan.plan`)."""
+    per_point = sum(len(job["objects"]) * job["trials"] if setup == 1 else job["trials"]
+                    for job in meta["jobs"] for setup in job["setups"])
+    return int(meta.get("points", 1)) * per_point
+
+
+def played_worlds(frame: pd.DataFrame) -> int:
+    """How many worlds the rows hold: (point, setup, object, trial) in Setup 1, (point, setup,
+    trial) in Setups 2 and 3."""
+    point = frame["point"] if "point" in frame.columns else pd.Series(0, frame.index)
+    single = frame["setup"] == 1
+    object_of = frame["object"].fillna("").where(single, "")
+    return len(pd.DataFrame({"p": point, "s": frame["setup"], "o": object_of,
+                             "t": frame["trial"]}).drop_duplicates())
+
+
+def run_state(folder: str | Path, frame: pd.DataFrame) -> str:
+    """"" for a finished run whose rows are all there (or rows without a run's `config.json`),
+    "unfinished: n of N worlds" for a run still going or killed; a ValueError when the rows
+    are not the folder's run's, or a finished run's file lacks worlds (cut)."""
+    import json
+
+    try:
+        meta = json.loads((Path(folder) / "config.json").read_text())
+        planned = planned_worlds(meta)
+    except (OSError, ValueError, KeyError, TypeError):
+        return ""  # rows from elsewhere: nothing to check them against
+    ids = set(frame["run_id"].astype(str)) if "run_id" in frame.columns else set()
+    if meta.get("run_id") and ids and ids != {str(meta["run_id"])}:
+        raise ValueError(f"{folder}: attempts.csv holds rows of run {', '.join(sorted(ids))}, "
+                         f"config.json describes run {meta['run_id']}")
+    played = played_worlds(frame)
+    if meta.get("finished"):
+        if played < planned:
+            raise ValueError(f"{folder}: attempts.csv holds {played} of the run's {planned} "
+                             "worlds though the run finished (the file was cut)")
+        return ""
+    return f"unfinished: {played} of {planned} worlds"
 
 def varying_config(frame: pd.DataFrame) -> list[str]:
     """Configuration columns (`cfg.*`) whose value changes within the file: the sweep keys."""
@@ -172,11 +220,11 @@ def markdown(frame: pd.DataFrame, index: bool = True) -> str:
     return "\n".join("| " + " | ".join(r) + " |" for r in [header, ["---"] * len(header), *rows])
 
 
-def table_markdown(summary: pd.DataFrame, table: int) -> str:
+def table_markdown(summary: pd.DataFrame, table: int, state: str = "") -> str:
     objects = TABLE_OBJECTS[table]
     title = {1: "Table 1: grasp success in Setups 1-3, objects a-f",
              2: "Table 2: grasp success in Setup 1, objects g-l"}[table]
-    lines = [f"# {title}", "",
+    lines = [f"# {title}" + (f" ({state})" if state else ""), "",
              "Ours: success rate with its 95% Wilson interval; paper: the published rate "
              "(10 trials per cell). `all` pools the row's attempts (paper: mean of the row). "
              "Rescued: the share of attempts that succeeded with a grasp found only after a "
@@ -191,12 +239,13 @@ def table_markdown(summary: pd.DataFrame, table: int) -> str:
     return "\n".join(lines + ns) + "\n"
 
 
-def table_latex(summary: pd.DataFrame, table: int) -> str:
+def table_latex(summary: pd.DataFrame, table: int, state: str = "") -> str:
     objects = TABLE_OBJECTS[table]
     caption = {1: "Grasp success in Setups 1--3 for objects a--f (ours with 95\\% Wilson "
                   "intervals beside the paper's).",
                2: "Grasp success in Setup 1 for objects g--l (ours with 95\\% Wilson "
                   "intervals beside the paper's)."}[table]
+    caption += f" ({state})" if state else ""
     lines = ["\\begin{table}[t]", "\\centering", f"\\caption{{{caption}}}",
              f"\\label{{tab:graspjax-table{table}}}",
              "\\begin{tabular}{l" + "c" * (len(objects) + 1) + "}", "\\toprule",
@@ -392,25 +441,27 @@ def clutter_summary(rounds: pd.DataFrame | None) -> pd.DataFrame | None:
     return pd.DataFrame(out)
 
 
-def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None) -> dict[str, bytes]:
-    """Every report file (name -> bytes) from the attempt rows (and the round rows)."""
+def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
+          state: str = "") -> dict[str, bytes]:
+    """Every report file (name -> bytes) from the attempt rows (and the round rows); `state`
+    ("unfinished: n of N worlds", `run_state`) goes into every table's title."""
     objects = object_outcomes(frame)  # the tables count objects per round, as the paper's
     summary = summarize(objects)
     files = {"summary.csv": summary.to_csv(index=False).encode()}
     if not varying_config(frame):
         for table in (1, 2):
             if summary["object"].isin(TABLE_OBJECTS[table]).any():
-                text = table_markdown(summary, table)
+                text = table_markdown(summary, table, state)
                 if table == 1:
                     text += "\n".join(layout_lines(rounds)) + ("\n" if rounds is not None else "")
                 files[f"table{table}.md"] = text.encode()
-                files[f"table{table}.tex"] = table_latex(summary, table).encode()
+                files[f"table{table}.tex"] = table_latex(summary, table, state).encode()
         files["success_by_object.png"] = success_figure(summary)
     files["outcomes.png"] = outcomes_figure(frame)  # every attempt
     files.update(sweep_outputs(objects))
     if varying_config(frame):
         order = point_order(frame)
-        files["comparison.md"] = comparison_markdown(summary, order).encode()
+        files["comparison.md"] = comparison_markdown(summary, order, state).encode()
         files["comparison.png"] = comparison_figure(summary, order)
     clutter = clutter_summary(rounds)
     if clutter is not None:
@@ -436,12 +487,12 @@ def point_labels(summary: pd.DataFrame) -> pd.Series:
         lambda row: ", ".join(f"{k[len('cfg.'):]}={v}" for k, v in row.items()), axis=1)
 
 
-def comparison_markdown(summary: pd.DataFrame, order: list[str]) -> str:
+def comparison_markdown(summary: pd.DataFrame, order: list[str], state: str = "") -> str:
     """Every grid point of a sweep in the paper's Tables 1 and 2 layout: per table and setup one
     row per point (success with its 95 % Wilson interval), one for the share rescued by a
     re-alignment where any was, and the paper's row."""
     labelled = summary.assign(label=point_labels(summary))
-    lines = ["# Every grid point in the Tables 1 and 2 layout", "",
+    lines = ["# Every grid point in the Tables 1 and 2 layout" + (f" ({state})" if state else ""), "",
              "Success with its 95 % Wilson interval; *rescued*: the share of attempts that "
              "succeeded with a grasp found only after a re-alignment (the rest came from the "
              "first view); the paper's row: its 10 trials per cell.", ""]
@@ -507,19 +558,22 @@ def comparison_figure(summary: pd.DataFrame, labels: list[str]) -> bytes:
     return png(fig)
 
 
-def write_report(folder: str | Path, debug: int = 0) -> list[Path]:
+def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
     """Rebuild every table and figure of a run or sweep folder from its attempts.csv; with
-    `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/."""
+    `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/. Returns the
+    files written and the run's state (`run_state`: "" when finished)."""
     from graspjax.io import write_atomic
 
     folder = Path(folder)
-    files = build(load_attempts(folder), load_rounds(folder))
+    frame = load_attempts(folder)
+    state = run_state(folder, frame)
+    files = build(frame, load_rounds(folder), state)
     if debug:
         files.update(debug_figures(folder, debug))
     for name, data in files.items():
         (folder / name).parent.mkdir(exist_ok=True)
         write_atomic(folder / name, data)
-    return [folder / name for name in files]
+    return [folder / name for name in files], state
 
 
 def debug_figures(folder: Path, count: int) -> dict[str, bytes]:

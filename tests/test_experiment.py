@@ -201,20 +201,67 @@ def test_a_run_never_removes_or_mixes_in_a_users_files(tiny_run, tmp_path, capsy
     assert (copy / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
 
 
-def test_a_killed_run_resumes_with_nothing_lost_or_doubled(tiny_run, tmp_path):
-    out = tmp_path / "killed"
-    proc = _cli("run", *TINY, "--out", str(out))
-    first = out / "parts" / "attempts-00000.parquet"
+def _kill_when(proc, ready, what):
+    """SIGKILL `proc` as soon as `ready()` holds (it must, before the run ends)."""
     deadline = time.time() + 600
-    while not first.exists() and proc.poll() is None and time.time() < deadline:
+    while not ready() and proc.poll() is None and time.time() < deadline:
         time.sleep(0.02)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    done = sorted(p.name for p in (out / "parts").glob("attempts-*.parquet"))
-    assert done == ["attempts-00000.parquet"], "the run was not killed after its first chunk"
-    assert not (out / "attempts.parquet").exists()
-    partial = pd.read_csv(out / "attempts.csv")
-    assert len(partial) == 3  # the first chunk's rows were on disk at once
+    assert ready(), f"the run ended before {what}"
+
+
+@pytest.mark.parametrize("moment", ["compiling", "between chunks", "appending"])
+def test_a_killed_run_resumes_with_nothing_lost_or_doubled(tiny_run, tmp_path, moment):
+    """A kill at any moment, then --resume: the uninterrupted run's rows, byte for byte. Killed
+    while its programs load (no chunk done), between its two chunks (the first one's rows on
+    disk at once, also when it may use two processes), and while it appends a chunk's rows
+    (the state such a kill leaves: an incomplete row after the chunks done, which the report
+    refuses and --resume drops)."""
+    out = tmp_path / "killed"
+    parts = out / "parts"
+    if moment == "compiling":
+        proc = _cli("run", *TINY, "--out", str(out))
+        _kill_when(proc, lambda: (out / "config.json").exists(), "it started")
+        assert not list(parts.glob("attempts-*.parquet")), "a chunk was done already"
+    else:
+        proc = _cli("run", *TINY, "--out", str(out), env={"GRASPJAX_PROCESSES": "2"})
+        _kill_when(proc, lambda: (parts / "attempts-00000.parquet").exists(), "its first chunk")
+        assert sorted(p.name for p in parts.glob("attempts-*.parquet")) == ["attempts-00000.parquet"]
+        assert not (out / "attempts.parquet").exists()
+        partial = pd.read_csv(out / "attempts.csv")
+        assert len(partial) == 3  # the first chunk's rows were on disk at once
+    if moment == "appending":
+        with open(out / "attempts.csv", "a") as handle:
+            handle.write((tiny_run / "attempts.csv").read_text().splitlines()[4][:40])
+        assert main(["report", str(out)]) == 2  # refused: "ends in an incomplete row"
+    assert main(["run", *TINY, "--out", str(out), "--resume"]) == 0
+    assert (out / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
+
+
+def test_a_write_failure_ends_in_one_line_and_the_run_resumes(tiny_run, tmp_path, monkeypatch,
+                                                             capsys):
+    """A full disk (or a read-only folder, or a file size limit) mid-run: one line, exit 1,
+    no lock left behind, and --resume gives the uninterrupted run's rows."""
+    import errno
+
+    from graspjax.outputs import LOCK, RunFolder
+
+    out = tmp_path / "full"
+    keep = RunFolder.add
+
+    def add(self, chunk, *args):
+        if chunk == 1:
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.parts))
+        keep(self, chunk, *args)
+
+    monkeypatch.setattr(RunFolder, "add", add)
+    assert main(["run", *TINY, "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("graspjax: error: No space left on device") and "--resume" in err
+    assert len(err.splitlines()) == 1
+    assert not (out / LOCK).exists()
+    monkeypatch.setattr(RunFolder, "add", keep)
     assert main(["run", *TINY, "--out", str(out), "--resume"]) == 0
     assert (out / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
 

@@ -87,3 +87,20 @@ def test_a_resume_that_would_mix_two_runs_names_the_setting(tmp_path):
             RunFolder(tmp_path, other, chunks=2, resume=True)
         assert words in str(error.value)
     RunFolder(tmp_path, _meta(), chunks=2, resume=True)  # the same run resumes
+
+
+def test_the_runs_process_streams_its_helpers_rows_as_their_chunks_end(tmp_path):
+    """Only the run's own process appends to attempts.csv; a helper's finished chunk (its part,
+    written by a process that shares the folder) is appended when the run catches up."""
+    import pandas as pd
+
+    run = RunFolder(tmp_path, _meta(), chunks=2, resume=False)
+    helper = RunFolder(tmp_path, _meta(), chunks=2, resume=True, shared=True)
+    rows = [pd.DataFrame({"setup": [1], "object": ["a"], "trial": [t]}) for t in (0, 1)]
+    empty = pd.DataFrame({"point": []})
+    run.add(0, rows[0], empty, {})
+    helper.add(1, rows[1], empty, {})
+    assert pd.read_csv(tmp_path / "attempts.csv")["trial"].tolist() == [0]  # the helper never appends
+    run.catch_up()
+    run.catch_up()  # nothing twice
+    assert pd.read_csv(tmp_path / "attempts.csv")["trial"].tolist() == [0, 1]

@@ -153,3 +153,41 @@ def test_an_object_tried_twice_in_a_round_counts_once():
     assert summary.loc["a", ["n", "successes"]].tolist() == [2, 2]
     assert summary.loc["b", ["n", "successes"]].tolist() == [2, 0]
     assert summary.loc["b", "n_slipped"] == 1  # its first attempt's outcome
+
+
+def test_a_report_checks_its_rows_and_says_when_the_run_is_unfinished(tmp_path, capsys):
+    """Complete rows of one run only; a run not finished is reported with "unfinished: n of N
+    worlds" in every table's title, and a finished run's file that lacks worlds is refused."""
+    import json
+
+    from graspjax.cli import main
+
+    meta = {"run_id": "r1", "jobs": [{"objects": ["a", "c"], "setups": [1], "trials": 3}],
+            "points": 1, "versions": {"graspjax": "0.1.0"}}
+    (tmp_path / "config.json").write_text(json.dumps(meta))
+    some = _frame({(1, "a"): (2, 3)}, {"run_id": "r1", "point": 0})  # 3 of the run's 6 worlds
+    every = _frame({(1, "a"): (2, 3), (1, "c"): (1, 3)}, {"run_id": "r1", "point": 0})
+
+    def report(frame, text=None):
+        (tmp_path / "attempts.csv").write_text(text or frame.to_csv(index=False))
+        code = main(["report", str(tmp_path)])
+        return code, capsys.readouterr().err
+
+    code, err = report(some)
+    assert code == 0 and "unfinished: 3 of 6 worlds" in err
+    assert (tmp_path / "table1.md").read_text().startswith(
+        "# Table 1: grasp success in Setups 1-3, objects a-f (unfinished: 3 of 6 worlds)")
+    assert "unfinished: 3 of 6 worlds" in (tmp_path / "table1.tex").read_text()
+    text = every.to_csv(index=False)
+    code, err = report(every, text[:-7])  # cut mid-row
+    assert code == 2 and "ends in an incomplete row" in err and len(err.splitlines()) == 1
+    code, err = report(pd.concat([some, every.assign(run_id="r2")]))
+    assert code == 2 and "mixes the rows of 2 runs (run_id r1, r2)" in err
+    code, err = report(every.assign(run_id="r2"))
+    assert code == 2 and "rows of run r2, config.json describes run r1" in err
+    (tmp_path / "config.json").write_text(json.dumps({**meta, "finished": "2026-11-27"}))
+    code, err = report(some)  # cut at a row's end: the rows look whole, the worlds are not
+    assert code == 2 and "holds 3 of the run's 6 worlds though the run finished" in err
+    code, err = report(every)
+    assert code == 0 and err == ""
+    assert "unfinished" not in (tmp_path / "table1.md").read_text()

@@ -149,6 +149,10 @@ class Helper:
             if line.strip().isdigit():  # anything else a library printed is not progress
                 progress(int(line))
 
+    def running(self) -> bool:
+        """Whether the helper process still runs."""
+        return self._process.poll() is None
+
     def wait(self) -> None:
         """Wait for the helper's end: `HelperFailed` unless it played every chunk."""
         self._process.wait()
