@@ -549,6 +549,12 @@ class RealImageConfig:
     detector's `surface_tolerance`.
     """
 
+    full_pixel: float = 0.001  # input resolution: an image whose pixels are finer than this
+    # at its median depth (m) is block-medianed down to it first; the jaws' checks (a 2 cm wide,
+    # 1.2 cm thick finger) gain nothing from finer pixels, and the support's block median
+    # compiles in time that grows steeply with its block (graspjax detect on 4000 x 3000: more
+    # than 500 s)
+    max_full_pixels: int = 1_310_720  # ... and to at most this many pixels (1280 x 1024)
     detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
     downsample: int = 0  # block factor of the detection resolution (0: from detect_width)
     working_width: int = 160  # support plane and targets: block median to about this width (paper)
@@ -578,6 +584,9 @@ class RealImageConfig:
     duplicate_distance: float = 0.01  # grasps closer than this (m) with axes within 20 deg are one
 
     def __post_init__(self):
+        _require(math.isfinite(self.full_pixel) and self.full_pixel >= 0,
+                 f"RealImageConfig.full_pixel must be >= 0 (m), got {self.full_pixel!r}")
+        _in_range(self, "max_full_pixels", 4096, 100_000_000)
         _in_range(self, "detect_width", 16, 4096)
         _in_range(self, "working_width", 16, 4096)
         _in_range(self, "downsample", 0, 64)

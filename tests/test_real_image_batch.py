@@ -104,3 +104,56 @@ def test_a_batch_gives_the_grasps_of_single_images(table):
         assert np.linalg.norm(got.position - alone.position) < PIXEL
         assert abs(float(got.grasp.width) - float(alone.grasp.width)) < PIXEL
         assert _angle_deg(got.closing_axis, alone.closing_axis) < 2.0
+
+
+def test_a_large_fine_image_is_detected_at_the_resolution_it_needs(tmp_path):
+    """A 2560 x 1920 capture with a long lens (0.24 mm pixels on the table) is block-medianed
+    by 4 to 640 x 480 before anything is compiled, and the grasp comes back in the file's own
+    pixels and the camera frame, on the analytic box's top."""
+    from real_scenes import table_scene
+
+    from graspjax import Camera
+    from graspjax.realimage.detect import detect_files
+    from graspjax.realimage.inputs import IntrinsicsRequest, prepare
+    from graspjax.realimage.records import record
+    from graspjax.synthetic import box, render_depth
+
+    scene = table_scene()
+    camera = Camera(2560, 1920, 3100.0, 3100.0, 1279.5, 959.5)
+    target = box((*scene.size, 0.04), (*scene.top[:2], 0.0), scene.yaw)
+    np.save(tmp_path / "large.npy", render_depth(camera, scene.rotation, scene.eye, [target]))
+    inputs = prepare([tmp_path / "large.npy"], intrinsics=IntrinsicsRequest(focal=(3100, 3100)),
+                     roi=(160, 80, 2400, 1600))
+    assert (inputs.reduction, inputs.width, inputs.height) == (4, 640, 480)
+    found, = detect_files(inputs)
+    rec = record(found, inputs)
+    assert rec["found"] and rec["size"] == [2560, 1920] and rec["input_reduction"] == 4
+    top = scene.to_camera(scene.top)
+    reduced_pixel = 0.75 * 4 / 3100.0  # metres, on the table
+    assert np.linalg.norm(np.asarray(rec["grasp"]["position"]) - top) < 2 * reduced_pixel
+    assert np.linalg.norm(np.asarray(rec["grasp"]["pixel"]) - camera.project(top)) < 3 * 4
+    assert min(abs(rec["grasp"]["width"] - w) for w in scene.size) < 2 * reduced_pixel
+
+
+def test_the_input_reduction_follows_the_pixel_footprint_and_the_pixel_count():
+    from graspjax import Camera
+    from graspjax.realimage.inputs import block_median, input_reduction, reduced
+
+    image = RealImageConfig()  # pixels of at least 1 mm, at most 1280 x 1024 of them
+    flat = np.full((480, 640), 0.73, np.float32)
+    assert input_reduction(flat, Camera(640, 480, 525.0, 525.0, 319.5, 239.5), image) == 1
+    big = np.full((3000, 4000), 0.7, np.float32)  # 12 Mpx, 0.23 mm pixels: the footprint rules
+    assert input_reduction(big, Camera(4000, 3000, 3000.0, 3000.0, 1999.5, 1499.5), image) == 4
+    wide = np.full((1920, 2560), 0.7, np.float32)  # 0.67 mm pixels: the count rules
+    assert input_reduction(wide, Camera(2560, 1920, 1050.0, 1050.0, 1279.5, 959.5), image) == 2
+    depth = np.array([[1, 2, 0, np.nan], [3, 4, 0, 5], [9, 9, 9, 9], [9, 9, 9, 9],
+                      [7, 7, 7, 7]], np.float32)  # the fifth row fills no block
+    np.testing.assert_array_equal(block_median(depth, 2), [[2.5, 5.0], [9.0, 9.0]])
+    assert block_median(np.zeros((2, 2), np.float32), 2)[0, 0] == 0  # no valid pixel: none
+    # A point's pixel in the reduced camera maps back to its pixel in the file.
+    source = Camera(2560, 1920, 3100.0, 3050.0, 1270.3, 961.8)
+    point = np.array([0.031, -0.022, 0.74])
+    small = reduced(source, 4)
+    assert (small.width, small.height) == (640, 480)
+    back = (np.asarray(small.project(point), np.float64) + 0.5) * 4 - 0.5
+    np.testing.assert_allclose(back, source.project(point), atol=1e-3)

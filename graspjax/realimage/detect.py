@@ -16,7 +16,6 @@ import jax
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.io import read_depth
 from graspjax.perception.real_image import RealImageDetection, detect_real_image
 from graspjax.realimage.inputs import Inputs
 
@@ -62,10 +61,10 @@ def detect_files(inputs: Inputs, batch: int = 16, progress: Callable[[int], None
         depths, cameras, sources, loads = [], [], [], []
         for path in chunk:
             t0 = time.perf_counter()
-            depth, file_k = read_depth(path, inputs.depth_scale)
+            depth, camera, source = inputs.read(path)
             depths.append(depth)
-            cameras.append(inputs.intrinsics.camera(inputs.width, inputs.height, file_k))
-            sources.append(inputs.intrinsics.describe(file_k))
+            cameras.append(camera)
+            sources.append(source)
             loads.append(time.perf_counter() - t0)
         pad = batch - len(chunk)  # one compiled size: repeat the last image
         stacked = np.stack(depths + [depths[-1]] * pad)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import typing
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -98,18 +99,71 @@ class IntrinsicsRequest:
 
 @dataclasses.dataclass(frozen=True)
 class Inputs:
-    """Everything one detection run needs, checked."""
+    """Everything one detection run needs, checked. The detection works on the images
+    block-medianed by `reduction` (`input_reduction`): its full resolution is `width` x
+    `height`; the records give pixels in the files' own."""
 
     paths: tuple[Path, ...]  # the depth images, all of one size
-    width: int  # their columns
-    height: int  # their rows
+    source_size: tuple[int, int]  # the files' columns and rows
+    reduction: int  # block factor from the files to the detection's full resolution (1: none)
+    width: int  # full-resolution columns (the files' // reduction)
+    height: int  # full-resolution rows
     depth_scale: float  # metres per unit of a 16-bit PNG
-    intrinsics: Intrinsics
-    workspace: np.ndarray  # (H, W) bool, True where the search may look
-    roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) full-resolution pixels
+    intrinsics: Intrinsics  # of the files
+    workspace: np.ndarray  # (H, W) bool at full resolution, True where the search may look
+    roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
     config: Config
     image: RealImageConfig
+
+    def read(self, path: Path) -> tuple[np.ndarray, Camera, str]:
+        """One image at full resolution: its depth (H, W), its camera and where its
+        intrinsics come from."""
+        depth, file_k = read_depth(path, self.depth_scale)
+        camera = self.intrinsics.camera(*self.source_size, file_k)
+        return (block_median(depth, self.reduction), reduced(camera, self.reduction),
+                self.intrinsics.describe(file_k))
+
+    def source_pixel(self, pixel) -> np.ndarray:
+        """Full-resolution pixel coordinates (..., 2) (u, v) in the files' own pixels."""
+        if self.reduction == 1:
+            return pixel
+        return (np.asarray(pixel, np.float64) + 0.5) * self.reduction - 0.5
+
+
+def input_reduction(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> int:
+    """The block factor that brings an image to the full resolution the detection needs: its
+    pixels no finer than `image.full_pixel` at the image's median valid depth, and at most
+    `image.max_full_pixels` of them (an image coarser and smaller than that: 1)."""
+    valid = depth[np.isfinite(depth) & (depth > max(image.min_depth, 0.0))
+                  & (depth <= image.max_depth)]
+    pixel = float(np.median(valid)) / max(camera.fx, camera.fy)  # metres per pixel
+    by_pixel = int(image.full_pixel / pixel) if pixel > 0 else 1
+    by_count = math.ceil(math.sqrt(camera.width * camera.height / image.max_full_pixels))
+    return max(1, by_pixel, by_count)
+
+
+def block_median(depth: np.ndarray, factor: int) -> np.ndarray:
+    """Depth (H, W) -> (H // factor, W // factor): each block's median of its valid pixels
+    (0 where it has none); the last rows and columns that fill no block are dropped."""
+    if factor == 1:
+        return depth
+    h, w = depth.shape[0] // factor, depth.shape[1] // factor
+    blocks = depth[:h * factor, :w * factor].reshape(h, factor, w, factor).swapaxes(1, 2)
+    blocks = np.where(np.isfinite(blocks) & (blocks > 0), blocks, np.nan).reshape(h, w, -1)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a block without valid pixels
+        median = np.nanmedian(blocks, axis=-1)
+    return np.nan_to_num(median, nan=0.0).astype(np.float32)
+
+
+def reduced(camera: Camera, factor: int) -> Camera:
+    """The intrinsics of an image block-medianed by `factor` (`block_median`)."""
+    if factor == 1:
+        return camera
+    return Camera(camera.width // factor, camera.height // factor, camera.fx / factor,
+                  camera.fy / factor, (camera.cx + 0.5) / factor - 0.5,
+                  (camera.cy + 0.5) / factor - 0.5)
 
 
 def _settings_type():
@@ -194,10 +248,14 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
 
     first, first_k = read_depth(paths[0], depth_scale)
     height, width = first.shape
-    _, coarse = block_factors(width, image)
-    if min(width, height) // coarse < 8:
-        raise InputError(f"downsampling {width}x{height} by {coarse} leaves less than 8x8 pixels")
     source = intrinsics.resolve(width, height)
+    _check_range(first, paths[0], image, depth_scale)
+    reduction = input_reduction(first, source.camera(width, height, first_k), image)
+    small_w, small_h = width // reduction, height // reduction
+    _, coarse = block_factors(small_w, image)
+    if min(small_w, small_h) // coarse < 8:
+        raise InputError(f"downsampling {width}x{height} by {reduction * coarse} leaves less "
+                         "than 8x8 pixels")
     workspace = np.ones((height, width), bool)
     if roi is not None:
         workspace &= _workspace_box(roi, width, height)
@@ -205,6 +263,9 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
         workspace &= load_mask(mask, (height, width))
         if not workspace.any():
             raise InputError(f"the mask {mask} and the workspace box {roi} do not overlap")
+    if reduction > 1:  # a full-resolution pixel is in the workspace when most of its block is
+        blocks = workspace[:small_h * reduction, :small_w * reduction]
+        workspace = blocks.reshape(small_h, reduction, small_w, reduction).mean(axis=(1, 3)) > 0.5
     for i, path in enumerate(paths):
         depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
         if depth.shape != (height, width):
@@ -214,7 +275,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             with_k, without = (paths[0], path) if first_k is not None else (path, paths[0])
             raise InputError(f"{with_k} holds its intrinsics K but {without} does not; give "
                              "the intrinsics for all images")
-        _check_range(depth, path, image, depth_scale)
-    return Inputs(paths=paths, width=width, height=height, depth_scale=depth_scale,
-                  intrinsics=source, workspace=workspace, roi=roi, mask=mask, config=config,
-                  image=image)
+        if i:  # the first was checked above
+            _check_range(depth, path, image, depth_scale)
+    return Inputs(paths=paths, source_size=(width, height), reduction=reduction, width=small_w,
+                  height=small_h, depth_scale=depth_scale, intrinsics=source,
+                  workspace=workspace, roi=roi, mask=mask, config=config, image=image)

@@ -28,13 +28,15 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "image": str(d.path),
         "found": bool(r.found),
         "reason": reason,
-        "size": [inputs.width, inputs.height],
+        "size": list(inputs.source_size),
+        "full_resolution": [inputs.width, inputs.height],
+        "input_reduction": inputs.reduction,
         "working_resolution": [inputs.width // fine, inputs.height // fine],
         "downsample": fine,
         "support_resolution": [inputs.width // coarse, inputs.height // coarse],
         "window": inputs.image.crop_px,
         "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
-                   "source": d.source},
+                   "source": d.source},  # at full resolution; pixels below are the file's
         "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
                       "range": [inputs.image.min_depth, inputs.image.max_depth],
                       "pixels": int(inputs.workspace.sum())},
@@ -48,15 +50,17 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "target": {"reason": TargetReason(int(r.target_reason)).name,
                    "attempts": int(r.attempts),
                    "attempt_reasons": [GraspReason(int(x)).name for x in r.attempt_reasons if x >= 0],
-                   "pixel": r.target_pixel, "point": r.target_point, "height": r.target_height},
+                   "pixel": inputs.source_pixel(r.target_pixel), "point": r.target_point,
+                   "height": r.target_height},
         "grasp": {"found": bool(r.found), "reason": GraspReason(int(g.reason)).name,
                   "position": r.position, "closing_axis": r.closing_axis,
                   "approach": r.approach, "width": g.width, "depth": g.depth,
                   "contact_width": ranked.contact_width[0], "clearance": ranked.clearance[0],
-                  "score": ranked.score[0], "surface_depth": g.surface_depth, "pixel": r.pixel,
+                  "score": ranked.score[0], "surface_depth": g.surface_depth,
+                  "pixel": inputs.source_pixel(r.pixel),
                   "surface_pixels": int(g.surface_pixels),
                   "valid_candidates": int(g.candidates.valid.sum())},
-        "candidates": [_candidate(ranked, k) for k in range(len(ranked.valid))
+        "candidates": [_candidate(ranked, k, inputs) for k in range(len(ranked.valid))
                        if ranked.valid[k]],
         "alignment": {"found": bool(a.found), "reason": AlignReason(int(a.reason)).name,
                       "normal": r.plane_normal, "point": r.plane_point,
@@ -65,11 +69,11 @@ def record(d: Detection, inputs: Inputs) -> dict:
     })
 
 
-def _candidate(ranked, k: int) -> dict:
-    """The record of the grasp ranked k + 1 (JSON values)."""
+def _candidate(ranked, k: int, inputs: Inputs) -> dict:
+    """The record of the grasp ranked k + 1 (JSON values; its pixel in the file's)."""
     return {"rank": k + 1, "score": ranked.score[k], "target": int(ranked.attempt[k]) + 1,
             "position": ranked.position[k], "closing_axis": ranked.closing_axis[k],
-            "pixel": ranked.pixel[k], "width": ranked.width[k],
+            "pixel": inputs.source_pixel(ranked.pixel[k]), "width": ranked.width[k],
             "contact_width": ranked.contact_width[k], "depth": ranked.depth[k],
             "clearance": ranked.clearance[k], "no_depth_fraction": ranked.unknown[k],
             "centre_distance": ranked.centre_distance[k]}
