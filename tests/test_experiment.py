@@ -239,6 +239,25 @@ def test_a_killed_run_resumes_with_nothing_lost_or_doubled(tiny_run, tmp_path, m
     assert (out / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
 
 
+def test_a_resume_while_the_run_still_writes_its_folder_stops_at_once(tmp_path, capsys):
+    """The same --resume started twice at once: the second stops in one line, naming the
+    first's process, and writes nothing."""
+    out = tmp_path / "busy"
+    proc = _cli("run", *TINY, "--out", str(out))
+    try:
+        deadline = time.time() + 600
+        lock = out / ".graspjax.lock"  # its holder writes its name once it holds it
+        while not (lock.exists() and lock.read_text().startswith("process")) \
+                and proc.poll() is None and time.time() < deadline:
+            time.sleep(0.02)
+        assert main(["run", *TINY, "--out", str(out), "--resume"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert f"is being written by process {proc.pid} on " in err and len(err.splitlines()) == 1
+    finally:
+        proc.kill()
+        proc.wait()
+
+
 def test_a_write_failure_ends_in_one_line_and_the_run_resumes(tiny_run, tmp_path, monkeypatch,
                                                              capsys):
     """A full disk (or a read-only folder, or a file size limit) mid-run: one line, exit 1,
