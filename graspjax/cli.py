@@ -627,12 +627,16 @@ def _xla_flags(args) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from graspjax.provenance import command
+
+    argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         _xla_flags(args)
         _compilation_cache()
-        return args.func(args)
+        with command(argv):  # recorded as typed (config.json's "command")
+            return args.func(args)
     except (InputError, ConfigError, UsageError) as exc:
         print(f"graspjax: error: {exc}", file=sys.stderr)
         return 2

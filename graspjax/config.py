@@ -129,6 +129,7 @@ class DetectorConfig:
     min_edge_pixels: int = 4  # shorter runs of contour points are not edges
     max_edges: int = 32  # static maximum of straight edges kept (longest first)
     antipodal_tolerance_deg: float = traced(15.0)  # max deviation from opposite normals
+    # (ours: the paper asks for "two antipodal edges" and gives no tolerance)
     clearance: float = traced(0.005)  # free space kept between each open jaw and the object (m)
     min_width: float = traced(0.004)  # narrower antipodal pairs are not graspable (m)
     grasp_depth: float = traced(0.02)  # desired finger-tip depth below the surface (m)
@@ -557,7 +558,8 @@ class RealImageConfig:
     max_full_pixels: int = 1_310_720  # ... and to at most this many pixels (1280 x 1024)
     detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
     downsample: int = 0  # block factor of the detection resolution (0: from detect_width)
-    working_width: int = 160  # support plane and targets: block median to about this width (paper)
+    working_width: int = 160  # support plane and targets: block median to about this width (the
+    # simulated camera's default; the paper downsamples but gives no resolution)
     crop_px: int = 192  # side of the square detection window around each target (detection pixels)
     min_depth: float = 0.0  # nearer pixels are invalid (m); `--range MIN,MAX`
     max_depth: float = 10.0  # farther pixels are invalid (m); also catches a wrong depth scale

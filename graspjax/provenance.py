@@ -5,11 +5,27 @@ Every run's `config.json`, every plane study's and every benchmark record carry 
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import platform
+import shlex
 import sys
 from importlib import metadata
 
 PACKAGES = ("graspjax", "jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy", "pandas")
+_COMMAND: contextvars.ContextVar[tuple[str, ...] | None] = contextvars.ContextVar(
+    "graspjax_command", default=None)  # the arguments `cli.main` was given
+
+
+@contextlib.contextmanager
+def command(argv):
+    """Record `argv` as the command a result comes from while `cli.main` runs it: a script
+    that calls `main([...])` records the graspjax command it typed, not its own name."""
+    token = _COMMAND.set(tuple(argv))
+    try:
+        yield
+    finally:
+        _COMMAND.reset(token)
 
 
 def provenance() -> dict:
@@ -31,7 +47,7 @@ def provenance() -> dict:
                        "count": len(devices)},
             "cpu": _cpu_model(),  # XLA:CPU compiles for its instruction set: CPU rows depend on it
             "host": platform.node(),
-            "command": " ".join(["graspjax", *sys.argv[1:]])}
+            "command": shlex.join(["graspjax", *(_COMMAND.get() or sys.argv[1:])])}
 
 
 def _cpu_model() -> str:

@@ -818,3 +818,16 @@ def test_a_background_import_loads_the_module_once_in_its_own_thread(tmp_path, m
     assert sys.modules["slow_to_import"].IMPORTED_BY == "import slow_to_import"
     monkeypatch.delitem(sys.modules, "slow_to_import")
     experiment.import_in_background.cache_clear()
+
+
+def test_the_recorded_command_is_the_one_a_script_typed(tmp_path, monkeypatch):
+    """A script that calls `main([...])` (experiments/studies.py) records the graspjax command
+    it typed in config.json, not its own command line."""
+    import shlex
+
+    monkeypatch.setattr(sys, "argv", ["experiments/studies.py", "window", "threshold"])
+    out = tmp_path / "typed dir"  # a space: the command is quoted as a shell would need it
+    assert main(["run", *TINY, "--out", str(out)]) == 0
+    recorded = json.loads((out / "config.json").read_text())["command"]
+    assert recorded == shlex.join(["graspjax", "run", *TINY, "--out", str(out)])
+    assert shlex.split(recorded)[1:] == ["run", *TINY, "--out", str(out)]
