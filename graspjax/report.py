@@ -414,6 +414,26 @@ def layout_lines(rounds: pd.DataFrame | None) -> list[str]:
     return lines
 
 
+LAYOUT_COLUMNS = ("touching_fraction", "stacked", "min_face_gap_m", "spread_m")
+
+
+def shared_layouts(rounds: pd.DataFrame | None) -> list[str]:
+    """For a sweep's Setup 2/3 rounds: in how many rounds every grid point settled the same
+    layout (the statistics of `rounds.csv`, to the file's precision), one markdown line per
+    setup. A paired sweep's points play the same worlds, but a pile settles alike only when
+    their chunks batch alike (issue 53): where they do not, the pairs are of layouts and keys,
+    not of settled piles."""
+    if rounds is None or rounds.empty or rounds["point"].nunique() < 2:
+        return []
+    lines = ["", "Settled layouts every grid point shares (`rounds.csv`'s statistics equal at "
+             "every point; a paired sweep's points play the same worlds):", ""]
+    for setup, part in rounds.groupby("setup"):
+        varied = part.groupby("round")[list(LAYOUT_COLUMNS)].nunique(dropna=False)
+        same = int((varied <= 1).all(axis=1).sum())
+        lines.append(f"- Setup {setup}: {same} of {len(varied)} rounds")
+    return lines
+
+
 def _pct(x: float) -> str:
     return f"{100 * x:.0f} %"
 
@@ -461,7 +481,9 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
     files.update(sweep_outputs(objects))
     if varying_config(frame):
         order = point_order(frame)
-        files["comparison.md"] = comparison_markdown(summary, order, state).encode()
+        shared = shared_layouts(rounds)
+        text = comparison_markdown(summary, order, state) + "".join(f"{x}\n" for x in shared)
+        files["comparison.md"] = text.encode()
         files["comparison.png"] = comparison_figure(summary, order)
     clutter = clutter_summary(rounds)
     if clutter is not None:

@@ -191,3 +191,20 @@ def test_a_report_checks_its_rows_and_says_when_the_run_is_unfinished(tmp_path, 
     code, err = report(every)
     assert code == 0 and err == ""
     assert "unfinished" not in (tmp_path / "table1.md").read_text()
+
+
+def test_a_sweeps_comparison_says_in_how_many_rounds_every_point_settled_the_same_layout():
+    """Hand-made rounds: Setup 2's two rounds settle alike at both points, Setup 3's second
+    round differs in one statistic."""
+    from graspjax.report import shared_layouts
+
+    rows = []
+    for point in (0, 1):
+        for setup in (2, 3):
+            for rnd in (0, 1):
+                spread = 0.2 + (0.01 * point if (setup, rnd) == (3, 1) else 0.0)
+                rows.append({"point": point, "setup": setup, "round": rnd, "touching_fraction": 0.5,
+                             "stacked": 1, "min_face_gap_m": 0.01, "spread_m": spread})
+    lines = shared_layouts(pd.DataFrame(rows))
+    assert lines[-2:] == ["- Setup 2: 2 of 2 rounds", "- Setup 3: 1 of 2 rounds"]
+    assert shared_layouts(pd.DataFrame(rows)[lambda r: r.point == 0]) == []  # one point: nothing
