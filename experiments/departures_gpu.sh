@@ -7,6 +7,8 @@
 #               35 deg each (results/studies/tolerance)
 #   anchor      A at z_min ("nearest", the paper's Fig. 4) or at the centre of z_min's band (ours)
 #   triangles   the triangles' radius (3 / 5 / 8 px) and the plane's minimum inliers (3 / 10 / 20)
+#   window      the inlier window around A for every plane (the paper's words) or around each
+#               triangle's centroid (ours)
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-300}
@@ -25,6 +27,7 @@ for name in "$@"; do
     tolerance) step tolerance --grid "method:detect.antipodal_tolerance_deg:baseline.antipodal_cone_deg=\
 paper:15:35,paper:25:35,paper:35:35,antipodal:15:15,antipodal:15:25,antipodal:15:35" ;;
     anchor) step anchor --grid align.anchor=nearest,centre ;;
+    window) step window_centre --grid align.window_centre=anchor,triangle ;;
     triangles) step triangles --grid "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
     *) echo "unknown step $name" >&2; exit 2 ;;
   esac

@@ -169,7 +169,9 @@ class AlignConfig:
     anchor_band: float = traced(0.005)  # anchor="centre": depth band of z_min's surface (m)
     triangle_radius_px: float = traced(5.0)  # distance of the triangle corners B, C from A (pixels)
     num_random: int = 64  # random-triangle hypotheses when hypotheses == "random"
-    window_px: int = traced(15)  # inlier window around the triangle centroid in x, y and z (pixels)
+    window_px: int = traced(15)  # inlier window in x, y and z (pixels), around window_centre
+    window_centre: Literal["triangle", "anchor"] = "triangle"  # around each triangle's centroid
+    # (ours), or around A for every plane ("only points close to the center (point A in Fig. 5)")
     distance_threshold: float = traced(0.3)  # max point-to-plane distance of an inlier (pixel units)
     pixel_scale: Literal["paper", "footprint"] = "paper"  # Eq. 2 as written, or the true footprint
     refit: bool = False  # least-squares refit of the winning plane to its inliers

@@ -36,7 +36,8 @@ def _band_centre(depth, band):
 
 
 def eq3_reference(depth, camera, config: AlignConfig):
-    """Eq. 2 and 3 over the whole image, pixel by pixel, straight from the paper.
+    """Eq. 2 and 3 over the whole image, pixel by pixel, straight from the paper (the window
+    around each triangle's centroid, or around A with `window_centre="anchor"`).
 
     Returns the inlier count of each of the 8 (N) triangles around A (z_min, or the centre of
     its surface band).
@@ -65,7 +66,7 @@ def eq3_reference(depth, camera, config: AlignConfig):
         p = np.array([[u, v, depth[v, u] / d_p] for u, v in corners], float)
         normal = np.cross(p[1] - p[0], p[2] - p[0])
         normal /= np.linalg.norm(normal)
-        centroid = p.mean(axis=0)
+        centre = p[0] if config.window_centre == "anchor" else p.mean(axis=0)
         count = 0
         for v in range(camera.height):
             for u in range(camera.width):
@@ -73,7 +74,7 @@ def eq3_reference(depth, camera, config: AlignConfig):
                     continue
                 q = np.array([u, v, depth[v, u] / d_p])
                 d = abs(normal @ (q - p[0]))
-                if d < config.distance_threshold and np.all(np.abs(q - centroid)
+                if d < config.distance_threshold and np.all(np.abs(q - centre)
                                                             < config.window_px):
                     count += 1
         counts.append(count)
@@ -92,11 +93,14 @@ def test_tilted_plane_normal_is_recovered(camera, align, render, tilt_deg, azimu
     assert int(a.inliers) >= AlignConfig().min_inliers
 
 
-@pytest.mark.parametrize("scale, anchor", [("paper", "centre"), ("footprint", "centre"),
-                                           ("paper", "nearest")])
-def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor):
-    """Patch-based scoring equals Eq. 3 evaluated pixel by pixel over the image."""
-    cfg = AlignConfig(pixel_scale=scale, anchor=anchor)
+@pytest.mark.parametrize("scale, anchor, window", [("paper", "centre", "triangle"),
+                                                   ("footprint", "centre", "triangle"),
+                                                   ("paper", "nearest", "triangle"),
+                                                   ("paper", "centre", "anchor")])
+def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor, window):
+    """Patch-based scoring equals Eq. 3 evaluated pixel by pixel over the image, the window
+    around each triangle's centroid (ours) or around A (the paper's words)."""
+    cfg = AlignConfig(pixel_scale=scale, anchor=anchor, window_centre=window)
     scene = [box((0.05, 0.07, 0.04), (0.01, 0.0, 0.0), 0.4).moved(rot_x(0.3), (0, 0, 0.02)),
              box((0.04, 0.04, 0.06), (-0.05, 0.02, 0.0), 1.0)]
     depth = render(scene)

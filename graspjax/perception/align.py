@@ -6,7 +6,7 @@ phi_k = k * 360deg / N each define a plane. The image becomes a point cloud
 in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at A's depth, and a point is
 an inlier of plane k (Eq. 3) when its distance to the plane is below
 `distance_threshold` and it lies within `window_px` of the triangle's centroid
-in u, v and the converted z. The plane with most inliers wins, among those whose view turns
+(or of A for every plane, the paper's words: `window_centre`) in u, v and the converted z. The plane with most inliers wins, among those whose view turns
 by at least `min_turn_deg` from the current one (ours: the paper turns to see
 the object "from another angle"); the tool then looks along its negative
 normal. Normals are reported in the metric camera
@@ -146,7 +146,7 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
     scaled, n_scaled, centroid, n_norm = _scaled_planes(corners, clean, scale)
     hyp_valid = jnp.all(corner_ok, -1) & (n_norm > 1e-6) & any_valid
 
-    # --- Eq. 3 on a patch around each centroid --------------------------------------------
+    # --- Eq. 3 on a patch around each window's centre ------------------------------------
     w = MAX_WINDOW_PX  # static patch half-size; Eq. 3 applies the configured window inside it
     size = 2 * w + 3
     pad = size + w + 2  # slices never clamp at the border (triangle radius <= MAX_WINDOW_PX)
@@ -164,7 +164,10 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
         pts = camera.unproject(jnp.stack(jnp.broadcast_arrays(u, v), -1), z)  # (S, S, 3)
         return inlier, pts
 
-    inlier, pts = jax.vmap(score)(centroid, n_scaled, scaled[:, 0])  # (N, S, S), (N, S, S, 3)
+    at_anchor = jnp.stack([anchor[0], anchor[1], clean[anchor[1], anchor[0]] * scale])
+    centres = (jnp.broadcast_to(at_anchor.astype(centroid.dtype), centroid.shape)
+               if config.window_centre == "anchor" else centroid)  # A for every plane, or each centroid
+    inlier, pts = jax.vmap(score)(centres, n_scaled, scaled[:, 0])  # (N, S, S), (N, S, S, 3)
     counts = jnp.where(hyp_valid, jnp.sum(inlier, axis=(1, 2)), 0).astype(jnp.int32)
     sums = jnp.sum(pts * inlier[..., None], axis=(1, 2))  # (N, 3)
 
@@ -225,7 +228,10 @@ def plane_inliers(depth: jax.Array, camera: Camera, alignment: Alignment,
     clean = jnp.where(valid, depth, 0.0)
     scale = _pixel_scale(camera, clean[alignment.anchor[1], alignment.anchor[0]], config)
     best = jnp.maximum(alignment.best, 0)
-    points, normal, centre, _ = _scaled_planes(alignment.corners[best][None], clean, scale)
+    points, normal, centroid, _ = _scaled_planes(alignment.corners[best][None], clean, scale)
+    u_a, v_a = alignment.anchor[0], alignment.anchor[1]
+    centre = (jnp.stack([u_a, v_a, clean[v_a, u_a] * scale]).astype(centroid.dtype)
+              if config.window_centre == "anchor" else centroid[0])
     uv = camera.pixel_grid()
-    inlier = _eq3(uv[..., 0], uv[..., 1], clean * scale, centre[0], normal[0], points[0, 0], config)
+    inlier = _eq3(uv[..., 0], uv[..., 1], clean * scale, centre, normal[0], points[0, 0], config)
     return valid & inlier & (alignment.best >= 0)
