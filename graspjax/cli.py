@@ -182,6 +182,8 @@ def _ints(text: str, name: str, allowed) -> tuple[int, ...]:
     bad = [v for v in values if v not in allowed]
     if bad or not values:
         raise UsageError(f"{name} must be among {', '.join(map(str, allowed))}, got {text!r}")
+    if len(set(values)) < len(values):
+        raise UsageError(f"{name} names a value twice: {text!r}")
     return values
 
 

@@ -178,6 +178,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                 for helper in helpers:
                     helper.check()
                 time.sleep(0.5)
+            folder.catch_up()
             for helper in helpers:
                 helper.wait()
         finally:

@@ -47,7 +47,13 @@ def provenance() -> dict:
                        "count": len(devices)},
             "cpu": _cpu_model(),  # XLA:CPU compiles for its instruction set: CPU rows depend on it
             "host": platform.node(),
-            "command": shlex.join(["graspjax", *(_COMMAND.get() or sys.argv[1:])])}
+            "command": shlex.join(["graspjax", *_typed()])}
+
+
+def _typed() -> tuple[str, ...]:
+    """The arguments of the graspjax command being run (`command`), else this process's."""
+    typed = _COMMAND.get()
+    return tuple(sys.argv[1:]) if typed is None else typed
 
 
 def _cpu_model() -> str:

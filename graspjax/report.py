@@ -41,11 +41,13 @@ def paper_tables() -> pd.DataFrame:
 def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
     """Attempt rows from CSV text, checking the columns the report needs and that every row is
     complete (a file cut mid-row is refused: its last row would count as a failure)."""
-    if text and not text.endswith("\n"):
-        raise ValueError(f"{name} ends in an incomplete row (cut while it was written?); "
-                         "--resume the run to rewrite it")
+    if not text.strip():
+        raise ValueError(f"{name} has no attempts yet")
+    if not text.endswith("\n"):
+        raise ValueError(f"{name} ends in an incomplete row (still being written: try again; "
+                         "cut by a kill: --resume the run to rewrite it)")
     frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], low_memory=False,
-                        dtype={"object": str, "lifted_object": str})
+                        dtype={"object": str, "lifted_object": str, "run_id": str})
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise ValueError(f"{name} lacks columns: {', '.join(missing)}")
@@ -88,6 +90,16 @@ def played_worlds(frame: pd.DataFrame) -> int:
                              "t": frame["trial"]}).drop_duplicates())
 
 
+def _finished(folder: str | Path) -> bool:
+    """Whether the folder's `config.json` says its run finished."""
+    import json
+
+    try:
+        return bool(json.loads((Path(folder) / "config.json").read_text()).get("finished"))
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def run_state(folder: str | Path, frame: pd.DataFrame) -> str:
     """"" for a finished run whose rows are all there (or rows without a run's `config.json`),
     "unfinished: n of N worlds" for a run still going or killed; a ValueError when the rows
@@ -104,12 +116,11 @@ def run_state(folder: str | Path, frame: pd.DataFrame) -> str:
         raise ValueError(f"{folder}: attempts.csv holds rows of run {', '.join(sorted(ids))}, "
                          f"config.json describes run {meta['run_id']}")
     played = played_worlds(frame)
-    if meta.get("finished"):
-        if played < planned:
-            raise ValueError(f"{folder}: attempts.csv holds {played} of the run's {planned} "
-                             "worlds though the run finished (the file was cut)")
-        return ""
-    return f"unfinished: {played} of {planned} worlds"
+    if meta.get("finished") and played < planned:
+        raise ValueError(f"{folder}: attempts.csv holds {played} of the run's {planned} "
+                         "worlds though the run finished (the file was cut)")
+    return "" if meta.get("finished") or played >= planned else \
+        f"unfinished: {played} of {planned} worlds"
 
 def varying_config(frame: pd.DataFrame) -> list[str]:
     """Configuration columns (`cfg.*`) whose value changes within the file: the sweep keys."""
@@ -425,6 +436,8 @@ def shared_layouts(rounds: pd.DataFrame | None) -> list[str]:
     not of settled piles."""
     if rounds is None or rounds.empty or rounds["point"].nunique() < 2:
         return []
+    if "seed" in rounds.columns and rounds.groupby("point")["seed"].first().nunique() > 1:
+        return []  # not paired: every point has its own seed, so its own worlds
     lines = ["", "Settled layouts every grid point shares (`rounds.csv`'s statistics equal at "
              "every point; a paired sweep's points play the same worlds):", ""]
     for setup, part in rounds.groupby("setup"):
@@ -590,6 +603,8 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
     frame = load_attempts(folder)
     state = run_state(folder, frame)
     files = build(frame, load_rounds(folder), state)
+    if state and _finished(folder):  # the run finished meanwhile: report its whole rows
+        return write_report(folder, debug)
     if debug:
         files.update(debug_figures(folder, debug))
     for name, data in files.items():

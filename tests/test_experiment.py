@@ -770,6 +770,8 @@ def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_r
     (["sweep", "--setup", "1", "--grid", "align.window_px=10,10"],
      "--grid gives one point twice (align.window_px=10 and align.window_px=10)"),
     (["sweep", "--setup", "1", "--grid", "align.distance_threshold=0.3,0.30"], "one point twice"),
+    (["run", "--table", "1,1"], "--table names a value twice"),  # one job twice: a run never ends
+    (["run", "--setup", "1,2,1"], "--setup names a value twice"),
 ])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, message):
     out = tmp_path / "out"

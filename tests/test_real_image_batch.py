@@ -157,3 +157,24 @@ def test_the_input_reduction_follows_the_pixel_footprint_and_the_pixel_count():
     assert (small.width, small.height) == (640, 480)
     back = (np.asarray(small.project(point), np.float64) + 0.5) * 4 - 0.5
     np.testing.assert_allclose(back, source.project(point), atol=1e-3)
+
+
+def test_a_reduced_image_keeps_its_workspace_and_range_out_of_the_medians(tmp_path):
+    """Pixels outside the workspace or the depth range take no part in a block's median, and a
+    workspace too small for the reduced resolution is refused in one line."""
+    from graspjax.io import InputError
+    from graspjax.realimage.inputs import IntrinsicsRequest, prepare
+
+    depth = np.full((1920, 2560), 0.7, np.float32)
+    depth[:, :1281] = 0.2  # nearer than --range: a block straddling column 1280 keeps 0.7
+    np.save(tmp_path / "d.npy", depth)
+    inputs = prepare([tmp_path / "d.npy"], intrinsics=IntrinsicsRequest(focal=(3000, 3000)),
+                     depth_range=(0.5, 1.0), roi=(0, 0, 2560, 1000))
+    assert inputs.reduction == 4
+    full, camera, _ = inputs.read(tmp_path / "d.npy")
+    assert full.shape == (480, 640) and camera.fx == 750.0
+    assert np.all(full[:250, 321:] == np.float32(0.7)) and np.all(full[:250, 320] == np.float32(0.7))
+    assert np.all(full[:250, :320] == 0) and np.all(full[250:] == 0)  # outside: no depth
+    with pytest.raises(InputError, match="workspace is too small"):
+        prepare([tmp_path / "d.npy"], intrinsics=IntrinsicsRequest(focal=(3000, 3000)),
+                roi=(10, 10, 11, 11))

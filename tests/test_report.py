@@ -162,14 +162,15 @@ def test_a_report_checks_its_rows_and_says_when_the_run_is_unfinished(tmp_path, 
 
     from graspjax.cli import main
 
-    meta = {"run_id": "r1", "jobs": [{"objects": ["a", "c"], "setups": [1], "trials": 3}],
+    run = "1234e56789"  # a run id pandas would read as a number (inf)
+    meta = {"run_id": run, "jobs": [{"objects": ["a", "c"], "setups": [1], "trials": 3}],
             "points": 1, "versions": {"graspjax": "0.1.0"}}
     (tmp_path / "config.json").write_text(json.dumps(meta))
-    some = _frame({(1, "a"): (2, 3)}, {"run_id": "r1", "point": 0})  # 3 of the run's 6 worlds
-    every = _frame({(1, "a"): (2, 3), (1, "c"): (1, 3)}, {"run_id": "r1", "point": 0})
+    some = _frame({(1, "a"): (2, 3)}, {"run_id": run, "point": 0})  # 3 of the run's 6 worlds
+    every = _frame({(1, "a"): (2, 3), (1, "c"): (1, 3)}, {"run_id": run, "point": 0})
 
     def report(frame, text=None):
-        (tmp_path / "attempts.csv").write_text(text or frame.to_csv(index=False))
+        (tmp_path / "attempts.csv").write_text(frame.to_csv(index=False) if text is None else text)
         code = main(["report", str(tmp_path)])
         return code, capsys.readouterr().err
 
@@ -182,9 +183,11 @@ def test_a_report_checks_its_rows_and_says_when_the_run_is_unfinished(tmp_path, 
     code, err = report(every, text[:-7])  # cut mid-row
     assert code == 2 and "ends in an incomplete row" in err and len(err.splitlines()) == 1
     code, err = report(pd.concat([some, every.assign(run_id="r2")]))
-    assert code == 2 and "mixes the rows of 2 runs (run_id r1, r2)" in err
+    assert code == 2 and f"mixes the rows of 2 runs (run_id {run}, r2)" in err
     code, err = report(every.assign(run_id="r2"))
-    assert code == 2 and "rows of run r2, config.json describes run r1" in err
+    assert code == 2 and f"rows of run r2, config.json describes run {run}" in err
+    code, err = report(some, "")  # before the first chunk
+    assert code == 2 and "has no attempts yet" in err
     (tmp_path / "config.json").write_text(json.dumps({**meta, "finished": "2026-11-27"}))
     code, err = report(some)  # cut at a row's end: the rows look whole, the worlds are not
     assert code == 2 and "holds 3 of the run's 6 worlds though the run finished" in err

@@ -111,6 +111,7 @@ class Inputs:
     depth_scale: float  # metres per unit of a 16-bit PNG
     intrinsics: Intrinsics  # of the files
     workspace: np.ndarray  # (H, W) bool at full resolution, True where the search may look
+    source_workspace: np.ndarray  # the same in the files' pixels (before the reduction)
     roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
     config: Config
@@ -121,8 +122,11 @@ class Inputs:
         intrinsics come from."""
         depth, file_k = read_depth(path, self.depth_scale)
         camera = self.intrinsics.camera(*self.source_size, file_k)
-        return (block_median(depth, self.reduction), reduced(camera, self.reduction),
-                self.intrinsics.describe(file_k))
+        if self.reduction > 1:  # pixels outside the workspace or the range take no part
+            kept = (self.source_workspace & (depth >= self.image.min_depth)
+                    & (depth <= self.image.max_depth))
+            depth = block_median(np.where(kept, depth, 0.0), self.reduction)
+        return depth, reduced(camera, self.reduction), self.intrinsics.describe(file_k)
 
     def source_pixel(self, pixel) -> np.ndarray:
         """Full-resolution pixel coordinates (..., 2) (u, v) in the files' own pixels."""
@@ -132,12 +136,13 @@ class Inputs:
 
 
 def input_reduction(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> int:
-    """The block factor that brings an image to the full resolution the detection needs: its
-    pixels no finer than `image.full_pixel` at the image's median valid depth, and at most
-    `image.max_full_pixels` of them (an image coarser and smaller than that: 1)."""
+    """The block factor that brings an image to the full resolution the detection needs: the
+    largest whole factor that keeps its pixels at most `image.full_pixel` wide at the image's
+    median valid depth (along its coarser axis), and at least what brings it to
+    `image.max_full_pixels` pixels (an image coarser and smaller than that: 1)."""
     valid = depth[np.isfinite(depth) & (depth > max(image.min_depth, 0.0))
                   & (depth <= image.max_depth)]
-    pixel = float(np.median(valid)) / max(camera.fx, camera.fy)  # metres per pixel
+    pixel = float(np.median(valid)) / min(camera.fx, camera.fy)  # metres per pixel, the coarser axis
     by_pixel = int(image.full_pixel / pixel) if pixel > 0 else 1
     by_count = math.ceil(math.sqrt(camera.width * camera.height / image.max_full_pixels))
     return max(1, by_pixel, by_count)
@@ -263,9 +268,14 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
         workspace &= load_mask(mask, (height, width))
         if not workspace.any():
             raise InputError(f"the mask {mask} and the workspace box {roi} do not overlap")
+    source_workspace = workspace
     if reduction > 1:  # a full-resolution pixel is in the workspace when most of its block is
         blocks = workspace[:small_h * reduction, :small_w * reduction]
         workspace = blocks.reshape(small_h, reduction, small_w, reduction).mean(axis=(1, 3)) > 0.5
+        if not workspace.any():
+            raise InputError(f"the workspace is too small for the {small_w}x{small_h} "
+                             f"resolution the {width}x{height} images are taken at (block "
+                             f"{reduction}): give a larger --roi or mask")
     for i, path in enumerate(paths):
         depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
         if depth.shape != (height, width):
@@ -279,4 +289,5 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             _check_range(depth, path, image, depth_scale)
     return Inputs(paths=paths, source_size=(width, height), reduction=reduction, width=small_w,
                   height=small_h, depth_scale=depth_scale, intrinsics=source,
-                  workspace=workspace, roi=roi, mask=mask, config=config, image=image)
+                  workspace=workspace, source_workspace=source_workspace, roi=roi, mask=mask,
+                  config=config, image=image)
