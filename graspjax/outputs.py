@@ -111,6 +111,9 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
             pass
     except OSError:
         raise InputError(f"--out {folder}: {probe} is not writable") from None
+    only_locked = folder.is_dir() and [p.name for p in folder.iterdir()] == [LOCK]
+    if only_locked:  # a run has just taken the folder: its lock says whose (`writing`)
+        return folder
     if folder.is_dir() and any(folder.iterdir()) and not holds_graspjax_output(folder):
         files = _foreign(folder)
         shown = ", ".join(files[:3]) + (f" and {len(files) - 3} more" if len(files) > 3 else "")

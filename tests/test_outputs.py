@@ -104,3 +104,15 @@ def test_the_runs_process_streams_its_helpers_rows_as_their_chunks_end(tmp_path)
     run.catch_up()
     run.catch_up()  # nothing twice
     assert pd.read_csv(tmp_path / "attempts.csv")["trial"].tolist() == [0, 1]
+
+
+def test_a_folder_a_run_has_just_locked_is_left_to_the_lock(tmp_path):
+    """Between taking its lock and writing config.json a run's folder holds the lock alone: a
+    second run is sent on to the lock (which names the first), not told the folder is a
+    user's."""
+    folder = tmp_path / "run"
+    with writing(folder):
+        assert check_output_folder(folder, resume=True) == folder
+        with pytest.raises(InputError, match="being written by process"):
+            with writing(folder):
+                pass
