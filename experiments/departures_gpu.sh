@@ -9,6 +9,7 @@
 #   triangles   the triangles' radius (3 / 5 / 8 px) and the plane's minimum inliers (3 / 10 / 20)
 #   window      the inlier window around A for every plane (the paper's words) or around each
 #               triangle's centroid (ours)
+#   turn        the tool turns by the plane's normal in the paper's pixel units or in metres (ours)
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-300}
@@ -28,6 +29,7 @@ for name in "$@"; do
 paper:15:35,paper:25:35,paper:35:35,antipodal:15:15,antipodal:15:25,antipodal:15:35" ;;
     anchor) step anchor --grid align.anchor=nearest,centre ;;
     window) step window_centre --grid align.window_centre=anchor,triangle ;;
+    turn) step turn_normal --grid align.turn_normal=pixel,metric ;;
     triangles) step triangles --grid "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
     *) echo "unknown step $name" >&2; exit 2 ;;
   esac

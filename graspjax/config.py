@@ -174,6 +174,9 @@ class AlignConfig:
     # (ours), or around A for every plane ("only points close to the center (point A in Fig. 5)")
     distance_threshold: float = traced(0.3)  # max point-to-plane distance of an inlier (pixel units)
     pixel_scale: Literal["paper", "footprint"] = "paper"  # Eq. 2 as written, or the true footprint
+    turn_normal: Literal["metric", "pixel"] = "metric"  # the tool turns to the winning plane's
+    # normal in the camera frame (ours: a direction in space), or to its normal in the pixel
+    # units (u, v, z / d_p) the paper computes it in, taken as a camera-frame direction
     refit: bool = False  # least-squares refit of the winning plane to its inliers
     min_inliers: int = traced(10)  # fewer inliers means no usable plane
     min_turn_deg: float = traced(0.0)  # ours, off by default: skip planes whose view turns less

@@ -93,6 +93,27 @@ def test_tilted_plane_normal_is_recovered(camera, align, render, tilt_deg, azimu
     assert int(a.inliers) >= AlignConfig().min_inliers
 
 
+@pytest.mark.parametrize("tilt_deg, azimuth_deg", [(10, 0), (30, 45), (50, 200)])
+def test_the_paper_unit_normal_is_the_triangles_normal_in_pixel_units(camera, render, tilt_deg,
+                                                                    azimuth_deg):
+    """turn_normal="pixel": the tool turns to the winning triangle's normal in (u, v, z / d_p)
+    (Eq. 2 as written), computed here with NumPy from the depth at its corners; on a tilted
+    plane it is steeper than the metric normal (d_p is half a pixel's footprint)."""
+    normal_world = rot_z(np.deg2rad(azimuth_deg)) @ rot_y(np.deg2rad(tilt_deg)) @ [0, 0, 1.0]
+    depth = render([half_space(normal_world, [0, 0, 0.1])], ground=None)
+    cfg = AlignConfig(turn_normal="pixel")
+    a = jax.jit(align_tool)(jnp.asarray(depth), camera, cfg)
+    assert bool(a.found), AlignReason(int(a.reason))
+    (u_a, v_a), (u_b, v_b), (u_c, v_c) = np.asarray(a.corners)[int(a.best)]
+    d_p = depth[v_a, u_a] * np.tan(camera.fov_x / 2) / camera.width  # Eq. 2 at A
+    p = np.array([[u, v, depth[v, u] / d_p] for u, v in ((u_a, v_a), (u_b, v_b), (u_c, v_c))])
+    expected = np.cross(p[1] - p[0], p[2] - p[0])
+    expected *= -np.sign(expected[2]) / np.linalg.norm(expected)  # toward the camera
+    np.testing.assert_allclose(np.asarray(a.normal), expected, atol=1e-4)
+    metric = _camera_normal(normal_world)
+    assert np.degrees(np.arccos(-expected[2])) > np.degrees(np.arccos(-metric[2])) + 1.0
+
+
 @pytest.mark.parametrize("scale, anchor, window", [("paper", "centre", "triangle"),
                                                    ("footprint", "centre", "triangle"),
                                                    ("paper", "nearest", "triangle"),

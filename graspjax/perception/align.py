@@ -11,7 +11,9 @@ by at least `min_turn_deg` from the current one (ours: the paper turns to see
 the object "from another angle"); the tool then looks along its negative
 normal. Normals are reported in the metric camera
 frame (from the triangle's back-projected corners, or a least-squares fit to
-the inliers when `refit`), pointing from the surface toward the camera.
+the inliers when `refit`), pointing from the surface toward the camera; with
+`turn_normal="pixel"` the normal in the pixel units of Eq. 2, as the paper
+computes it, read as a camera-frame direction.
 
 Scoring only looks at a `(2 * MAX_WINDOW_PX + 3)^2` patch around each
 centroid, which holds every pixel the window admits; the window itself and
@@ -177,6 +179,8 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
     normals = normals / jnp.maximum(jnp.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
     toward_camera = jnp.sum(normals * metric[:, 0], -1) < 0
     normals = jnp.where(toward_camera[:, None], normals, -normals)
+    if config.turn_normal == "pixel":  # the paper's unit: (u, v, z / d_p) read as (x, y, z)
+        normals = jnp.where(n_scaled[:, 2:] < 0, n_scaled, -n_scaled)
 
     # A view must turn by at least min_turn_deg: the optical axis is +z, normals face the camera.
     turns = normals[:, 2] >= -jnp.cos(jnp.deg2rad(config.min_turn_deg))
