@@ -356,9 +356,10 @@ class PerceptionConfig:
     """What the method may see and know (simulated and real images alike): where targets are
     chosen and how a chosen target is found again in the next view (docs/method.md)."""
 
-    oracle: bool = traced(False)  # ablation only, never in a preset: in the simulation, the
+    oracle: bool = False  # ablation only, never in a preset: in the simulation, the
     # renderer's labels of the target replace its depth-connected surface in every view, and
-    # the overview picks among the objects not yet attempted by their identity
+    # the overview picks among the objects not yet attempted by their identity. Static: the
+    # default program computes no decision from the labels at all
     min_height: float = traced(0.01)  # a target stands at least this far above the support (m)
     surface_step: float = traced(0.0025)  # a target's depth-connected surface: the largest
     # depth step between 4-neighbours inside it (m); a larger step parts it from what lies

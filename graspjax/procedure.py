@@ -54,6 +54,7 @@ Batch with `jax.vmap` at the edge (`batch/program.py`).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from enum import IntEnum
 
 import jax
@@ -323,6 +324,12 @@ def _surfaces(objects: jax.Array, table: jax.Array, depth: jax.Array, target) ->
                       Surface.BIN).astype(jnp.int32)
 
 
+def target_pixels(surface: jax.Array) -> jax.Array:
+    """Pixels (H, W) bool a view's ground truth `surface` (H, W) puts on the target: for
+    judging and for the oracle ablation only (`with_oracle`), never for a decision."""
+    return surface == Surface.TARGET
+
+
 def target_faces(scene: Scene, data, target) -> tuple[jax.Array, jax.Array]:
     """Outward unit normals (G * P, 3) of the target's faces in the world (state after
     kinematics), and which are real faces (G * P,) bool (not padding, not another piece's)."""
@@ -355,12 +362,12 @@ def overview_pose(config: Config):
     return look_down(jnp.array([0.0, 0.0, 1.0]) * config.procedure.camera_height)
 
 
-def with_oracle(config: Config, seen, labelled):
+def with_oracle(config: Config, seen, labelled: Callable):
     """What the method works on: `seen`, found from depth alone; only the ablation
-    `perception.oracle` (never in a preset: tests/test_config.py) puts `labelled`, taken from
-    the renderer's labels, in its place. The one place where labels can reach a decision
-    (pytrees of the same structure)."""
-    return where_tree(config.perception.oracle, labelled, seen)
+    `perception.oracle` (never in a preset: tests/test_config.py) puts `labelled()`, taken from
+    the renderer's labels, in its place. The one place where labels can reach a decision; the
+    flag is static, so without it no label-made choice is even traced."""
+    return labelled() if config.perception.oracle else seen
 
 
 def _candidates(depth: jax.Array, rotation, position, in_bin, camera: Camera, config: Config
@@ -391,9 +398,12 @@ def select_target(scene: Scene, data, eligible: jax.Array, attempting, in_bin, c
     depth, objects, _ = _look(scene, data, rotation, position, camera, config, key)
     candidate = _candidates(depth, rotation, position, in_bin, camera, config)
     _, pixel = best_candidate(candidate, -depth)  # z_min
-    labelled = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
-    oracle_pixel, _ = nearest_pixel(depth, labelled)
-    (u, v), seen = with_oracle(config, (pixel, candidate), (oracle_pixel, labelled))
+
+    def by_labels():  # the ablation: the nearest pixel of the eligible objects, by identity
+        labelled = (objects >= 0) & eligible[jnp.maximum(objects, 0)] & (depth > 0)
+        return nearest_pixel(depth, labelled)[0], labelled
+
+    (u, v), seen = with_oracle(config, (pixel, candidate), by_labels)
     aimed = jnp.any(seen) & attempting
     point_cam = camera.unproject(jnp.stack([u, v]).astype(jnp.float32), depth[v, u])
     credited = jnp.where(aimed, objects[v, u], -1).astype(jnp.int32)  # ground truth: the credit
@@ -431,13 +441,12 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.A
     score re-alignment planes around it. `target` () (the credited object) only judges."""
     k_render, k_align = view_keys(key)
     depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
-    surface = _surfaces(obj, table, depth, target)  # ground truth: it judges below
-    on_target = surface == Surface.TARGET
+    surface = _surfaces(obj, table, depth, target)  # ground truth: it judges, after the decisions
     candidate = _candidates(depth, rotation, position, in_bin, camera, config)
     followed, _, _ = follow_target(depth, camera, candidate, rotation.T @ (point - position),
                                    config.perception.surface_step,
                                    config.perception.follow_distance)
-    mask = with_oracle(config, followed, on_target)
+    mask = with_oracle(config, followed, lambda: target_pixels(surface))
     grasp = grasp_method(config.method)(depth, camera, config, mask)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
@@ -459,6 +468,7 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.A
     g = jnp.round(jnp.where(grasp.found, grasp.pixel, 0.0)).astype(jnp.int32)
     inside = (g[0] >= 0) & (g[0] < camera.width) & (g[1] >= 0) & (g[1] < camera.height)
     under = obj[jnp.clip(g[1], 0, camera.height - 1), jnp.clip(g[0], 0, camera.width - 1)]
+    on_target = target_pixels(surface)  # judging the segmentation: precision and recall
     hits = jnp.sum(mask & on_target)
     return _View(grasp=grasp, alignment=alignment, grasp_pose=pose,
                  next_rotation=jnp.where(alignment.found, next_rotation, rotation),
@@ -549,7 +559,7 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
         rotation, position = overview_pose(config)
         views = Views(depth=jnp.concatenate([depth[None], v.depth]),
                       target_mask=jnp.concatenate([((objects == target) & (target >= 0))[None],
-                                                   v.surface == Surface.TARGET]),
+                                                   target_pixels(v.surface)]),
                       seed_mask=jnp.concatenate([candidate[None], v.mask]),
                       rotation=jnp.concatenate([rotation[None], _view_poses(centre_rot, v.next_rotation)]),
                       position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
