@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from graspjax.batch.rows import outcome_label
+from graspjax.batch.rows import LAYOUT_COLUMNS, outcome_label
 from graspjax.config import Config, override
 from graspjax.figures import new_figure, png
 from graspjax.stats import mean_interval, wilson
@@ -90,26 +90,25 @@ def played_worlds(frame: pd.DataFrame) -> int:
                              "t": frame["trial"]}).drop_duplicates())
 
 
-def _finished(folder: str | Path) -> bool:
-    """Whether the folder's `config.json` says its run finished."""
+def _meta(folder: str | Path) -> dict:
+    """The folder's `config.json` ({} when it has none a run wrote)."""
     import json
 
     try:
-        return bool(json.loads((Path(folder) / "config.json").read_text()).get("finished"))
-    except (OSError, ValueError, AttributeError):
-        return False
+        meta = json.loads((Path(folder) / "config.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return meta if isinstance(meta, dict) else {}
 
 
 def run_state(folder: str | Path, frame: pd.DataFrame) -> str:
     """"" for a finished run whose rows are all there (or rows without a run's `config.json`),
     "unfinished: n of N worlds" for a run still going or killed; a ValueError when the rows
     are not the folder's run's, or a finished run's file lacks worlds (cut)."""
-    import json
-
+    meta = _meta(folder)
     try:
-        meta = json.loads((Path(folder) / "config.json").read_text())
         planned = planned_worlds(meta)
-    except (OSError, ValueError, KeyError, TypeError):
+    except (KeyError, TypeError, ValueError):
         return ""  # rows from elsewhere: nothing to check them against
     ids = set(frame["run_id"].astype(str)) if "run_id" in frame.columns else set()
     if meta.get("run_id") and ids and ids != {str(meta["run_id"])}:
@@ -425,9 +424,6 @@ def layout_lines(rounds: pd.DataFrame | None) -> list[str]:
     return lines
 
 
-LAYOUT_COLUMNS = ("touching_fraction", "stacked", "min_face_gap_m", "spread_m")
-
-
 def shared_layouts(rounds: pd.DataFrame | None) -> list[str]:
     """For a sweep's Setup 2/3 rounds: in how many rounds every grid point settled the same
     layout (the statistics of `rounds.csv`, to the file's precision), one markdown line per
@@ -603,7 +599,7 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
     frame = load_attempts(folder)
     state = run_state(folder, frame)
     files = build(frame, load_rounds(folder), state)
-    if state and _finished(folder):  # the run finished meanwhile: report its whole rows
+    if state and _meta(folder).get("finished"):  # the run finished meanwhile: report its whole rows
         return write_report(folder, debug)
     if debug:
         files.update(debug_figures(folder, debug))

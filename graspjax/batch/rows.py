@@ -34,6 +34,8 @@ if TYPE_CHECKING:
 FIRST_COLUMNS = ["run_id", "point", "method", "setup", "object", "trial", "round", "attempt",
                  "seed", "success", "outcome", "reason", "reorientations", "lifted_object"]
 SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
+LAYOUT_COLUMNS = ("touching_fraction", "stacked", "min_face_gap_m", "spread_m")  # rounds.csv:
+# the settled layout's statistics (`round_rows`)
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)
 SURFACE_LABELS = np.array(["", "target", "other object", "table", "bin"], dtype=object)  # Surface + 1
