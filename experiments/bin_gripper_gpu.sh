@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Setup 3's two unknowns (issue 16): the bin floor against the objects' footprint and the
-# gripper's size, on the GPU machine (MuJoCo as wheels: ../shared/gpu/README.md). The paper
+# Setup 3's bin variant (layout.bin), its two unknowns (issue 16): the bin floor against the
+# objects' footprint and the gripper's size, on the GPU machine (MuJoCo as wheels: ../shared/gpu/README.md). The paper
 # gives neither; no value is picked to match its 58 %. Each bin size and gripper is its own
 # scene (static), so each grid point compiles its own program; two calls of four points each:
 #   experiments/bin_gripper_gpu.sh small   # bins 0.16, 0.18, 0.22, 0.26 m, gripper 6 cm / 1 cm
@@ -15,7 +15,7 @@ case "${1:-}" in
   *) echo "usage: $0 small|franka" >&2; exit 2 ;;
 esac
 start=$SECONDS
-python3 -m graspjax.cli sweep --setup 3 --trials 200 --seed 0 --paired --quiet \
+python3 -m graspjax.cli sweep --setup 3 --trials 200 --seed 0 --paired --quiet --set layout.bin=true \
   --grid layout.bin_size=0.16,0.18,0.22,0.26 --grid "$hand" --out "$out/bin_$1" \
   > "$out/bin_$1.log" 2>&1
 echo "== bin_$1: exit $? after $((SECONDS - start)) s"; tail -n 2 "$out/bin_$1.log"

@@ -14,7 +14,7 @@ import sys
 
 import pandas as pd
 
-from graspjax.report import load_attempts, markdown
+from graspjax.report import load_attempts, load_rounds, markdown
 from graspjax.stats import wilson
 
 FOOTPRINT = 0.0167  # total footprint of a-f (m^2): the 0.18 m bin's floor is 1.94 times it
@@ -23,7 +23,7 @@ FOOTPRINT = 0.0167  # total footprint of a-f (m^2): the 0.18 m bin's floor is 1.
 def rows(folder: str) -> list[dict]:
     attempts = load_attempts(folder)
     attempts = attempts[attempts["attempt"] >= 0]
-    rounds = pd.read_csv(f"{folder}/rounds.csv")
+    rounds = load_rounds(folder)
     out = []
     for point, part in attempts.groupby("point"):
         layout = rounds[rounds["point"] == point]

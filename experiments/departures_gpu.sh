@@ -1,36 +1,52 @@
 #!/usr/bin/env bash
-# Where graspjax reads, fills in or changes the paper (issue 51; docs/departures.md): each
-# departure that a setting switches, measured paired on the same worlds (Tables 1+2, paper
-# preset, TRIALS per cell, default 300) on the GPU machine. MuJoCo goes along as wheels
-# (../shared/gpu/README.md); each step writes $OUT/NAME.tar.gz (attempts gzipped) and its log.
-#   tolerance   the T-beam's antipodal-edge tolerance and the antipodal sampler's cone, 15 / 25 /
-#               35 deg each (results/studies/tolerance)
-#   anchor      A at z_min ("nearest", the paper's Fig. 4) or at the centre of z_min's band (ours)
-#   triangles   the triangles' radius (3 / 5 / 8 px) and the plane's minimum inliers (3 / 10 / 20)
-#   window      the inlier window around A for every plane (the paper's words) or around each
-#               triangle's centroid (ours)
-#   turn        the tool turns by the plane's normal in the paper's pixel units or in metres (ours)
+# The literal paper preset (issue 51; docs/departures.md) on the GPU machine: its reference tables,
+# Setup 3 on the table against the bin, the methods on the same world states, and each departure
+# that a setting switches, measured paired on the same worlds (Tables 1+2, paper preset, TRIALS
+# per cell, default 300). MuJoCo goes along as wheels (../shared/gpu/README.md); each step writes
+# $OUT/NAME.tar.gz (attempts gzipped) and its log. Steps (several per call):
+#   tables-PRESET  Tables 1+2, 1,000 trials per cell (results/PRESET_gpu_1000)
+#   setup3-PRESET  Setup 3, 1,000 rounds, paired: on the table (the paper) or in the bin
+#                  (layout.bin; results/setup3/)
+#   methods-PRESET the paper's method and the baselines, one grid point each (so every method's
+#                  worlds are chunked alike and settle to the same states), each with the
+#                  paper's re-alignment, Tables 1+2, TRIALS per cell (results/methods/)
+#   tolerance      the T-beam's antipodal-edge tolerance and the antipodal sampler's cone, 15 / 25 /
+#                  35 deg each (results/studies/tolerance)
+#   ours           the paper's reading against each of our changes to the alignment, one at a time
+#                  and all together: A at the centre of z_min's band, each plane's window around its
+#                  own triangle, the turn by the metric normal (results/studies/ours)
+#   triangles      the triangles' radius (3 / 5 / 8 px) and the plane's minimum inliers (3 / 10 / 20)
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-300}
-step() {  # step NAME ARGS...: one graspjax sweep into $out/NAME, then pack it
+step() {  # step NAME COMMAND ARGS...: one graspjax command into $out/NAME, then pack it
   local name=$1 start=$SECONDS
   shift
-  python3 -m graspjax.cli sweep --table 1,2 --trials "$trials" --seed 0 --paired --preset paper \
-    "$@" --quiet --out "$out/$name" > "$out/$name.log" 2>&1
+  python3 -m graspjax.cli "$@" --seed 0 --quiet --out "$out/$name" > "$out/$name.log" 2>&1
   echo "== $name: exit $? after $((SECONDS - start)) s; $(tail -n 1 "$out/$name.log")"
   gzip -f "$out/$name/attempts.csv"
   rm -f "$out/$name/attempts.parquet"
   tar -C "$out" -czf "$out/$name.tar.gz" "$name" && rm -rf "${out:?}/$name"
 }
+paired() {  # paired NAME ARGS...: Tables 1+2, TRIALS per cell, paper preset, paired sweep
+  local name=$1
+  shift
+  step "$name" sweep --table 1,2 --trials "$trials" --paired --preset paper "$@"
+}
 for name in "$@"; do
+  preset=${name#*-}
   case "$name" in
-    tolerance) step tolerance --grid "method:detect.antipodal_tolerance_deg:baseline.antipodal_cone_deg=\
+    tables-*) step "${preset}_gpu_1000" run --table 1,2 --trials 1000 --preset "$preset" ;;
+    setup3-*) step "setup3_$preset" sweep --setup 3 --trials 1000 --paired --preset "$preset" \
+      --grid layout.bin=false,true ;;
+    methods-*) step "methods_$preset" sweep --table 1,2 --trials "$trials" --paired \
+      --preset "$preset" --grid method=paper,highest-pca,antipodal ;;
+    tolerance) paired tolerance --grid "method:detect.antipodal_tolerance_deg:baseline.antipodal_cone_deg=\
 paper:15:35,paper:25:35,paper:35:35,antipodal:15:15,antipodal:15:25,antipodal:15:35" ;;
-    anchor) step anchor --grid align.anchor=nearest,centre ;;
-    window) step window_centre --grid align.window_centre=anchor,triangle ;;
-    turn) step turn_normal --grid align.turn_normal=pixel,metric ;;
-    triangles) step triangles --grid "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
+    ours) paired ours --grid "align.anchor:align.window_centre:align.turn_normal=\
+nearest:anchor:pixel,centre:anchor:pixel,nearest:triangle:pixel,nearest:anchor:metric,\
+centre:triangle:metric" ;;
+    triangles) paired triangles --grid "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
     *) echo "unknown step $name" >&2; exit 2 ;;
   esac
 done

@@ -10,7 +10,7 @@
 #   sloped            the sloped Setup 1 variant (view_tilt_deg=30), a-f, 300 trials per object,
 #                     paired: perception.oracle (paper preset)
 #   methods-PRESET    the paper's method and the baselines on the same worlds, Tables 1+2,
-#                     TRIALS (default 300) per cell, paired
+#                     TRIALS (default 300) per cell, paired, one grid point per method
 #   planes-sloped     perception only: first views of 1,000 sloped Setup 1 worlds per object,
 #                     window x threshold (5 x 5 grid points)
 #   planes-bin        the same on 4,096 Setup 3 rounds
@@ -51,10 +51,10 @@ for name in "$@"; do
     sloped) step sloped sweep --setup 1 --objects abcdef --trials 300 --paired \
       --set procedure.view_tilt_deg=30 --grid "$oracle" ;;
     methods-*) step "methods_$preset" sweep --table 1,2 --trials "$trials" --paired --preset "$preset" \
-      --grid method:procedure.max_reorientations=paper:1,highest-pca:0,antipodal:0,antipodal:1 ;;
+      --grid method=paper,highest-pca,antipodal ;;
     planes-sloped) step planes_sloped planes --setup 1 --objects abcdef --trials 1000 \
       --set procedure.view_tilt_deg=30 --grid "$windows" --grid "$thresholds" ;;
-    planes-bin) step planes_bin planes --setup 3 --objects abcdef --trials 4096 \
+    planes-bin) step planes_bin planes --setup 3 --objects abcdef --trials 4096 --set layout.bin=true \
       --grid "$windows" --grid "$thresholds" ;;
     studies)
       start=$SECONDS

@@ -35,6 +35,7 @@ from graspjax.procedure import (
     attempt_keys,
     eligible_objects,
     first_look,
+    in_bin,
     plane_truth,
     round_goes_on,
     target_faces,
@@ -67,13 +68,13 @@ def first_view(scene, state: RoundState, spec: WorldSpec) -> FirstView:
     camera = config.camera.camera()
     data = mjx.kinematics(physics_model(scene, config), state.data)
     eligible, attempting = eligible_objects(state, spec), round_goes_on(state, spec)
-    in_bin = spec.setup == 3
+    in_the_bin = in_bin(spec)
     k_search, _ = attempt_keys(state, 0)
     target, aimed, point, (rotation, position), _, k_views = first_look(
-        scene, data, eligible, attempting, in_bin, k_search, config)
+        scene, data, eligible, attempting, in_the_bin, k_search, config)
     target = jnp.where(aimed, target, -1)
     key = jax.random.fold_in(k_views, 0)
-    first = view(scene, data, rotation, position, target, point, in_bin, camera, config, key)
+    first = view(scene, data, rotation, position, target, point, in_the_bin, camera, config, key)
     normals, real = target_faces(scene, data, target)
     return FirstView(depth=first.depth, mask=first.mask, surface=first.surface, rotation=rotation,
                      face_normals=normals, face_real=real, key=view_keys(key)[1], target=target,
@@ -161,13 +162,15 @@ def summarize(rows: pd.DataFrame, grid: dict[str, list]) -> pd.DataFrame:
     view's tilt, and the smallest on-target difference this many views can detect (computed as
     for independent samples: conservative, since every point scores the same views)."""
     out = []
-    for point, part in rows[~rows.first_view_grasp & (rows.target != "")].groupby("point"):
+    realigning = rows[~rows.first_view_grasp & (rows.target != "")]
+    for point in sorted(rows.point.unique()):  # a point whose views all found a grasp: views 0
+        part = realigning[realigning.point == point]
         found = part[part.plane_found]
         on = (found.surface == "target").sum()
         low, high = wilson(on, len(found))
-        rate = on / max(len(found), 1)
+        rate = on / len(found) if len(found) else np.nan
         out.append({**{k: v[point] for k, v in grid.items()}, "point": point,
-                    "views": len(part), "plane_found": len(found) / max(len(part), 1),
+                    "views": len(part), "plane_found": len(found) / len(part) if len(part) else np.nan,
                     "on_target": rate, "on_target_low": low, "on_target_high": high,
                     "detectable_difference": detectable_difference((on + 1) / (len(found) + 2),
                                                                    len(found)),

@@ -261,6 +261,12 @@ _NO_PLANE = PlaneTruth(surface=np.int32(Surface.NONE), on_target=np.float32(np.n
 # Layouts and settling
 
 
+def in_bin(spec: WorldSpec) -> jax.Array:
+    """() bool: this world's objects lie in the bin (Setup 3 with `layout.bin`); else on the
+    open table."""
+    return (spec.setup == 3) & spec.config.layout.bin
+
+
 def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
     """Setup 1: key(seed, 1, object letter, trial); Setups 2, 3: key(seed, setup, round)."""
     letter = jnp.asarray([LETTER_INDEX[c] for c in scene.letters], jnp.int32)[spec.order[0]]
@@ -272,7 +278,7 @@ def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
 def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec,
                 setups: tuple[int, ...] = (1, 2, 3)) -> RoundState:
     """Place the round's layout (not yet settled): one object dropped alone (Setup 1), a group
-    of resting objects (Setup 2) or a pile dropped into the bin (Setup 3). `setups` (static)
+    of resting objects (Setup 2) or a pile dropped on the table or into the bin (Setup 3). `setups` (static)
     are those the batch's worlds may play: only their layouts are built."""
     config = spec.config
     key = jax.random.wrap_key_data(_layout_key(scene, spec))
@@ -282,14 +288,15 @@ def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec,
         1: lambda: layout.single(key, spec.order[0], points, config.layout),
         2: lambda: layout.grouped(key, jnp.asarray(scene.resting, jnp.float32), points,
                                   config.layout),
-        3: lambda: layout.pile(key, points, config.layout)}
+        3: lambda: layout.pile(key, jnp.asarray(scene.resting, jnp.float32), points,
+                               config.layout)}
     placed = {s: samplers[s]() for s in sorted(set(setups))}
     others = list(placed)[:-1]  # each picked where the world plays it; else the last
     pos, quat = jax.tree.map(
         lambda *poses: jnp.select([spec.setup == s for s in others], poses[:-1], poses[-1])
         if others else poses[0], *(placed[s][:2] for s in placed))
     active = jnp.where(spec.setup == 1, placed[1][2], spec.members) if 1 in placed else spec.members
-    data = reset(scene, data, pos, quat, active, bin_in_place=spec.setup == 3)
+    data = reset(scene, data, pos, quat, active, bin_in_place=in_bin(spec))
     return RoundState(data=data, attempted=jnp.zeros(n, bool), failures=jnp.int32(0),
                       removed=jnp.zeros(n, bool), key=key)
 
@@ -634,15 +641,15 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     model = physics_model(scene, config)
     n = scene.num_objects
     eligible, attempting = eligible_objects(state, spec), round_goes_on(state, spec)
-    in_bin = spec.setup == 3  # the workspace is the bin's interior (known by calibration)
+    in_the_bin = in_bin(spec)  # the workspace is the bin's interior (known by calibration)
     finite = jnp.all(jnp.isfinite(state.data.qpos))
     k_search, k_error = attempt_keys(state, k)
     searched = []  # the search's output shapes, recorded by its trace
 
     def search(_):
         kin = mjx.kinematics(model, state.data)
-        target, aimed, pose, progress, views = _search(scene, kin, eligible, attempting, in_bin,
-                                                       k_search, config, keep_views)
+        target, aimed, pose, progress, views = _search(scene, kin, eligible, attempting,
+                                                       in_the_bin, k_search, config, keep_views)
         # The pre-grasp pose must leave the open hand clear of every part, the bin and the table.
         reached = _with_error(pose, k_error, config)
         waypoints, _ = hand_waypoints(scene, reached, config)

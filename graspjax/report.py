@@ -389,8 +389,11 @@ def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
 
 
 def load_rounds(folder: str | Path) -> pd.DataFrame | None:
-    """`rounds.csv` of a run folder (one row per Setup 2/3 round), None if it has none."""
+    """`rounds.csv` (or a gzipped `rounds.csv.gz`, as committed results keep it) of a run
+    folder (one row per Setup 2/3 round), None if it has none."""
     path = Path(folder) / "rounds.csv"
+    if not path.is_file():
+        path = path.with_suffix(".csv.gz")
     if not path.is_file() or not path.stat().st_size:
         return None
     return pd.read_csv(path)

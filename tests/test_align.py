@@ -10,6 +10,8 @@ from graspjax import AlignConfig, AlignReason, align_tool
 from graspjax.perception.align import plane_inliers
 from graspjax.synthetic import Solid, box, half_space, rot_x, rot_y, rot_z
 
+METRIC = AlignConfig(turn_normal="metric")  # ours: the normal in metres, checked against truth
+
 
 def _camera_normal(normal_world):
     return world_to_camera(normal_world) - world_to_camera([0, 0, 0])
@@ -85,7 +87,8 @@ def eq3_reference(depth, camera, config: AlignConfig):
                                                    (25, -120)])
 def test_tilted_plane_normal_is_recovered(camera, align, render, tilt_deg, azimuth_deg):
     normal_world = rot_z(np.deg2rad(azimuth_deg)) @ rot_y(np.deg2rad(tilt_deg)) @ [0, 0, 1.0]
-    a = align(jnp.asarray(render([half_space(normal_world, [0, 0, 0.1])], ground=None)), camera)
+    a = align(jnp.asarray(render([half_space(normal_world, [0, 0, 0.1])], ground=None)), camera,
+              METRIC)
     assert bool(a.found), AlignReason(int(a.reason))
     expected = _camera_normal(normal_world)  # toward the camera: negative z in camera frame
     np.testing.assert_allclose(np.asarray(a.normal), expected, atol=2e-3)
@@ -135,8 +138,8 @@ def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor, wi
 def test_paper_scale_is_stricter_than_the_true_footprint_on_a_tilted_plane(camera, render):
     """Eq. 2 as written halves d_p, doubling z in pixel units: fewer points fit the window."""
     depth = jnp.asarray(render([half_space(rot_y(0.6) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
-    paper = align_tool(depth, camera, AlignConfig(pixel_scale="paper"))
-    true = align_tool(depth, camera, AlignConfig(pixel_scale="footprint"))
+    paper = align_tool(depth, camera, AlignConfig(pixel_scale="paper", turn_normal="metric"))
+    true = align_tool(depth, camera, AlignConfig(pixel_scale="footprint", turn_normal="metric"))
     assert int(true.inliers) > int(paper.inliers)
     np.testing.assert_allclose(np.asarray(paper.normal), np.asarray(true.normal), atol=1e-5)
 
@@ -162,7 +165,7 @@ def test_ranking_orders_hypotheses_by_inliers(camera, render):
 
 def test_random_hypotheses_need_a_key_and_are_reproducible(camera, render):
     depth = jnp.asarray(render([half_space(rot_y(0.4) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
-    cfg = AlignConfig(hypotheses="random", num_random=32)
+    cfg = AlignConfig(hypotheses="random", num_random=32, turn_normal="metric")
     with pytest.raises(ValueError, match="PRNG key"):
         align_tool(depth, camera, cfg)
     key = jax.random.key(7)
@@ -251,7 +254,8 @@ def test_centre_anchor_on_a_ridge_finds_a_slope(camera, render):
     normals = np.array(slopes + [[0, 1.0, 0], [0, -1.0, 0], [0, 0, -1.0]])
     ridge = Solid(normals, np.array([height / 2, height / 2, 0.04, 0.04, 0.0]))
     depth = render([ridge])
-    centre = align_tool(jnp.asarray(depth), camera, AlignConfig(anchor="centre"))
+    ours = AlignConfig(anchor="centre", turn_normal="metric")
+    centre = align_tool(jnp.asarray(depth), camera, ours)
     assert tuple(np.asarray(centre.anchor)) == _band_centre(depth, 0.005)
     true = [_camera_normal(n) for n in slopes]
     error = min(np.degrees(np.arccos(np.clip(np.asarray(centre.normal) @ t, -1, 1))) for t in true)

@@ -145,10 +145,14 @@ def test_invalid_pixels_and_noise(camera, detect, render):
     holes[rng.random(clean.shape) < 0.05] = 0.0
     holes[rng.random(clean.shape) < 0.05] = np.nan
     noisy = clean + rng.normal(0.0, 0.0015, clean.shape).astype(np.float32)
+    slant = 1 / np.cos(np.deg2rad(DetectorConfig().antipodal_tolerance_deg))
     for depth in (holes, noisy):
         g = detect(jnp.asarray(depth), camera)
         assert bool(g.found), _reason(g)
-        assert abs(float(g.width) - 0.05) <= 1.5 * _pixel(camera, 0.46)
+        # across the 5 cm side (not the 9 cm one), closing within the antipodal tolerance of its
+        # normal; a hole on the rim may notch an edge by up to two pixels
+        pixel = _pixel(camera, 0.46)
+        assert 0.05 - 2 * pixel <= float(g.width) <= 0.05 * slant + 1.5 * pixel
 
 
 def test_vmap_equals_a_loop_and_jit_equals_eager(camera, detect, render):

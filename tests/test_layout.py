@@ -69,8 +69,8 @@ def test_same_seed_same_layout_other_trial_other_layout():
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
     assert not np.allclose(a[1], c[1])
-    assert not np.allclose(layout.pile(layout.layout_key(7, 3, 0), PADDED, CFG)[0],
-                           layout.pile(layout.layout_key(8, 3, 0), PADDED, CFG)[0])
+    assert not np.allclose(layout.pile(layout.layout_key(7, 3, 0), RESTING, PADDED, CFG)[0],
+                           layout.pile(layout.layout_key(8, 3, 0), RESTING, PADDED, CFG)[0])
 
 
 def test_setup1_drops_one_object_from_any_orientation():
@@ -104,20 +104,52 @@ def test_setup2_members_keep_their_face_to_face_gaps():
             assert lowest == pytest.approx(CFG.drop_clearance, abs=1e-6)
 
 
-def test_setup3_pile_starts_inside_the_bin_without_overlap():
-    half = CFG.bin_size / 2
+def _check_stacked(pos, quat):
+    """Each object of a pile starts above everything dropped before it, nothing in the table.
+    Returns the objects' vertices in the world (6, V, 3)."""
+    rotations = _rotations(quat)
+    world = [POINTS[i] @ rotations[i].T + np.asarray(pos[i]) for i in range(6)]
+    spans = sorted((w[:, 2].min(), w[:, 2].max()) for w in world)
+    assert spans[0][0] >= CFG.drop_clearance - 1e-6  # nothing starts in the table
+    for (_, top), (bottom, _) in zip(spans[:-1], spans[1:], strict=True):
+        assert bottom > top  # each object starts above everything dropped before it
+    return world
+
+
+def test_setup3_pile_starts_over_one_small_square_of_the_table():
+    """The paper's Setup 3 (default): every centre within the pile's square; objects whose
+    outlines overlap start one above the other (nothing starts inside another), the others on
+    the table; the bin plays no part."""
+    assert CFG.bin is False
+    on_table = {}
+    for spread in (CFG.pile_spread, 0.3):
+        config = LayoutConfig(pile_spread=spread)
+        on_table[spread] = 0
+        for r in range(10):
+            pos, quat, _ = layout.pile(layout.layout_key(0, 3, r), RESTING, PADDED, config)
+            assert (np.abs(np.asarray(pos)[:, :2]) <= spread / 2 + 1e-6).all()
+            rotations = _rotations(quat)
+            world = [POINTS[i] @ rotations[i].T + np.asarray(pos[i]) for i in range(6)]
+            for i in range(6):
+                for j in range(i):
+                    a, b = world[i], world[j]
+                    reach = (np.linalg.norm(a[:, :2] - pos[i, :2], axis=1).max()
+                             + np.linalg.norm(b[:, :2] - pos[j, :2], axis=1).max())
+                    if np.linalg.norm(pos[i, :2] - pos[j, :2]) < reach:  # one above the other
+                        assert a[:, 2].min() > b[:, 2].max() or b[:, 2].min() > a[:, 2].max()
+            lowest = np.array([w[:, 2].min() for w in world])
+            assert lowest.min() == pytest.approx(CFG.drop_clearance, abs=1e-6)
+            on_table[spread] += int(np.sum(np.abs(lowest - CFG.drop_clearance) < 1e-6))
+    assert 10 <= on_table[CFG.pile_spread] < on_table[0.3]  # spread out: more on the table
+    assert on_table[CFG.pile_spread] < 50  # the default pile: some laid on others in most rounds
+
+
+def test_setup3_pile_in_the_bin_starts_inside_its_walls():
+    in_bin = LayoutConfig(bin=True)
     for r in range(10):
-        pos, quat, _ = layout.pile(layout.layout_key(0, 3, r), PADDED, CFG)
-        rotations = _rotations(quat)
-        spans = []
-        for i in range(6):
-            world = POINTS[i] @ rotations[i].T + np.asarray(pos[i])
-            assert (np.abs(world[:, :2]) <= half + 1e-6).all()  # inside the walls
-            spans.append((world[:, 2].min(), world[:, 2].max()))
-        spans.sort()
-        assert spans[0][0] >= CFG.drop_clearance - 1e-6  # nothing starts in the table
-        for (_, top), (bottom, _) in zip(spans[:-1], spans[1:], strict=True):
-            assert bottom > top  # each object starts above everything dropped before it
+        pos, quat, _ = layout.pile(layout.layout_key(0, 3, r), RESTING, PADDED, in_bin)
+        for world in _check_stacked(pos, quat):
+            assert (np.abs(world[:, :2]) <= in_bin.bin_size / 2 + 1e-6).all()  # inside the walls
 
 
 def test_the_bin_floor_is_at_most_twice_the_objects_footprint():
@@ -129,7 +161,7 @@ def test_the_bin_floor_is_at_most_twice_the_objects_footprint():
 
 def test_samplers_vmap_over_keys():
     keys = jax.vmap(lambda i: layout.layout_key(1, 3, i))(jnp.arange(4))
-    pos, quat, active = jax.vmap(lambda k: layout.pile(k, PADDED, CFG))(keys)
+    pos, quat, active = jax.vmap(lambda k: layout.pile(k, RESTING, PADDED, CFG))(keys)
     assert pos.shape == (4, 6, 3) and quat.shape == (4, 6, 4) and active.shape == (4, 6)
-    np.testing.assert_allclose(pos[2], layout.pile(layout.layout_key(1, 3, 2), PADDED, CFG)[0],
+    np.testing.assert_allclose(pos[2], layout.pile(layout.layout_key(1, 3, 2), RESTING, PADDED, CFG)[0],
                                rtol=1e-6)

@@ -14,7 +14,7 @@ from graspjax.procedure import Surface
 from graspjax.stats import detectable_difference
 from graspjax.synthetic import box, render_depth, rot_y, top_down_pose
 
-CENTRE = override(Config(), ["align.anchor=centre"])
+CENTRE = override(Config(), ["align.anchor=centre", "align.turn_normal=metric"])  # ours
 
 
 def _box_view(tilt_deg: float) -> FirstView:
@@ -89,6 +89,9 @@ def test_planes_end_to_end(tmp_path, capsys):
     out = tmp_path / "planes"
     code = cli.main(["planes", "--setup", "1", "--objects", "a", "--trials", "2", "--quiet",
                      "--set", "procedure.view_tilt_deg=30", "--set", "align.anchor=centre",
+                     "--set", "align.turn_normal=metric",  # ours; and a tolerance tighter than
+                     "--set", "detect.antipodal_tolerance_deg=15",  # the default: no grasp, so
+                     # the tilted views re-align
                      "--grid", "align.window_px=5,15", "--out", str(out), "--batch", "2"])
     assert code == 0, capsys.readouterr().err
     rows = pd.read_csv(out / "planes.csv.gz")

@@ -231,14 +231,17 @@ def test_one_reason_per_attempt_in_the_documented_precedence():
 
 
 def test_realigned_view_looks_along_the_negative_normal(basic_sim):
-    """A wedge (c): its sloped top is the best plane; the new view faces it at the same range."""
+    """A wedge (c): its sloped top is the best plane; the new view faces it at the same range
+    (the turn by the metric normal, ours: the paper's pixel-unit normal is tested in
+    test_align.py)."""
+    config = override(CONFIG, ["align.turn_normal=metric"])
     data = _world(basic_sim, {2: (0.0, 0.0, 0.0)})
     rotation, position = look_down(jnp.array([0.0, 0.0, 0.5]))
     top = jax.jit(lambda d: select_target(basic_sim.scene, d, jnp.ones(6, bool), jnp.array(True),
                                           jnp.array(False), CAMERA, CONFIG,
                                           jax.random.key(1))[2])(data)  # on the wedge's top
     v = jax.jit(lambda d: view(basic_sim.scene, d, rotation, position, jnp.int32(2), top,
-                               jnp.array(False), CAMERA, CONFIG, jax.random.key(1)))(data)
+                               jnp.array(False), CAMERA, config, jax.random.key(1)))(data)
     a: Alignment = v.alignment
     assert bool(a.found) and bool(v.can_realign)
     # The wedge's top rises 3 cm over 6.5 cm along +x: its upward normal, in the world.
@@ -318,10 +321,12 @@ def test_the_search_stops_at_the_re_alignment_budget(basic_sim, budget):
     and the procedure re-aligns; with budget 0 it takes that one view and no more. (With A at
     z_min, the ramp's corner, the re-aligned camera centres on the ramp's corner and finds a
     grasp there; A at the band's centre turns to the same ramp plane, but its view of the
-    ramp's middle fails the wall check again.)"""
+    ramp's middle fails the wall check again; windows around each triangle, the turn by the
+    metric normal.)"""
     from graspjax.procedure import _search
 
     config = override(CONFIG, ["detect.wall_check=true", "align.anchor=nearest",
+                               "align.window_centre=triangle", "align.turn_normal=metric",
                                f"procedure.max_reorientations={budget}"])
     data = _world(basic_sim, {2: (0.0, 0.0, 0.0)})
     eligible = jnp.zeros(6, bool).at[2].set(True)

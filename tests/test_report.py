@@ -211,3 +211,14 @@ def test_a_sweeps_comparison_says_in_how_many_rounds_every_point_settled_the_sam
     lines = shared_layouts(pd.DataFrame(rows))
     assert lines[-2:] == ["- Setup 2: 2 of 2 rounds", "- Setup 3: 1 of 2 rounds"]
     assert shared_layouts(pd.DataFrame(rows)[lambda r: r.point == 0]) == []  # one point: nothing
+
+
+def test_rounds_are_read_gzipped_as_committed_results_keep_them(tmp_path):
+    """`load_rounds` reads `rounds.csv`, else `rounds.csv.gz`; neither: None."""
+    from graspjax.report import load_rounds
+
+    assert load_rounds(tmp_path) is None
+    frame = pd.DataFrame({"point": [0, 0], "setup": [3, 3], "round": [0, 1],
+                          "touching_fraction": [0.5, 1 / 3]})
+    frame.to_csv(tmp_path / "rounds.csv.gz", index=False)
+    pd.testing.assert_frame_equal(load_rounds(tmp_path), frame)

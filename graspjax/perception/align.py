@@ -1,19 +1,18 @@
 """End-tool alignment by plane scoring (paper section 3.2), for one depth image.
 
-Around the point A (z_min, or the centre of z_min's surface band: `anchor`), `num_triangles` triangles
-(A, A + r(cos phi_k, sin phi_k), A + r(cos phi_k+1, sin phi_k+1)) with
-phi_k = k * 360deg / N each define a plane. The image becomes a point cloud
-in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at A's depth, and a point is
-an inlier of plane k (Eq. 3) when its distance to the plane is below
-`distance_threshold` and it lies within `window_px` of the triangle's centroid
-(or of A for every plane, the paper's words: `window_centre`) in u, v and the converted z. The plane with most inliers wins, among those whose view turns
-by at least `min_turn_deg` from the current one (ours: the paper turns to see
-the object "from another angle"); the tool then looks along its negative
-normal. Normals are reported in the metric camera
-frame (from the triangle's back-projected corners, or a least-squares fit to
-the inliers when `refit`), pointing from the surface toward the camera; with
-`turn_normal="pixel"` the normal in the pixel units of Eq. 2, as the paper
-computes it, read as a camera-frame direction.
+Around the point A (z_min, the paper's Fig. 4, or the centre of z_min's surface band:
+`anchor`), `num_triangles` triangles (A, A + r(cos phi_k, sin phi_k),
+A + r(cos phi_k+1, sin phi_k+1)) with phi_k = k * 360deg / N each define a plane. The image
+becomes a point cloud in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at A's depth, and a
+point is an inlier of plane k (Eq. 3) when its distance to the plane is below
+`distance_threshold` and it lies within `window_px` of A (the paper's words, for every plane)
+or of the triangle's centroid (`window_centre`) in u, v and the converted z. The plane with
+most inliers wins, among those whose view turns by at least `min_turn_deg` from the current
+one; the tool then looks along its negative normal. Normals are reported in the metric camera
+frame (from the triangle's back-projected corners, or a least-squares fit to the inliers when
+`refit`), pointing from the surface toward the camera; the turn follows the normal in the
+pixel units of Eq. 2, as the paper computes it, read as a camera-frame direction
+(`turn_normal="pixel"`), or the metric one.
 
 Scoring only looks at a `(2 * MAX_WINDOW_PX + 3)^2` patch around each
 centroid, which holds every pixel the window admits; the window itself and

@@ -14,8 +14,11 @@ lets the physics finish the layout.
   is placed next to a random member already placed, at a face-to-face gap
   U(gap_min, gap_max) measured between footprints (the objects' outlines
   seen from above), never nearer than gap_min to any other member.
-- Setup 3: the objects dropped into the bin from random orientations, over
-  its floor, each starting above everything dropped before it.
+- Setup 3: the paper's "dense cluttered scenes with multiple overlapping
+  objects": each object in a resting pose with a random yaw, centred in a
+  small square of the table and laid on the objects placed before it where
+  their outlines overlap. With `layout.bin`: dropped from random orientations
+  into the bin, each starting above everything dropped before it.
 
 Footprints are convex outlines handled through their support functions on
 `DIRECTIONS` fixed directions: the distance between two convex outlines is
@@ -170,27 +173,43 @@ def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: Layou
             jnp.ones(n, bool))
 
 
-def pile(key: jax.Array, points: jax.Array, config: LayoutConfig):
-    """Setup 3: every object dropped into the bin (centred at the origin) from a random
-    orientation, each starting `stack_gap` above everything dropped before it.
+def pile(key: jax.Array, resting: jax.Array, points: jax.Array, config: LayoutConfig):
+    """Setup 3, in a random order. On the table: every object in one of its resting poses with
+    a random yaw, its centre in a `pile_spread` square, starting `stack_gap` above the earlier
+    objects whose outlines (circles around the centres) overlap its own: it is laid on them
+    and comes to rest on or against them. In the bin (`bin`): every object dropped from a
+    random orientation over the bin's floor, starting above everything dropped before it.
+    Both centred at the origin.
 
-    points: vertices (n, V, 3). Returns positions (n, 3), quaternions (n, 4),
-    the active mask (n,).
+    resting: resting rotations (n, R, 3, 3) of each object; points: vertices (n, V, 3).
+    Returns positions (n, 3), quaternions (n, 4), the active mask (n,).
     """
-    n = points.shape[0]
+    n, poses = resting.shape[:2]
     k_rot, k_xy, k_order = jax.random.split(key, 3)
-    # object orientation: uniform over all rotations
-    rotations = jax.vmap(_random_rotation)(jax.random.split(k_rot, n))
+    k_pose, k_yaw = jax.random.split(jax.random.fold_in(key, 1))
+    # in the bin, object orientation: uniform over all rotations; on the table, a resting pose
+    # uniform over the object's recorded drops, turned by a yaw U(-pi, pi)
+    dropped = jax.vmap(_random_rotation)(jax.random.split(k_rot, n))
+    which = jax.random.randint(k_pose, (n,), 0, poses)
+    yaw = jax.random.uniform(k_yaw, (n,), minval=-jnp.pi, maxval=jnp.pi)
+    laid = jax.vmap(lambda r, a: _yaw(a) @ r)(resting[jnp.arange(n), which], yaw)
+    rotations = jnp.where(config.bin, dropped, laid)
     rotated = jnp.einsum("nij,nvj->nvi", rotations, points)
     reach = jnp.max(jnp.linalg.norm(rotated[..., :2], axis=-1), axis=1)
-    # object centre: uniform over the bin floor, clear of the walls
-    room = jnp.maximum(config.bin_size / 2 - reach, 0.0)[:, None]
+    # object centre: uniform over the pile's square, or over the bin floor clear of the walls
+    room = jnp.where(config.bin, jnp.maximum(config.bin_size / 2 - reach, 0.0),
+                     config.pile_spread / 2)[:, None]
     xy = jax.random.uniform(k_xy, (n, 2), minval=-1.0, maxval=1.0) * room
     lowest, height = rotated[..., 2].min(1), rotated[..., 2].max(1) - rotated[..., 2].min(1)
-    # drop order: a uniform random permutation; each object starts above all earlier ones
+    # drop order: a uniform random permutation
     order = jax.random.permutation(k_order, n)
-    below = jnp.cumsum(height[order] + config.stack_gap) - (height[order] + config.stack_gap)
-    start = jnp.zeros(n).at[order].set(below)
+    overlap = (jnp.linalg.norm(xy[:, None] - xy[None], axis=-1) < reach[:, None] + reach[None])
+    start, top = jnp.zeros(n), jnp.zeros(n)  # the lowest point's rise above the drop clearance,
+    for k in range(n):  # the highest point's; n is static
+        i, earlier = order[k], order[:k]
+        under = jnp.where(config.bin, True, overlap[i, earlier])
+        floor = jnp.max(jnp.where(under, top[earlier] + config.stack_gap, 0.0), initial=0.0)
+        start, top = start.at[i].set(floor), top.at[i].set(floor + height[i])
     z = config.drop_clearance - lowest + start
     return (jnp.concatenate([xy, z[:, None]], -1), jax.vmap(matrix_to_quat)(rotations),
             jnp.ones(n, bool))

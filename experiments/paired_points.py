@@ -1,0 +1,63 @@
+"""The grid points of one paired sweep against a reference point, per table column: success,
+first view and rescued for each point, and the paired change in success (points) with
+McNemar's z over the objects' outcomes (each object of a trial or round, as the tables count
+it: `report.object_outcomes`). |z| > 1.96: a change beyond chance at the 5 % level.
+
+Columns: Setup 1 a-f, Setup 2, Setup 3, Setup 1 g-l (Tables 1+2), those the sweep played.
+
+    python3 experiments/paired_points.py SWEEP_FOLDER [REFERENCE_POINT]
+"""
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from graspjax.report import object_outcomes
+
+sys.path.insert(0, str(Path(__file__).parent))
+from paired_rows import changes  # noqa: E402
+
+COLUMNS = {"S1 a-f": (1, "abcdef"), "S2": (2, "abcdef"), "S3": (3, "abcdef"), "S1 g-l": (1, "ghijkl")}
+
+
+def column_frames(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """The table columns' object outcomes, indexed by (point, trial, object)."""
+    out = {}
+    for name, (setup, letters) in COLUMNS.items():
+        part = frame[(frame.setup == setup) & frame.object.isin(list(letters))]
+        if len(part):
+            out[name] = part.set_index(["point", "trial", "object"]).sort_index()
+    return out
+
+
+def main(folder: str, reference: int = 0) -> None:
+    frame = object_outcomes(pd.read_csv(Path(folder) / "attempts.csv.gz"
+                                        if (Path(folder) / "attempts.csv.gz").exists()
+                                        else Path(folder) / "attempts.csv"))
+    frame["success"] = frame["success"].astype(bool)
+    frame["rescued"] = frame["rescued"].astype(bool)
+    columns = column_frames(frame)
+    varying = [c for c in frame.columns if c.startswith("cfg.") and frame[c].nunique() > 1]
+    labels = frame.groupby("point")[varying].first() if varying else None
+    print("| point | " + " | ".join(f"{c}: success (first + rescued); change, z" for c in columns) + " |")
+    print("|---|" + "---|" * len(columns))
+    for point in sorted(frame.point.unique()):
+        name = (", ".join(f"{k[4:]}={v}" for k, v in labels.loc[point].items())
+                if labels is not None else str(point))
+        cells = []
+        for part in columns.values():
+            mine, base = part.loc[point], part.loc[reference]
+            mine, base = mine.align(base, join="inner", axis=0)
+            rate = 100 * mine.success.mean()
+            rescued = 100 * (mine.success & mine.rescued).mean()
+            cell = f"{rate:.1f} % ({rate - rescued:.1f} + {rescued:.1f})"
+            if point != reference:
+                _, _, z = changes(base.success, mine.success)
+                cell += f"; {rate - 100 * base.success.mean():+.1f}, z {z:+.1f}"
+            cells.append(cell)
+        print(f"| {name} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 0)
