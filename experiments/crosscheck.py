@@ -27,10 +27,11 @@ import pandas as pd
 from tqdm import tqdm
 
 from graspjax.batch.plan import Job
+from graspjax.codes import Outcome
 from graspjax.report import load_attempts, markdown, point_config
 from graspjax.sim import scene_for
 from graspjax.sim.replay import replay
-from graspjax.sim.world import GraspPose, Outcome, PhysicsState
+from graspjax.sim.world import GraspPose, PhysicsState
 from graspjax.stats import wilson
 from graspjax.views import attempt_name
 

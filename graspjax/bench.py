@@ -334,7 +334,7 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
     size = batch or default_batch()
     groups = plan([job], [config], 0)
     columns = RunColumns(run_id="", points=[config], keys=[], base=config)
-    progress(f"{sum(len(g.worlds) for g in groups)} worlds, {job.attempts} attempts, "
+    progress(f"{sum(len(g.worlds) for g in groups)} worlds, up to {job.attempts(config)} attempts, "
              f"batch {size} ...")
     t0 = time.perf_counter()
     trace_s, compile_s, frames, first = 0.0, 0.0, [], None

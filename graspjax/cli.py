@@ -203,13 +203,13 @@ def _jobs(args):
     if getattr(args, "resume", False) and args.overwrite:
         raise UsageError("give --resume or --overwrite, not both")
     _part(getattr(args, "part", None))
-    args.table = getattr(args, "table", None)
-    if (args.table is None) == (args.setup is None):
+    table = getattr(args, "table", None)  # `planes` has no --table
+    if (table is None) == (args.setup is None):
         raise UsageError("give either --table 1|2|1,2 or --setup S [--objects ...]")
-    if args.table is not None:
+    if table is not None:
         if args.objects is not None:
             raise UsageError("--objects goes with --setup; the tables fix their objects")
-        return [table_job(t, args.trials) for t in _ints(args.table, "--table", (1, 2))]
+        return [table_job(t, args.trials) for t in _ints(table, "--table", (1, 2))]
     try:
         objects = parse_letters("abcdef" if args.objects is None else args.objects)
     except ValueError as exc:
@@ -517,7 +517,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                    help="traced alignment values, e.g. align.window_px=5,15,30 (every "
                         "combination; one compiled program)")
-    p.add_argument("--batch", type=int, help="worlds per chunk (default: 4096 per GPU, 32 on CPU)")
+    p.add_argument("--batch", type=int, help="worlds per chunk (default: 4096 per GPU, 10 on the CPU)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

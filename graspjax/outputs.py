@@ -44,8 +44,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from graspjax.batch.rows import sort_attempts
 from graspjax.io import InputError, write_atomic
+from graspjax.schema import TIMINGS_COLUMNS, sort_attempts
 
 LOCK = ".graspjax.lock"  # held (an OS lock) by the process that writes the folder
 # Everything a run, a sweep, `graspjax report` or `graspjax planes` writes into its folder, as
@@ -271,7 +271,7 @@ class RunFolder:
                 return []
             frame = sort_attempts(pd.concat(self._part_frames(), ignore_index=True))
             timings = pd.DataFrame([json.loads((self.parts / f"timings-{c:05d}.json").read_text())
-                                    for c in sorted(self.done)])
+                                    for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
             parquet = io.BytesIO()
             frame.to_parquet(parquet, index=False)
             rounds = pd.concat([pd.read_parquet(self.parts / f"rounds-{c:05d}.parquet")

@@ -23,14 +23,13 @@ from mujoco import mjx
 
 from graspjax.batch.plan import chunks
 from graspjax.batch.program import program
-from graspjax.batch.rows import SURFACE_LABELS
+from graspjax.codes import Surface
 from graspjax.config import AlignConfig, Config
 from graspjax.perception import align_tool
 from graspjax.perception.align import plane_inliers
 from graspjax.procedure import (
     PlaneTruth,
     RoundState,
-    Surface,
     WorldSpec,
     attempt_keys,
     eligible_objects,
@@ -42,6 +41,7 @@ from graspjax.procedure import (
     view,
     view_keys,
 )
+from graspjax.schema import SURFACE_LABELS
 from graspjax.sim.world import physics_model
 from graspjax.stats import detectable_difference, wilson
 from graspjax.tree import pytree_dataclass

@@ -55,13 +55,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from enum import IntEnum
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
+from graspjax.codes import ALIGN_BASE, DETECT_BASE, Reason, Surface
 from graspjax.config import MAX_REORIENTATIONS, Config
 from graspjax.geometry import axis_angle, frame_from_axes, look_down, normalize, rotation_between
 from graspjax.perception import (
@@ -96,61 +96,6 @@ from graspjax.sim.world import (
     reset,
 )
 from graspjax.tree import pytree_dataclass, where_tree
-
-ALIGN_BASE = 10  # Reason of an alignment failure: ALIGN_BASE + AlignReason
-DETECT_BASE = 20  # Reason of a detection failure: DETECT_BASE + GraspReason
-
-
-class Reason(IntEnum):
-    """The one reason an attempt ended as it did (int32 in arrays; precedence: module docstring)."""
-
-    SUCCESS = Outcome.SUCCESS  # executed: the target was lifted and held
-    MISSED = Outcome.MISSED  # executed: the jaws closed on nothing
-    SLIPPED = Outcome.SLIPPED  # executed: the target was not lifted and held
-    COLLISION = Outcome.COLLISION  # executed: the approach was blocked
-    WRONG_OBJECT = Outcome.WRONG_OBJECT  # executed: another object was lifted
-    DIVERGED = Outcome.DIVERGED  # the simulation state became non-finite
-    NO_TARGET = 6  # nothing in the workspace stands above the table (or the protocol stopped)
-    VIEW_UNREACHABLE = 7  # the re-aligned view would sink below min_view_height or face down
-    TARGET_LOST = 8  # the target point was not found again in the last view (hidden, out of view)
-    ALIGN_NO_DEPTH = ALIGN_BASE + AlignReason.NO_DEPTH  # re-alignment: no valid depth
-    ALIGN_NO_PLANE = ALIGN_BASE + AlignReason.NO_PLANE  # re-alignment: every hypothesis degenerate
-    ALIGN_TOO_FEW_INLIERS = ALIGN_BASE + AlignReason.TOO_FEW_INLIERS  # re-alignment: weak plane
-    ALIGN_NO_NEW_VIEW = ALIGN_BASE + AlignReason.NO_NEW_VIEW  # re-alignment: only the plane faced
-    DETECT_NO_DEPTH = DETECT_BASE + GraspReason.NO_DEPTH  # detection failures, as GraspReason
-    DETECT_SURFACE_TOO_SMALL = DETECT_BASE + GraspReason.SURFACE_TOO_SMALL
-    DETECT_NO_EDGES = DETECT_BASE + GraspReason.NO_EDGES
-    DETECT_NO_ANTIPODAL = DETECT_BASE + GraspReason.NO_ANTIPODAL
-    DETECT_TOO_NARROW = DETECT_BASE + GraspReason.TOO_NARROW
-    DETECT_TOO_WIDE = DETECT_BASE + GraspReason.TOO_WIDE
-    DETECT_OUT_OF_VIEW = DETECT_BASE + GraspReason.OUT_OF_VIEW
-    DETECT_COLLISION = DETECT_BASE + GraspReason.COLLISION
-    DETECT_NO_ROOM = DETECT_BASE + GraspReason.NO_ROOM
-    DETECT_NO_WALL = DETECT_BASE + GraspReason.NO_WALL
-    DETECT_JAWS_BLOCKED = DETECT_BASE + GraspReason.JAWS_BLOCKED  # real images only (never here)
-
-    @property
-    def label(self) -> str:
-        """How attempts.csv names it: the outcome, or 'detection: X' / 'alignment: X' / 'no target'."""
-        if self <= Reason.DIVERGED:
-            return self.name
-        if self == Reason.NO_TARGET:
-            return "no target"
-        if self == Reason.TARGET_LOST:
-            return "target lost"
-        if self.name.startswith("DETECT_"):
-            return "detection: " + self.name[len("DETECT_"):]
-        return "alignment: " + self.name.removeprefix("ALIGN_")
-
-
-class Surface(IntEnum):
-    """What a pixel of a simulated view shows (ground truth the method never sees)."""
-
-    NONE = -1  # no valid depth
-    TARGET = 0  # the object being attempted
-    OTHER_OBJECT = 1  # another object
-    TABLE = 2
-    BIN = 3  # a wall of the bin
 
 
 @pytree_dataclass

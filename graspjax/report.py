@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from graspjax.batch.rows import LAYOUT_COLUMNS, outcome_label
 from graspjax.config import Config, override
 from graspjax.figures import new_figure, png
+from graspjax.schema import LAYOUT_COLUMNS, outcome_label
 from graspjax.stats import mean_interval, wilson
 
 TABLE_OBJECTS = {1: tuple("abcdef"), 2: tuple("ghijkl")}

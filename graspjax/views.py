@@ -23,7 +23,8 @@ import pandas as pd
 from graspjax.config import Config
 from graspjax.perception import Alignment, Grasp
 from graspjax.perception.contour import Contour, Edges
-from graspjax.perception.grasp import TBeams, surface_contour
+from graspjax.perception.grasp import surface_contour
+from graspjax.perception.placements import TBeams
 from graspjax.tree import named_fields
 
 if TYPE_CHECKING:

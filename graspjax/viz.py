@@ -18,11 +18,11 @@ import numpy as np
 from matplotlib.patches import Polygon
 
 from graspjax.camera import Camera
+from graspjax.codes import SupportReason, TargetReason
 from graspjax.config import Config, RealImageConfig
 from graspjax.figures import new_figure, png
 from graspjax.perception import Alignment, Grasp, GraspReason, plane_inliers
 from graspjax.perception.grasp import surface_contour
-from graspjax.perception.reasons import SupportReason, TargetReason
 
 
 def _finger_offsets(axis, config: Config) -> np.ndarray:

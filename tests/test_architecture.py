@@ -3,6 +3,7 @@ is the only entry point, and every module has its place."""
 
 import ast
 import pathlib
+import re
 
 import pytest
 
@@ -11,7 +12,8 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent / "graspjax"
 # Bottom to top. A module may import modules of its own layer or below, never above. A name
 # ending in ".*" stands for every module of that package.
 LAYERS = [
-    ("foundations", ["tree", "figures", "stats", "io", "provenance", "geometry", "camera"]),
+    ("foundations", ["tree", "figures", "stats", "io", "provenance", "geometry", "camera", "codes",
+                     "schema"]),
     ("configuration", ["config"]),
     ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",
                               "graspjax"]),
@@ -80,9 +82,19 @@ def test_no_module_imports_one_above_it(name):
     assert not above, (f"{name} ({LAYERS[mine][0]}) imports {above} from a higher layer")
 
 
-def test_only_the_command_line_is_an_entry_point():
+HELPERS = {"batch.players", "batch.worker"}  # started by the run as `python -c "... main()"`
+
+
+def test_the_entry_points_are_the_command_line_and_the_run_s_helpers():
+    """`cli` is the user's entry point; the only others are the helper processes a run starts
+    itself (`python -c "from graspjax.X import main; ..."`), and exactly those define main()."""
+    started = set()
     for name, path in MODULES.items():
         text = path.read_text()
         assert "cli" not in _imports(path), f"{name} imports the command line"
         if name != "cli":
             assert "argparse" not in text and '__name__ == "__main__"' not in text, name
+        started |= set(re.findall(r"from graspjax\.([\w.]+) import main", text))
+        defines_main = re.search(r"^def main\(", text, re.M) is not None
+        assert defines_main == (name in HELPERS | {"cli"}), name
+    assert started == HELPERS

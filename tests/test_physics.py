@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from conftest import SIM_BATCH
 
+from graspjax.codes import Outcome
 from graspjax.config import LayoutConfig, SimConfig
 from graspjax.geometry import quat_to_matrix
-from graspjax.sim import GraspPose, Outcome, layout
+from graspjax.sim import GraspPose, layout
 from graspjax.sim.world import parked
 
 CFG = LayoutConfig()

@@ -8,9 +8,9 @@ import pandas as pd
 import pytest
 
 from graspjax import cli
+from graspjax.codes import Surface
 from graspjax.config import Config, override
 from graspjax.planes import FirstView, judge, summarize
-from graspjax.procedure import Surface
 from graspjax.stats import detectable_difference
 from graspjax.synthetic import box, render_depth, rot_y, top_down_pose
 

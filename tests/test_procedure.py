@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from conftest import SIM_BATCH
 
+from graspjax.codes import Outcome
 from graspjax.config import Config, override
 from graspjax.geometry import axis_angle, look_down
 from graspjax.perception import Alignment, AlignReason, GraspReason
@@ -22,7 +23,7 @@ from graspjax.procedure import (
     select_target,
     view,
 )
-from graspjax.sim.world import Execution, GraspPose, LayoutStats, Outcome
+from graspjax.sim.world import Execution, GraspPose, LayoutStats
 
 CONFIG = Config()
 CAMERA = CONFIG.camera.camera()

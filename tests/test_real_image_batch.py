@@ -13,9 +13,9 @@ import pytest
 from conftest import assert_trees_close
 from real_scenes import bin_scene, table_scene, with_holes_and_specks
 
+from graspjax.codes import SupportReason, TargetReason
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception import GraspReason
-from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.realimage.detect import detect_batch, stack_cameras
 
 PIXEL = 0.73 / 525.0  # a detection pixel (full resolution) on the table, metres

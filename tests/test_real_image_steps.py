@@ -8,8 +8,8 @@ import pytest
 from real_scenes import tilted_pose
 
 from graspjax import Camera
+from graspjax.codes import SupportReason, TargetReason
 from graspjax.config import ConfigError, RealImageConfig
-from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.perception.support import plane_height, support_plane
 from graspjax.perception.target import (
     best_candidate,

@@ -222,3 +222,26 @@ def test_rounds_are_read_gzipped_as_committed_results_keep_them(tmp_path):
                           "touching_fraction": [0.5, 1 / 3]})
     frame.to_csv(tmp_path / "rounds.csv.gz", index=False)
     pd.testing.assert_frame_equal(load_rounds(tmp_path), frame)
+
+
+def test_report_runs_without_the_simulator(tmp_path):
+    """`graspjax report` reads a run's files with mujoco blocked: it imports neither MuJoCo nor
+    the simulator's modules (the columns and labels come from `schema.py` and `codes.py`)."""
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    reference = Path(__file__).parent.parent / "results" / "paper_cpu_10"
+    for name in ("attempts.csv", "rounds.csv.gz", "config.json", "timings.csv"):
+        shutil.copy(reference / name, tmp_path / name)
+    script = ("import sys; sys.modules['mujoco'] = None; from graspjax.cli import main; code = main("
+              f"['report', {str(tmp_path)!r}]); loaded = sorted(m for m, module in sys.modules.items() "
+              "if module is not None and m.startswith(('graspjax.sim', 'graspjax.batch', "
+              "'graspjax.procedure', 'mujoco'))); "
+              "print('LOADED', loaded); sys.exit(code)")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "LOADED []" in done.stdout
+    assert "| Setup 1, ours |" in (tmp_path / "table1.md").read_text()

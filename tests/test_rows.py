@@ -5,6 +5,7 @@ import numpy as np
 
 from graspjax.batch.plan import World
 from graspjax.batch.rows import _record_rows
+from graspjax.codes import Outcome
 from graspjax.config import MAX_REORIENTATIONS, Config, override
 from graspjax.procedure import (
     PlaneTruth,
@@ -15,7 +16,7 @@ from graspjax.procedure import (
     eligible_objects,
     round_goes_on,
 )
-from graspjax.sim.world import LayoutStats, Outcome
+from graspjax.sim.world import LayoutStats
 
 LETTERS = ("a", "b", "c")
 

@@ -46,10 +46,12 @@ class Job:
         """Objects of the scene model, in a-l order."""
         return tuple(sorted(self.objects))
 
-    @property
-    def attempts(self) -> int:
-        """Attempt rows a job yields per grid point."""
-        return sum(self.trials * len(self.objects) for _ in self.setups)
+    def attempts(self, config: Config) -> int:
+        """Attempts a job makes per grid point under `config`: Setup 1 one per world (object
+        and trial), Setups 2 and 3 `round_attempts` per round."""
+        return sum(self.trials * (len(self.objects) if setup == 1
+                                  else round_attempts(setup, self.objects, config))
+                   for setup in self.setups)
 
 
 def table_job(table: int, trials: int) -> Job:

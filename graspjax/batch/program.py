@@ -466,8 +466,7 @@ class ChunkResult:
     group: Group
     drop: Record  # the drop's record (k = -1): the settled layout's statistics; leading axis batch
     records: list[Record]  # attempt k's records (numpy, leading axis batch; padding included)
-    timings: dict  # program (traced / worker / loaded), trace_s, compile_s, started_s, wall_s,
-    # peak_gib, process
+    timings: dict  # one `timings.csv` row (`schema.TIMINGS_COLUMNS`)
     views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
 
 

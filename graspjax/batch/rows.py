@@ -1,5 +1,5 @@
-"""Records -> rows: the ONE home of the columns of `attempts.csv` and `rounds.csv`, their
-order and their sort.
+"""Records -> rows: a chunk's records become `attempts.csv` and `rounds.csv` rows (their
+first columns, labels and sort are defined in `schema.py`).
 
 An attempt row names its world (grid point, setup, object, trial; in Setups 2 and 3 the round,
 which is the trial of every object in it, and joins `rounds.csv`; seed), says what
@@ -22,24 +22,15 @@ import numpy as np
 import pandas as pd
 
 from graspjax.batch.plan import World
+from graspjax.codes import Outcome
 from graspjax.config import MAX_REORIENTATIONS, Config, differences
 from graspjax.perception import AlignReason, GraspReason
-from graspjax.procedure import Reason, Record
-from graspjax.sim.world import Outcome
+from graspjax.procedure import Record
+from graspjax.schema import FIRST_COLUMNS, REASON_LABELS, SURFACE_LABELS
 from graspjax.tree import named_fields
 
 if TYPE_CHECKING:
     from graspjax.batch.program import ChunkResult
-
-FIRST_COLUMNS = ["run_id", "point", "method", "setup", "object", "trial", "round", "attempt",
-                 "seed", "success", "outcome", "reason", "reorientations", "lifted_object"]
-SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
-LAYOUT_COLUMNS = ("touching_fraction", "stacked", "min_face_gap_m", "spread_m")  # rounds.csv:
-# the settled layout's statistics (`round_rows`)
-REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
-                          for r in range(max(Reason) + 1)], dtype=object)
-SURFACE_LABELS = np.array(["", "target", "other object", "table", "bin"], dtype=object)  # Surface + 1
-
 
 @dataclasses.dataclass(frozen=True)
 class RunColumns:
@@ -67,21 +58,6 @@ def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
         frame[f"cfg.{key}"] = [values[p][key] for p in frame["point"]]
     rest = [c for c in frame.columns if c not in FIRST_COLUMNS]
     return frame[FIRST_COLUMNS + rest]
-
-
-def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
-    """Rows in the canonical order: point, setup, trial (the round in Setups 2, 3), attempt
-    (unattempted last), object."""
-    order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
-    order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
-    return order.reset_index(drop=True)
-
-
-def outcome_label(frame: pd.DataFrame) -> pd.Series:
-    """One short label per attempt row: its outcome when executed, else why no grasp was
-    executed ("no grasp: NO_ROOM", "align: NO_PLANE", "no target", "not attempted: ...")."""
-    label = frame["reason"].where(frame["outcome"] == "NOT_EXECUTED", frame["outcome"])
-    return label.str.replace("detection: ", "no grasp: ").str.replace("alignment: ", "align: ")
 
 
 def _record_rows(letters: tuple[str, ...], worlds: tuple[World, ...], records: list[Record]

@@ -3,9 +3,10 @@
 Each kernel is written for ONE depth image `(H, W)`; batch with `jax.vmap`.
 """
 
+from graspjax.codes import AlignReason, GraspReason
 from graspjax.perception.align import Alignment, align_tool, plane_inliers
-from graspjax.perception.grasp import Grasp, TBeams, detect_grasp
-from graspjax.perception.reasons import AlignReason, GraspReason
+from graspjax.perception.grasp import detect_grasp
+from graspjax.perception.placements import Grasp, TBeams
 
 __all__ = ["Alignment", "AlignReason", "Grasp", "GraspReason", "TBeams", "align_tool",
            "detect_grasp", "plane_inliers"]

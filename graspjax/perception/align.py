@@ -26,9 +26,9 @@ import jax.numpy as jnp
 from jax import lax
 
 from graspjax.camera import Camera
+from graspjax.codes import AlignReason
 from graspjax.config import MAX_WINDOW_PX, AlignConfig
 from graspjax.perception.cluster import nearest_pixel, surface_cluster, valid_mask
-from graspjax.perception.reasons import AlignReason
 from graspjax.tree import pytree_dataclass
 
 

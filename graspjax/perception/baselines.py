@@ -2,7 +2,7 @@
 
 Both start where the T-beam starts, on the target's surface band (the pixels connected to
 z_min within `surface_tolerance` of its depth, `target_surface`), and end where it ends: the
-open hand's placement goes through the same checks (`grasp._check_placements`: fingers
+open hand's placement goes through the same checks (`placements.check_placements`: fingers
 outside the band, in view, room to reach the grasp depth, the optional wall check), and the
 result is a `Grasp` with its placements as candidates. What differs is how a placement is
 proposed:
@@ -23,20 +23,20 @@ import jax
 import jax.numpy as jnp
 
 from graspjax.camera import Camera
+from graspjax.codes import GraspReason
 from graspjax.config import BaselineConfig, DetectorConfig, GripperConfig
 from graspjax.perception.cluster import boundary_pixels, nearest_pixel, target_surface, valid_mask
 from graspjax.perception.contour import Edges
-from graspjax.perception.grasp import (
+from graspjax.perception.grasp import detect_grasp
+from graspjax.perception.placements import (
     Grasp,
-    _assemble,
-    _centroid,
-    _check_image,
-    _check_placements,
-    _overall_reason,
-    _surface_xy,
-    detect_grasp,
+    assemble,
+    check_image,
+    check_placements,
+    overall_reason,
+    surface_centroid,
+    surface_xy,
 )
-from graspjax.perception.reasons import GraspReason
 
 
 def _band(depth: jax.Array, config: DetectorConfig, seed_mask: jax.Array | None):
@@ -68,11 +68,11 @@ def highest_pca_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig =
                       seed_mask: jax.Array | None = None) -> Grasp:
     """One top-down grasp at the nearest (highest) surface band, closing across its principal
     axis. depth: metric depth (H, W); seed_mask: as for `detect_grasp`. One candidate."""
-    depth = _check_image(depth, camera)
+    depth = check_image(depth, camera)
     valid, any_valid, seed, cluster, z_s, n_surface = _band(depth, config, seed_mask)
-    xy = _surface_xy(camera, z_s)  # (H, W, 2)
+    xy = surface_xy(camera, z_s)  # (H, W, 2)
     weight = cluster.astype(jnp.float32)[..., None]
-    centroid = _centroid(camera, cluster, z_s, n_surface)
+    centroid = surface_centroid(camera, cluster, z_s, n_surface)
     offset = (xy - centroid) * weight
     covariance = jnp.einsum("hwi,hwj->ij", offset, offset) / jnp.maximum(n_surface, 1)
     _, vectors = jnp.linalg.eigh(covariance)  # ascending eigenvalues
@@ -85,14 +85,14 @@ def highest_pca_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig =
     # up to a pixel inside the true edge; half on average on either side).
     c = jnp.where(n_surface > 0, high - low + _pixel_size(camera, z_s), 0.0)
     g_xy = centroid + 0.5 * (low + high) * axis
-    reason, reach = _check_placements(depth, valid, cluster, z_s, camera, g_xy[None], axis[None],
+    reason, reach = check_placements(depth, valid, cluster, z_s, camera, g_xy[None], axis[None],
                                       c[None], jnp.ones(1, bool), config, gripper)
     ok = reason == GraspReason.FOUND
-    overall, image_failed = _overall_reason(
+    overall, image_failed = overall_reason(
         reason, [~any_valid, n_surface < config.min_surface_pixels],
         [GraspReason.NO_DEPTH, GraspReason.SURFACE_TOO_SMALL])
     found = ok[0] & ~image_failed
-    return _assemble(found, overall, jnp.int32(0), image_failed, g_xy[None], axis[None],
+    return assemble(found, overall, jnp.int32(0), image_failed, g_xy[None], axis[None],
                      c[None], jnp.clip(reach, 0.0, None), reason, ok, z_s, n_surface, seed,
                      camera, jnp.array(True), _no_edges())
 
@@ -135,10 +135,10 @@ def antipodal_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = D
     """Antipodal contact pairs on the nearest surface band's boundary (module docstring).
     depth: metric depth (H, W); seed_mask: as for `detect_grasp`. M = `antipodal_contacts`
     candidates."""
-    depth = _check_image(depth, camera)
+    depth = check_image(depth, camera)
     valid, any_valid, seed, cluster, z_s, n_surface = _band(depth, config, seed_mask)
     height, width = cluster.shape
-    xy = _surface_xy(camera, z_s)
+    xy = surface_xy(camera, z_s)
     normals = _outward_normals(cluster, camera, z_s)
     first, real = _spread(boundary_pixels(cluster), baseline.antipodal_contacts)  # (M, 2)
     n_p = normals[first[:, 1], first[:, 0]]  # (M, 2) outward at the first contact
@@ -172,7 +172,7 @@ def antipodal_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = D
     cos_q = jnp.sum(axis * n_q, -1)  # and leaves it at q
     antipodal = real & leaves & (span > 0) & (cos_p >= cone) & (cos_q >= cone)
     g_xy = 0.5 * (p_xy + q_xy)
-    reason, reach = _check_placements(depth, valid, cluster, z_s, camera, g_xy, axis, c,
+    reason, reach = check_placements(depth, valid, cluster, z_s, camera, g_xy, axis, c,
                                       antipodal, config, gripper)
     ok = reason == GraspReason.FOUND
 
@@ -180,14 +180,14 @@ def antipodal_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = D
     worst = jnp.rad2deg(jnp.arccos(jnp.clip(jnp.minimum(cos_p, cos_q), -1.0, 1.0)))
     worst = jnp.where(ok, worst, jnp.inf)
     tied = worst <= jnp.min(worst) + baseline.antipodal_tie_deg
-    centroid = _centroid(camera, cluster, z_s, n_surface)
+    centroid = surface_centroid(camera, cluster, z_s, n_surface)
     distance = jnp.where(tied & ok, jnp.linalg.norm(g_xy - centroid, axis=-1), jnp.inf)
     best = jnp.argmin(distance)
-    overall, image_failed = _overall_reason(
+    overall, image_failed = overall_reason(
         reason, [~any_valid, n_surface < config.min_surface_pixels],
         [GraspReason.NO_DEPTH, GraspReason.SURFACE_TOO_SMALL])
     found = ok[best] & ~image_failed
-    return _assemble(found, overall, best, image_failed, g_xy, axis, c,
+    return assemble(found, overall, best, image_failed, g_xy, axis, c,
                      jnp.clip(reach, 0.0, None), reason, ok, z_s, n_surface, seed, camera,
                      jnp.array(True), _no_edges())
 

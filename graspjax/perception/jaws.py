@@ -36,10 +36,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
+from graspjax.codes import GraspReason
 from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
-from graspjax.perception.grasp import sample_nearest
-from graspjax.perception.reasons import GraspReason
+from graspjax.perception.placements import sample_nearest
 from graspjax.tree import pytree_dataclass
 
 

@@ -45,12 +45,14 @@ import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
+from graspjax.codes import GraspReason, SupportReason
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.cluster import target_surface, valid_mask
-from graspjax.perception.grasp import Grasp, detect_grasp
+from graspjax.perception.grasp import detect_grasp
 from graspjax.perception.jaws import JawCheck, check_jaws
-from graspjax.perception.reasons import GraspReason, SupportReason, furthest_reason
+from graspjax.perception.placements import Grasp
+from graspjax.perception.reasons import furthest_reason
 from graspjax.perception.support import SupportPlane, support_plane
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth

@@ -29,9 +29,9 @@ import jax
 import jax.numpy as jnp
 
 from graspjax.camera import Camera
+from graspjax.codes import SupportReason
 from graspjax.config import RealImageConfig
 from graspjax.perception.cluster import valid_mask
-from graspjax.perception.reasons import SupportReason
 from graspjax.tree import pytree_dataclass
 
 

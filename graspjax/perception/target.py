@@ -35,8 +35,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
+from graspjax.codes import TargetReason
 from graspjax.perception.cluster import connected_surface, valid_mask
-from graspjax.perception.reasons import TargetReason
 from graspjax.perception.support import SupportPlane, plane_height
 
 

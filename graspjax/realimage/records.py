@@ -8,9 +8,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from graspjax.codes import SupportReason, TargetReason
 from graspjax.io import jsonable
 from graspjax.perception import AlignReason, GraspReason
-from graspjax.perception.reasons import SupportReason, TargetReason
 from graspjax.perception.workspace import block_factors
 from graspjax.realimage.detect import Detection
 from graspjax.realimage.inputs import Inputs

@@ -19,13 +19,13 @@ attempt as `COLLISION`; the jaws close by a servo ramp and squeeze with
 from __future__ import annotations
 
 import dataclasses
-from enum import IntEnum
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
+from graspjax.codes import Outcome
 from graspjax.config import CameraConfig, Config
 from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
 from graspjax.sim import collision
@@ -39,16 +39,6 @@ _HELD_MARGIN = 0.01  # target centre of mass within the jaw span plus this (m)
 _CLOSED = 0.001  # finger opening below this means the jaws closed on nothing (m)
 
 
-class Outcome(IntEnum):
-    """How one executed grasp attempt ended (carried as int32 in arrays)."""
-
-    SUCCESS = 0  # the target was lifted by at least min_lift and is held between the fingers
-    MISSED = 1  # the jaws closed on nothing
-    SLIPPED = 2  # something was between the jaws but the target was not lifted and held
-    COLLISION = 3  # the approach was blocked before the grasp pose was reached
-    WRONG_OBJECT = 4  # another object was lifted instead of the target
-    DIVERGED = 5  # the simulation state became non-finite
-    NOT_EXECUTED = 6  # no grasp to execute (perception found none)
 
 
 @pytree_dataclass
@@ -280,7 +270,7 @@ def snapshot(scene: Scene, data: mjx.Data) -> Snapshot:
 
 
 def depth_image(scene: Scene, data: mjx.Data, rotation: jax.Array, position: jax.Array,
-           camera: Camera, config: CameraConfig, key: jax.Array | None = None) -> jax.Array:
+                camera: Camera, config: CameraConfig, key: jax.Array | None = None) -> jax.Array:
     """Depth image (H, W) of this world from a camera pose (state after kinematics)."""
     return render_depth(scene.solids, data.geom_xpos, data.geom_xmat, rotation, position, camera,
                         config, key)
@@ -403,7 +393,7 @@ def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, targe
             return jnp.where(in_exec, a + (b - a) * f, waypoints[3])
 
         jaws = opened + travel * jnp.stack([jnp.asarray(plan.c0)[row],
-                                                     jnp.asarray(plan.c1)[row]])
+                                            jnp.asarray(plan.c1)[row]])
         data, reflex = segment(scene, with_parking(scene, model, data), data,
                                lerp(jnp.asarray(plan.f0)[row]), lerp(jnp.asarray(plan.f1)[row]),
                                jnp.where(in_exec, quat, jnp.asarray(HOME_QUAT, jnp.float32)),

@@ -1,0 +1,56 @@
+"""Every output's columns and labels in one place, importing neither JAX nor the simulator, so
+that reports and tables (`report.py`) read a run's files without loading MJX.
+
+- `attempts.csv`: one row per attempt (`batch/rows.py` builds them from a chunk's records);
+  `FIRST_COLUMNS` lead, the record's columns follow, then a `cfg.<key>` column per grid key
+  and per value the run changed; rows sorted by `SORT` (`sort_attempts`).
+- `rounds.csv`: one row per settled Setup 2/3 layout; its density is `LAYOUT_COLUMNS`.
+- `timings.csv`: one row per chunk, `TIMINGS_COLUMNS`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from graspjax.codes import Reason, Surface
+
+FIRST_COLUMNS = ["run_id", "point", "method", "setup", "object", "trial", "round", "attempt",
+                 "seed", "success", "outcome", "reason", "reorientations", "lifted_object"]
+SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
+LAYOUT_COLUMNS = ("touching_fraction", "stacked", "min_face_gap_m", "spread_m")  # rounds.csv:
+# the settled layout's statistics (`rows.round_rows`)
+TIMINGS_COLUMNS = (
+    "chunk",  # the chunk's index in the run
+    "group",  # its group of worlds (one scene and static configuration: one program)
+    "scene",  # the scene's object letters
+    "worlds",  # worlds played (padding excluded)
+    "batch",  # the program's batch size (per call, all devices)
+    "attempts",  # attempts made
+    "program",  # traced here, by a worker process, or loaded from the exported store
+    "trace_s",  # seconds tracing the program (the group's first chunk only)
+    "compile_s",  # seconds compiling it (the group's first chunk only)
+    "started_s",  # when the chunk started playing, seconds after the run began
+    "wall_s",  # seconds it played
+    "peak_gib",  # the most device memory in use so far (GiB; empty where not reported)
+    "process",  # the helper process that played it (0: the run's own)
+)
+REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
+                          for r in range(max(Reason) + 1)], dtype=object)  # Reason -> label
+SURFACE_LABELS = np.array([s.name.lower().replace("_", " ") if s != Surface.NONE else ""
+                           for s in sorted(Surface)], dtype=object)  # index: Surface + 1
+
+
+def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
+    """Rows in the canonical order: point, setup, trial (the round in Setups 2, 3), attempt
+    (unattempted last), object."""
+    order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
+    order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
+    return order.reset_index(drop=True)
+
+
+def outcome_label(frame: pd.DataFrame) -> pd.Series:
+    """One short label per attempt row: its outcome when executed, else why no grasp was
+    executed ("no grasp: NO_ROOM", "align: NO_PLANE", "no target", "not attempted: ...")."""
+    label = frame["reason"].where(frame["outcome"] == "NOT_EXECUTED", frame["outcome"])
+    return label.str.replace("detection: ", "no grasp: ").str.replace("alignment: ", "align: ")
