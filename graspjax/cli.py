@@ -573,12 +573,12 @@ def _compilation_cache() -> None:
 DETERMINISTIC = "--xla_gpu_deterministic_ops=true"
 # Under deterministic ops XLA does not autotune its matrix kernels; products this small (combined
 # non-batch elements of both operands) run faster as XLA's own loops than as untuned GEMMs: MJX's
-# contact Jacobian rows, 3x3 by 3 x nv (bin scene 1.11x; results/benchmarks, stop 38).
+# contact Jacobian rows, 3x3 by 3 x nv (bin scene 1.11x; results/benchmarks).
 SMALL_DOTS = "--xla_gpu_gemm_rewrite_size_threshold=300"
 # XLA's CPU backend (jaxlib 0.10.2 on) hands products to YNNPACK, whose per-call overhead
 # outweighs the physics' products of a few elements, and whose kernels make a cached program slow
 # to load: README's command's rounds chunks took 82 s with it and 57 s with XLA's own loops
-# (2-core CPU; results/benchmarks, stop 39). An empty list of fusion types switches it off.
+# (2-core CPU; results/benchmarks). An empty list of fusion types switches it off.
 CPU_SMALL_DOTS = "--xla_cpu_experimental_ynn_fusion_type="
 
 
@@ -655,7 +655,7 @@ def main(argv: list[str] | None = None) -> int:
 def entry() -> None:
     """The `graspjax` command: `main`, then the process ends without the interpreter's teardown
     (every file is written and closed by then). Tearing down JAX's GPU client and the programs
-    loaded on it took about 2 s of a warm run (one H100; results/benchmarks, stop 40)."""
+    loaded on it took about 2 s of a warm run (one H100; results/benchmarks)."""
     code = main()  # an exception (argparse's SystemExit, a bug's traceback) ends it as usual
     try:
         sys.stdout.flush()

@@ -98,3 +98,11 @@ def test_the_entry_points_are_the_command_line_and_the_run_s_helpers():
         defines_main = re.search(r"^def main\(", text, re.M) is not None
         assert defines_main == (name in HELPERS | {"cli"}), name
     assert started == HELPERS
+
+
+def test_results_hold_results_not_code():
+    """Measurement scripts and patches live in experiments/, the numbers in results/."""
+    results = ROOT.parent / "results"
+    code = sorted(str(p.relative_to(results)) for p in results.rglob("*")
+                  if p.suffix in (".py", ".sh", ".patch"))
+    assert code == []

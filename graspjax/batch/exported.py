@@ -70,7 +70,7 @@ class Portable:
         """`jit` lowered for the arguments' shapes (placed by `sharding`), with one source line
         per operation like the exported module: lowered with JAX's default, every operation
         inlined from the module would carry the caller's whole Python stack (a run's lowering
-        thread: some 30 frames), which XLA:GPU formats again at each load (stop 40)."""
+        thread: some 30 frames), which XLA:GPU formats again at each load (results/benchmarks)."""
         with _one_source_line():
             return self.jit(donate_argnums).lower(*self.in_shapes(sharding))
 

@@ -4,7 +4,7 @@ On a CPU one process keeps fewer cores busy than it has: a chunk's physics step 
 of small kernels, mostly one after another (1.4 of 2 cores). Groups played in processes side
 by side then end sooner than one after another in one process: README's command warm, on a
 2-core CPU, 139-143 s in one process and 99-107 s with its groups split in two
-(results/benchmarks, stop 47). `plan.share` splits the groups; each process traces or loads
+(results/benchmarks). `plan.share` splits the groups; each process traces or loads
 only its own groups' programs, so a cold run compiles nothing twice.
 
 A helper gets the run's experiment, its `config.json` (`meta`) and the chunks it plays; it
@@ -41,7 +41,7 @@ def count(requested: int | None = None) -> int:
     """How many processes may play a run's groups: `requested` (--processes), else on a CPU
     `GRASPJAX_PROCESSES`, else one per core this process may use (at most `MAX_DEFAULT`); one
     on a GPU. --processes above one is refused on a GPU: its memory is one process's, and it
-    plays one program at a time anyway (results/benchmarks, stop 41)."""
+    plays one program at a time anyway (results/benchmarks)."""
     import jax
 
     cpu = jax.default_backend() == "cpu"
@@ -67,7 +67,7 @@ def cores_of(process: int, processes: int) -> set[int] | None:
     """The cores `process` of `processes` keeps to (None: no affinity here, or fewer cores than
     processes): this process's cores in contiguous blocks, one per process. Two processes on 2
     cores, each kept to one, played README's rounds and g-l groups in 99 s; sharing both cores,
-    their XLA threads contended and took 107 s (results/benchmarks, stop 47)."""
+    their XLA threads contended and took 107 s (results/benchmarks)."""
     if not hasattr(os, "sched_getaffinity"):
         return None
     cores = sorted(os.sched_getaffinity(0))

@@ -6,7 +6,7 @@ and builds up to four contacts by clipping the incident face against the referen
 pair tests are written per pair and vmapped, on arrays of 3-vectors: a box against the
 32-vertex cylinder hull tests 576 edge pairs and clips 2 x 16 x 16 edges against planes, each
 a (..., 3) array whose x, y, z are strided. On XLA:CPU that leaves the arithmetic unvectorized:
-the narrow phase was three quarters of a physics step (results/benchmarks, stop 45).
+the narrow phase was three quarters of a physics step (results/benchmarks).
 
 Here the same tests are written on grids: one axis per edge (or plane) of each side, each
 coordinate its own array, and what depends on one edge alone (its direction, its Gauss-map arc)

@@ -8,7 +8,7 @@ export GRASPJAX_CACHE=/tmp/s47/fresh_cache
 for pass in cold warm; do
   s=$(date +%s.%N)
   graspjax run --table 1,2 --trials 10 --seed 0 --out runs/paper_$pass > /tmp/s47/fresh_$pass.log 2>&1
-  echo "README command $pass: exit $? after $(echo "$(date +%s.%N) - $s" | bc) s, $(python3 /work/main/results/benchmarks/processes_cpu/same_rows.py /work/main/results/paper_cpu_10/attempts.csv runs/paper_$pass/attempts.csv)"
+  echo "README command $pass: exit $? after $(echo "$(date +%s.%N) - $s" | bc) s, $(python3 /work/main/experiments/benchmarks/processes_cpu/same_rows.py /work/main/results/paper_cpu_10/attempts.csv runs/paper_$pass/attempts.csv)"
   cp runs/paper_$pass/timings.csv /tmp/s47/fresh_${pass}_timings.csv
 done
 export GRASPJAX_CACHE=/tmp/s47/fresh_test_cache
