@@ -4,7 +4,7 @@ the cache read and the executable rebuilt, per program of README's command (Tabl
     GRASPJAX_CACHE=<a cache README's command filled> python3 experiments/load_timing.py [BATCH]
 
 BATCH: worlds per chunk (default: the device's, as `graspjax run`). The XLA flags are the CLI's
-(`cli.with_xla_flags`), so the programs come out of the cache that run left. Last, each attempt
+(`runtime.xla.with_xla_flags`), so the programs come out of the cache that run left. Last, each attempt
 program's executable is serialized and rebuilt on its own (`deserialize_and_load`). Results:
 results/benchmarks/README.md (stop 39).
 """
@@ -14,10 +14,10 @@ import os
 import sys
 import time
 
-from graspjax import cli
+from graspjax.runtime import xla
 
-os.environ["XLA_FLAGS"] = cli.with_xla_flags(os.environ.get("XLA_FLAGS", ""))
-cli._compilation_cache()
+os.environ["XLA_FLAGS"] = xla.with_xla_flags(os.environ.get("XLA_FLAGS", ""))
+xla.compilation_cache()
 
 from jax._src import compilation_cache, compiler  # noqa: E402 - after the flags are set
 from jax.experimental import serialize_executable  # noqa: E402

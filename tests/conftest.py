@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from graspjax import Camera, align_tool, detect_grasp
-from graspjax.cli import with_xla_flags
+from graspjax.runtime.xla import with_xla_flags
 from graspjax.synthetic import render_depth, top_down_pose
 
 # A persistent compilation cache makes local reruns fast (CI starts cold); the CLI in a
@@ -20,7 +20,7 @@ os.environ.setdefault("GRASPJAX_CACHE", os.path.expanduser("~/.cache/graspjax-te
 # The suite's runs play in one process: on 2 cores a run of several groups would start a helper
 # process that loads its programs again. test_experiment's helper test asks for two.
 os.environ["GRASPJAX_PROCESSES"] = "1"
-# The flags the CLI sets before JAX starts (`cli._xla_flags`), set here for the whole
+# The flags the CLI sets before JAX starts (`runtime.xla.set_xla_flags`), set here for the whole
 # session: XLA_FLAGS is part of a compiled program's cache key, so the programs compiled in this
 # process and those of a CLI subprocess share their cache entries only if both see them.
 os.environ["XLA_FLAGS"] = with_xla_flags(os.environ.get("XLA_FLAGS", ""))

@@ -1,7 +1,6 @@
 """`graspjax detect` end to end: one image, a folder of real-looking images, one-line errors."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -200,39 +199,6 @@ def test_console_script_prints_all_its_output_before_it_ends(tmp_path):
     assert len(printed) > 12 and all(Path(p).is_file() for p in printed)
     assert {Path(p).name for p in printed} == {p.name for p in (tmp_path / "a").rglob("*")
                                                if p.is_file()}
-
-
-def test_importing_graspjax_starts_no_backend_so_xla_flags_apply():
-    """XLA reads XLA_FLAGS when the first backend starts: the CLI's flags take effect only if
-    importing graspjax (any of its modules) starts none, and XLA accepts every one of them."""
-    code = """
-import os
-import importlib, pkgutil
-import graspjax
-for module in pkgutil.walk_packages(graspjax.__path__, "graspjax."):
-    importlib.import_module(module.name)
-from jax._src import xla_bridge
-assert not xla_bridge.backends_are_initialized(), "a backend started at import"
-graspjax.cli._xla_flags(type("Args", (), {"fast": False})())
-import jax
-jax.numpy.zeros(1).block_until_ready()
-print(os.environ["XLA_FLAGS"])
-"""
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["--xla_cpu_experimental_ynn_fusion_type=",
-                                   "--xla_gpu_deterministic_ops=true",
-                                   "--xla_gpu_gemm_rewrite_size_threshold=300"]
-
-
-def test_xla_flags_keep_the_user_s_and_fast_drops_only_the_gpu_s():
-    from graspjax.cli import with_xla_flags
-
-    assert with_xla_flags("", deterministic=False) == "--xla_cpu_experimental_ynn_fusion_type="
-    mine = "--xla_cpu_experimental_ynn_fusion_type=dot --xla_gpu_gemm_rewrite_size_threshold=9"
-    assert with_xla_flags(mine) == mine + " --xla_gpu_deterministic_ops=true"
-    assert with_xla_flags(with_xla_flags("")) == with_xla_flags("")  # nothing added twice
 
 
 def test_bench_detect_takes_the_preset_as_detect_does(tmp_path, monkeypatch):
