@@ -41,7 +41,7 @@ from graspjax.procedure import (
     view,
     view_keys,
 )
-from graspjax.schema import SURFACE_LABELS
+from graspjax.schema import PLANES_COLUMNS, SURFACE_LABELS
 from graspjax.sim.world import physics_model
 from graspjax.stats import detectable_difference, wilson
 from graspjax.tree import pytree_dataclass
@@ -91,16 +91,12 @@ def judge(view: FirstView, align: AlignConfig, config: Config) -> PlaneTruth:
                        -normal)
 
 
-COLUMNS = ["point", "setup", "trial", "object", "target", "first_view_grasp", "plane_found",
-           "surface", "on_target", "normal_error_deg", "view_tilt_deg"]
-
-
 def study(groups, points: list[Config], batch: int, progress: Callable[[int], None] = lambda n: None
           ) -> tuple[pd.DataFrame, dict]:
     """Settle every world of `groups` (`plan` of one point), take its first view and judge
     the planes of every grid point in `points` (which differ in traced alignment values only).
 
-    Returns one row per (grid point, world) (`COLUMNS`) and the timings: settle and view
+    Returns one row per (grid point, world) (`schema.PLANES_COLUMNS`) and the timings: settle and view
     seconds, the scoring call's compile seconds, and the scoring's views per second.
     """
     timings = {"settle_s": 0.0, "view_s": 0.0, "score_compile_s": 0.0, "score_s": 0.0,
@@ -153,7 +149,7 @@ def study(groups, points: list[Config], batch: int, progress: Callable[[int], No
                 "view_tilt_deg": truth.view_tilt_deg}))
         progress(n)
     timings["views_per_s"] = timings["views_scored"] / max(timings["score_s"], 1e-9)
-    return pd.concat(frames, ignore_index=True)[COLUMNS], timings
+    return pd.concat(frames, ignore_index=True)[list(PLANES_COLUMNS)], timings
 
 
 def summarize(rows: pd.DataFrame, grid: dict[str, list]) -> pd.DataFrame:

@@ -6,6 +6,7 @@ that reports and tables (`report.py`) read a run's files without loading MJX.
   and per value the run changed; rows sorted by `SORT` (`sort_attempts`).
 - `rounds.csv`: one row per settled Setup 2/3 layout; its density is `LAYOUT_COLUMNS`.
 - `timings.csv`: one row per chunk, `TIMINGS_COLUMNS`.
+- `planes.csv.gz` (`graspjax planes`): one row per grid point and world, `PLANES_COLUMNS`.
 """
 
 from __future__ import annotations
@@ -34,6 +35,17 @@ TIMINGS_COLUMNS = (
     "wall_s",  # seconds it played
     "peak_gib",  # the most device memory in use so far (GiB; empty where not reported)
     "process",  # the helper process that played it (0: the run's own)
+)
+PLANES_COLUMNS = (
+    "point",  # grid point
+    "setup", "trial", "object",  # the world (Setups 2, 3: the round and its objects)
+    "target",  # the object the first view's target point lies on (ground truth; "" if none)
+    "first_view_grasp",  # the first view already holds a grasp (such a view does not re-align)
+    "plane_found",  # the plane scoring found a plane
+    "surface",  # what most of the chosen plane's inliers lie on (`SURFACE_LABELS`; ground truth)
+    "on_target",  # share of its inliers on the target (ground truth)
+    "normal_error_deg",  # its normal against the target's nearest true face
+    "view_tilt_deg",  # the re-aligned view's tilt from straight down
 )
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)  # Reason -> label
