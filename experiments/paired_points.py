@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from graspjax.report import object_outcomes
+from graspjax.report import load_attempts, object_outcomes
 
 sys.path.insert(0, str(Path(__file__).parent))
 from paired_rows import changes  # noqa: E402
@@ -32,9 +32,7 @@ def column_frames(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
 
 
 def main(folder: str, reference: int = 0) -> None:
-    frame = object_outcomes(pd.read_csv(Path(folder) / "attempts.csv.gz"
-                                        if (Path(folder) / "attempts.csv.gz").exists()
-                                        else Path(folder) / "attempts.csv"))
+    frame = object_outcomes(load_attempts(folder))
     frame["success"] = frame["success"].astype(bool)
     frame["rescued"] = frame["rescued"].astype(bool)
     columns = column_frames(frame)
