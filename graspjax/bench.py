@@ -212,7 +212,7 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
     (`procedure.start_round`, `world.play`) vmapped over `batch` worlds of `setup`."""
     from graspjax.config import stack_configs
     from graspjax.procedure import WorldSpec, start_round
-    from graspjax.sim.collision import WORLDS
+    from graspjax.sim.physics import WORLDS
     from graspjax.sim.scene import mjx, scene_for
     from graspjax.sim.world import GraspPose, physics_model, play
 

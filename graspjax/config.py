@@ -288,6 +288,8 @@ class SimConfig:
     max_contact_points_alone: int = 24  # ... in scenes of one object at a time (Setup 1)
     max_geom_pairs: int = 0  # MJX runs the narrow phase on this many nearest geom pairs per pair
     # type only (bounding spheres); 0: on every pair
+    step: Literal["graspjax", "mjx"] = "graspjax"  # the physics step: MJX's reworked for speed,
+    # its results up to float32 rounding (sim/physics), or plain `mjx.step` to check it against
     skip_far_pairs: bool = True  # Setup 1 scenes: no narrow phase for geom pairs far apart in
     # every world of a batch (parked objects, the hand at home): the same contacts, fewer FLOPs
     object_friction: float = traced(0.5)  # objects and table sliding on each other (docs: source)

@@ -1,5 +1,6 @@
 """Shared fixtures: one camera, and jitted kernels compiled once per session."""
 
+import functools
 import gc
 import os
 import subprocess
@@ -122,7 +123,7 @@ class Worlds:
 
     def __init__(self, scene):
         from graspjax.config import Config
-        from graspjax.sim.collision import WORLDS
+        from graspjax.sim.physics.collision import WORLDS
         from graspjax.sim.scene import mjx
         from graspjax.sim.world import physics_model, play, reset
 
@@ -183,20 +184,25 @@ class Worlds:
         return GraspPose(nan, nan, nan, jnp.zeros(SIM_BATCH, bool))
 
 
-def basic_scene():
-    """The a-f scene with object-object contacts (Setups 2, 3)."""
-    from graspjax.config import Config
+def _stepped_by(step: str):
+    """The default configuration with the physics step `step` (`sim.step`)."""
+    from graspjax.config import Config, override
+
+    return override(Config(), {"sim.step": step})
+
+
+def basic_scene(step: str = "graspjax"):
+    """The a-f scene with object-object contacts (Setups 2, 3), stepped by `step`."""
     from graspjax.sim import scene_for
 
-    return scene_for(tuple("abcdef"), Config(), True)
+    return scene_for(tuple("abcdef"), _stepped_by(step), True)
 
 
-def industrial_scene():
-    """The g-l scene (Setup 1; objects never meet)."""
-    from graspjax.config import Config
+def industrial_scene(step: str = "graspjax"):
+    """The g-l scene (Setup 1; objects never meet), stepped by `step`."""
     from graspjax.sim import scene_for
 
-    return scene_for(tuple("ghijkl"), Config(), False)
+    return scene_for(tuple("ghijkl"), _stepped_by(step), False)
 
 
 def narrow_gripper_scene():
@@ -209,17 +215,24 @@ def narrow_gripper_scene():
 
 # The scenes whose `Worlds` programs `test_physics` compiles, in the order it first uses them:
 # warm_cache.py compiles the same programs beside the suite.
-PHYSICS_SCENES = (basic_scene, industrial_scene, narrow_gripper_scene)
+PHYSICS_SCENES = (basic_scene, industrial_scene, narrow_gripper_scene,
+                  functools.partial(basic_scene, "mjx"), functools.partial(industrial_scene, "mjx"))
+
+
+@pytest.fixture(scope="session", params=["graspjax", "mjx"])
+def physics_step(request):
+    """Each physics test runs with graspjax's reworked step and with plain `mjx.step`."""
+    return request.param
 
 
 @pytest.fixture(scope="session")
-def basic_sim():
-    return Worlds(basic_scene())
+def basic_sim(physics_step):
+    return Worlds(basic_scene(physics_step))
 
 
 @pytest.fixture(scope="session")
-def industrial_sim():
-    return Worlds(industrial_scene())
+def industrial_sim(physics_step):
+    return Worlds(industrial_scene(physics_step))
 
 
 def hull_solid(points, rotation, translation):

@@ -13,7 +13,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent / "graspjax"
 # ending in ".*" stands for every module of that package.
 LAYERS = [
     ("foundations", ["tree", "figures", "stats", "io", "provenance", "geometry", "camera", "codes",
-                     "schema"]),
+                     "schema", "privates"]),
     ("configuration", ["config"]),
     ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",
                               "graspjax"]),
@@ -107,3 +107,42 @@ def test_results_hold_results_not_code():
     code = sorted(str(p.relative_to(results)) for p in results.rglob("*")
                   if p.suffix in (".py", ".sh", ".patch"))
     assert code == []
+
+
+def test_private_mjx_and_jax_names_are_reached_only_through_privates():
+    """`privates.py` is the one module that names MJX's or JAX's private modules or MJX's
+    private `_impl` fields: an upgrade of either is read there."""
+    pattern = re.compile(r"\b(mujoco\.mjx\._src|jax\._src)\b|\._impl\b|[\"']_impl\.")
+    offenders = [name for name, path in MODULES.items()
+                 if name != "privates" and pattern.search(path.read_text())]
+    assert offenders == []
+
+
+def test_the_physics_rework_has_one_door():
+    """Outside `sim.physics`, modules import the package's public names only, never its parts."""
+    inside = {name for name in MODULES if name.startswith("sim.physics.")}
+    offenders = sorted((name, sorted(_imports(path) & inside)) for name, path in MODULES.items()
+                       if not name.startswith("sim.physics") and _imports(path) & inside)
+    assert offenders == []
+
+
+def test_no_circle_of_imports():
+    """No module reaches itself through the modules it imports (a package counts as its
+    `__init__`)."""
+    graph = {name: {other for other in _imports(path) if other in MODULES and other != name}
+             for name, path in MODULES.items()}
+    done, path = set(), []
+
+    def visit(name):
+        if name in path:
+            raise AssertionError(" -> ".join(path[path.index(name):] + [name]))
+        if name in done:
+            return
+        path.append(name)
+        for other in sorted(graph[name]):
+            visit(other)
+        path.pop()
+        done.add(name)
+
+    for name in sorted(graph):
+        visit(name)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from graspjax.config import Config
-from graspjax.sim import collision
-from graspjax.sim.collision import HAND, OBJECTS, STATIC, WORLDS
+from graspjax.sim.physics import collision
+from graspjax.sim.physics.collision import HAND, OBJECTS, STATIC, WORLDS
 from graspjax.sim.scene import build_scene, mjx
 from graspjax.sim.world import move_hand, reset
 

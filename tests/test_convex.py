@@ -11,8 +11,8 @@ from mujoco.mjx._src import mesh as mjx_mesh
 from mujoco.mjx._src.collision_types import ConvexInfo, GeomInfo
 
 from graspjax.geometry import quat_to_matrix
-from graspjax.sim import convex
-from graspjax.sim.collision import narrow_phase_function
+from graspjax.sim.physics import convex
+from graspjax.sim.physics.collision import narrow_phase_function
 from graspjax.sim.scene import build_scene, mjx
 
 

@@ -306,13 +306,14 @@ def test_contact_forces_read_as_mujoco_reads_them(cone):
     mj_contactForce does, for both friction cones, on a lifted cube whose pads carry its weight
     by friction; and the pads' friction balances the cube's weight (an independent check)."""
     from graspjax.config import GripperConfig
+    from graspjax.privates import impl
     from graspjax.sim.scene import mjx
-    from graspjax.sim.world import contact_forces, mjx_internals
+    from graspjax.sim.world import contact_forces
 
     model, data = _squeezed_cube(GripperConfig(), SimConfig(cone=cone), lift=0.03)
     assert data.ncon >= 4
     ours = np.asarray(contact_forces(mjx.put_data(model, data), cone == "elliptic"))
-    slots = mjx_internals(mjx.put_data(model, data)).contact
+    slots = impl(mjx.put_data(model, data)).contact
     geoms, positions = np.asarray(slots.geom), np.asarray(slots.pos)
     wrench, weight_carried = np.zeros(6), np.zeros(3)
     cube = model.body("obj_a").id
@@ -384,7 +385,7 @@ def test_layout_stats_count_touching_and_stacked_objects():
     """Hand-placed layouts of the cube (a) and the flat block (f), their contacts from the
     physics step's collision: f resting 0.5 mm into a's top face (both touching, f stacked, no
     footprint gap), then f on the table 2 cm beside a (nothing touching, a 2 cm gap)."""
-    from graspjax.sim import collision
+    from graspjax.sim.physics import collision
     from graspjax.sim.scene import build_scene, mjx
     from graspjax.sim.world import layout_stats, reset
 

@@ -1,4 +1,4 @@
-"""Scatters of trace-time indices recomputed by gathers (graspjax.sim.scatters), against JAX's
+"""Scatters of trace-time indices recomputed by gathers (graspjax.sim.physics.scatters), against JAX's
 own scatters on the CPU: the same values, bit for bit, and no scatter left that XLA would
 sort."""
 
@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from graspjax.sim.scatters import without_sorted_scatters
+from graspjax.sim.physics.scatters import without_sorted_scatters
 
 
 @pytest.fixture(autouse=True)
@@ -123,7 +123,8 @@ def test_the_physics_step_leaves_xla_nothing_to_sort():
     scatter whose indices XLA would sort under deterministic ops; without the rewrite it holds
     dozens (MJX's tree sums, line search, kinematics, integrator)."""
     from graspjax.config import Config
-    from graspjax.sim import collision, scene_for, solver
+    from graspjax.sim import scene_for
+    from graspjax.sim.physics import collision, solver
     from graspjax.sim.scene import mjx
     from graspjax.sim.world import physics_model
 
@@ -162,7 +163,7 @@ INDEX_ARITHMETIC = {  # name: function of (a (6,) int32, b (6,) int32) with inte
 def test_index_arithmetic_is_computed_by_numpy_as_xla_computes_it(name):
     """Integer equations of known inputs (a scatter's index computations) are computed by NumPy,
     not compiled per operation: the same values and dtypes as XLA's, overflow included."""
-    from graspjax.sim import scatters as module
+    from graspjax.sim.physics import scatters as module
 
     fun = INDEX_ARITHMETIC[name]
     a, b = jnp.asarray(BIG), jnp.asarray(np.roll(BIG, 2) // 3)
@@ -179,7 +180,7 @@ def test_index_arithmetic_is_computed_by_numpy_as_xla_computes_it(name):
 
 def test_every_numpy_operation_is_checked_against_xla():
     """Each operation NumPy computes appears in the cases above (so it meets XLA's values)."""
-    from graspjax.sim import scatters as module
+    from graspjax.sim.physics import scatters as module
 
     a = jnp.asarray(BIG)
     used = {eqn.primitive.name for fun in INDEX_ARITHMETIC.values()

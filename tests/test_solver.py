@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from graspjax.config import Config, override
-from graspjax.sim import collision, solver
+from graspjax.sim.physics import collision, solver
 from graspjax.sim.scene import build_scene, mjx
 from graspjax.sim.world import reset
 

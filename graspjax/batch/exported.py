@@ -25,9 +25,8 @@ import time
 from collections.abc import Callable
 
 import jax
-from jax._src import config as jax_config
 
-from graspjax import io
+from graspjax import io, privates
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
@@ -135,7 +134,7 @@ def _one_source_line():
     frames each time it is created, compiled or loaded, which was most of a warm load
     (results/benchmarks, stops 39 and 40). Profiles still name each operation's line. (JAX's
     thread-local switch: private API.)"""
-    return jax_config.include_full_tracebacks_in_locations(False)
+    return privates.include_full_tracebacks_in_locations(False)
 
 
 def stored(key: tuple, description: tuple) -> bool:

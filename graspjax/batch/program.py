@@ -36,7 +36,7 @@ from graspjax.batch.plan import Chunk, Group, World, chunks, padded_size
 from graspjax.config import Config, stack_configs
 from graspjax.io import InputError
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
-from graspjax.sim.collision import WORLDS
+from graspjax.sim.physics import WORLDS
 from graspjax.sim.scene import Scene, mjx, scene_for
 
 

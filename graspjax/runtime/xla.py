@@ -68,9 +68,10 @@ def set_xla_flags(deterministic: bool) -> str | None:
     if wanted == flags.strip():
         return None
     import jax
-    from jax._src import xla_bridge
 
-    if not xla_bridge.backends_are_initialized():
+    from graspjax import privates
+
+    if not privates.backends_are_initialized():
         os.environ["XLA_FLAGS"] = wanted
     elif deterministic and DETERMINISTIC not in flags and jax.default_backend() == "gpu":
         return ("JAX started on the GPU without deterministic ops: set XLA_FLAGS="

@@ -32,8 +32,8 @@ import mujoco
 import numpy as np
 
 from graspjax.config import GripperConfig, LayoutConfig, SimConfig
-from graspjax.sim.collision import HAND, STATIC
 from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses_of
+from graspjax.sim.physics import HAND, STATIC
 from graspjax.sim.raycast import Solids, solids_of
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings

@@ -28,7 +28,8 @@ from graspjax.camera import Camera
 from graspjax.codes import Outcome
 from graspjax.config import CameraConfig, Config
 from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
-from graspjax.sim import collision
+from graspjax.privates import impl
+from graspjax.sim import physics
 from graspjax.sim.layout import footprints, gaps
 from graspjax.sim.raycast import render_depth, world_planes
 from graspjax.sim.scene import BIN_PARK, CLOSED_TARGET, GRIPPER_HOME, Scene, mjx
@@ -160,12 +161,6 @@ def park(scene: Scene, data: mjx.Data, which: jax.Array) -> mjx.Data:
     return data.replace(qpos=qpos, qvel=qvel)
 
 
-def mjx_internals(data: mjx.Data):
-    """The JAX implementation's own fields of `data` (contacts, constraint forces): MJX keeps
-    them private, so this is the one place that reads them."""
-    return data._impl
-
-
 def contact_forces(data: mjx.Data, elliptic: bool) -> jax.Array:
     """Force (C, 6) of every contact slot in its contact frame (normal, 2 tangential, torsional,
     2 rolling), as MuJoCo's `mj_contactForce` computes it; zero for slots not in the solver.
@@ -175,7 +170,7 @@ def contact_forces(data: mjx.Data, elliptic: bool) -> jax.Array:
     their sum and friction i is mu_i times the difference of its two opposing edges. `elliptic`
     is the model's cone (static).
     """
-    internals = mjx_internals(data)
+    internals = impl(data)
     contact, efc_force = internals.contact, internals.efc_force
     dims, address = np.asarray(contact.dim), np.asarray(contact.efc_address)
     columns = []
@@ -199,7 +194,7 @@ def contact_forces(data: mjx.Data, elliptic: bool) -> jax.Array:
 
 def hand_contact_force(scene: Scene, data: mjx.Data) -> jax.Array:
     """Total normal force () of every contact on the hand (palm, housing, fingers) (N)."""
-    contact = mjx_internals(data).contact
+    contact = impl(data).contact
     on_hand = jnp.asarray(scene.gripper_geom)[contact.geom].any(-1)
     normal = contact_forces(data, scene.sim.cone == "elliptic")[:, 0]
     return jnp.sum(jnp.where(on_hand, normal, 0.0))
@@ -230,7 +225,7 @@ def segment(scene: Scene, model: mjx.Model, data: mjx.Data, start: jax.Array, en
         m = scene.hand_mocap
         d = d.replace(mocap_pos=d.mocap_pos.at[m].set(target),
                       mocap_quat=d.mocap_quat.at[m].set(quat), ctrl=jnp.full_like(d.ctrl, jaws))
-        d = collision.step(model, d, scene.geom_owner, scene.skips_far_pairs)
+        d = physics.step(model, d, scene.geom_owner, scene.skips_far_pairs, scene.sim.step)
         trip = watch & ~reflex.tripped & (hand_contact_force(scene, d) > force_limit)
         reflex = Reflex(tripped=reflex.tripped | trip,
                         stop=jnp.where(trip, d.qpos[scene.hand_qpos:scene.hand_qpos + 3],
@@ -439,7 +434,7 @@ def layout_stats(scene: Scene, data: mjx.Data) -> LayoutStats:
     """Contacts and footprint gaps of the objects on the table (state after a step)."""
     n = scene.num_objects
     present = ~parked(scene, data)
-    contact = mjx_internals(data).contact
+    contact = impl(data).contact
     owner = jnp.asarray(scene.geom_object)[contact.geom]  # (C, 2)
     real = (contact.dist < 1e-3) & (owner[:, 0] >= 0) & (owner[:, 1] >= 0) & (
         owner[:, 0] != owner[:, 1])

@@ -37,12 +37,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.sim import convex, solver
-from graspjax.sim.scatters import without_sorted_scatters
+from graspjax import privates
+from graspjax.privates import impl
+from graspjax.sim.physics import convex, solver
+from graspjax.sim.physics.scatters import without_sorted_scatters
 
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
     from mujoco import mjx
-    from mujoco.mjx._src import collision_driver
 
 WORLDS = "worlds"  # the name of the vmapped axis of worlds (`jax.vmap(..., axis_name=WORLDS)`)
 NEAR = 0.01  # a part runs when one of its pairs' bounding spheres are closer than this (m)
@@ -57,7 +58,7 @@ def narrow_phase_function(types: tuple[int, int]):
     """The collision function of a pair type: `convex.convex_convex` for hull pairs, else MJX's."""
     if tuple(map(int, types)) in _GRID_PAIRS:
         return convex.convex_convex
-    return collision_driver._COLLISION_FUNC[types]
+    return privates.COLLISION_FUNCTIONS[types]
 
 
 def any_world(flag: jax.Array) -> jax.Array:
@@ -137,11 +138,11 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool 
     `max_geom_pairs` is set); when `skip_far`, each group's parts run only where some world
     needs them (`geom_owner` (ngeom,) int: STATIC, HAND or the object index of each geom),
     else every pair runs."""
-    if d._impl.ncon == 0 or collision_driver._numeric(m, "max_geom_pairs") > -1:
+    if impl(d).ncon == 0 or privates.numeric(m, "max_geom_pairs") > -1:
         return mjx.collision(m, d)
-    pairs = collision_driver._geom_groups(m)
+    pairs = privates.geom_groups(m)
     by_condim: dict[int, list] = {}
-    for key, contact in collision_driver._contact_groups(m, d).items():
+    for key, contact in privates.contact_groups(m, d).items():
         func = narrow_phase_function(key.types)
         group = np.array([(g1, g2) for g1, g2, _ in pairs[key]])
         if skip_far:
@@ -153,7 +154,7 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool 
         if func.ncon > 1:
             contact = jax.tree.map(lambda x, r=func.ncon: jnp.repeat(x, r, axis=0), contact)
         by_condim.setdefault(key.condim, []).append(contact.replace(dist=dist, pos=pos, frame=frame))
-    most = collision_driver._numeric(m, "max_contact_points")
+    most = privates.numeric(m, "max_contact_points")
     kept = []
     for condim in sorted(by_condim):
         contact = jax.tree.map(lambda *x: jnp.concatenate(x), *by_condim[condim])
@@ -162,7 +163,7 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool 
             contact = jax.tree.map(lambda x, idx=idx: x[idx], contact)
         kept.append(contact)
     contact = jax.tree.map(lambda *x: jnp.concatenate(x), *kept)
-    return d.tree_replace({"_impl.contact": contact})
+    return privates.with_impl(d, contact=contact)
 
 
 def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True) -> mjx.Data:
@@ -190,7 +191,7 @@ def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:
     if m.opt.integrator != mjx.IntegratorType.EULER:
         raise NotImplementedError(f"graspjax steps with Euler only, not {m.opt.integrator}")
     d = constrained(m, d, collide)
-    if d._impl.efc_J.size == 0:
+    if impl(d).efc_J.size == 0:
         d = d.replace(qacc=d.qacc_smooth)
     else:
         d = mjx.sensor_acc(m, solve(m, d))

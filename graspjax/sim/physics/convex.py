@@ -18,16 +18,10 @@ third or fourth contact among clipped points whose scores tie, rounding may then
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import jax
 import jax.numpy as jnp
 
-with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
-    from mujoco.mjx._src import collision_convex as mjx_convex
-    from mujoco.mjx._src import math as mjx_math
-    from mujoco.mjx._src.collision_types import ConvexInfo
+from graspjax import privates
 
 
 def _xyz(v: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
@@ -60,8 +54,8 @@ def _edge_contact(centroid_a, edges_a, edges_b, edge_normals_a, edge_normals_b):
     of edge pairs whose Gauss-map arcs cross, the axis of largest separation. Returns its
     distance () (-inf: none), axis (3,) and the two edges' end points (a0, a1, b0, b1) (3,)."""
     count_a = edges_a.shape[0]
-    dir_a = jax.vmap(mjx_math.normalize)(edges_a[:, 0] - edges_a[:, 1])
-    dir_b = jax.vmap(mjx_math.normalize)(edges_b[:, 0] - edges_b[:, 1])
+    dir_a = jax.vmap(privates.normalize)(edges_a[:, 0] - edges_a[:, 1])
+    dir_b = jax.vmap(privates.normalize)(edges_b[:, 0] - edges_b[:, 1])
     # Arcs (a1, a2) of hull a and (-b1, -b2) of hull b cross (MJX's `_arcs_intersect`).
     a1, a2 = _xyz(edge_normals_a[:, 0]), _xyz(edge_normals_a[:, 1])
     b1, b2 = _xyz(-edge_normals_b[:, 0]), _xyz(-edge_normals_b[:, 1])
@@ -123,7 +117,7 @@ def _clip(clipping_poly, subject_poly, clipping_normal, subject_normal):
     subject_start = jnp.roll(subject_poly, 1, axis=0)
     subject_sides = jnp.cross(subject_poly - subject_start, subject_normal)
     edges0, keep0 = _clip_edges(subject_start, subject_poly, clip_start, clip_sides)
-    onto = mjx_convex._project_poly_onto_poly_plane
+    onto = privates.project_poly_onto_poly_plane
     edges1, keep1 = _clip_edges(
         onto(clip_start, clipping_normal, subject_poly, subject_normal),
         onto(clipping_poly, clipping_normal, subject_poly, subject_normal),
@@ -137,9 +131,9 @@ def _manifold(clipping_poly, subject_poly, clipping_normal, subject_normal, sep_
     """MJX's `_create_contact_manifold` with `_clip` above: up to four contacts' distances (4,),
     points (4, 3) and normals (4, 3)."""
     incident, keep = _clip(clipping_poly, subject_poly, clipping_normal, subject_normal)
-    ref = mjx_convex._project_poly_onto_plane(incident, clipping_poly[0], clipping_normal)
-    keep = keep & mjx_convex._point_in_front_of_plane(clipping_poly[0], -clipping_normal, incident)
-    best = mjx_convex._manifold_points(ref, keep, clipping_normal)
+    ref = privates.project_poly_onto_plane(incident, clipping_poly[0], clipping_normal)
+    keep = keep & privates.point_in_front_of_plane(clipping_poly[0], -clipping_normal, incident)
+    best = privates.manifold_points(ref, keep, clipping_normal)
     points, kept = ref[best], keep[best]
     depth = (incident[best] - points) @ -clipping_normal
     dist = jnp.where(kept, -depth, jnp.ones_like(depth))
@@ -172,12 +166,12 @@ def _sat(centroid_a, faces_a, faces_b, vertices_a, vertices_b, normals_a, normal
                         (edge_dist < 0) & ~jnp.isinf(edge_dist)) & ~separated
     normal = jnp.where(on_edge, edge_axis, normal)
     dist = jnp.where(on_edge, jnp.array([edge_dist, 1, 1, 1]), dist)
-    near_a, near_b = mjx_math.closest_segment_to_segment_points(a0, a1, b0, b1)
+    near_a, near_b = privates.closest_segment_to_segment_points(a0, a1, b0, b1)
     pos = jnp.where(on_edge, jnp.tile(0.5 * (near_a + near_b), (4, 1)), pos)
     return dist, pos, normal
 
 
-def _convex_convex(c1: ConvexInfo, c2: ConvexInfo):
+def _convex_convex(c1: privates.ConvexInfo, c2: privates.ConvexInfo):
     """MJX's `_convex_convex` with `_sat` above: distances (4,), points (4, 3), normals (4, 3)."""
     width1, width2 = c1.face.shape[1], c2.face.shape[1]
     if width1 < width2:  # faces padded to one vertex count (their last vertex repeated)
@@ -199,9 +193,9 @@ def _convex_convex(c1: ConvexInfo, c2: ConvexInfo):
             -normal if swapped else normal)
 
 
-@mjx_convex.collider(ncon=4)
-def convex_convex(c1: ConvexInfo, c2: ConvexInfo):
+@privates.collider(ncon=4)
+def convex_convex(c1: privates.ConvexInfo, c2: privates.ConvexInfo):
     """Contacts of two convex hulls (box or mesh), as MJX's `convex_convex`: distances (4,),
     points (4, 3), frames (4, 3, 3)."""
     dist, pos, normal = _convex_convex(c1, c2)
-    return dist, pos, jax.vmap(mjx_math.make_frame)(normal)
+    return dist, pos, jax.vmap(privates.make_frame)(normal)

@@ -36,8 +36,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
-from jax._src import source_info_util  # private: each equation keeps its source line
 from jax.extend import core
+
+from graspjax import privates
 
 _ADD, _WRITE = "scatter-add", "scatter"  # the primitives rewritten
 _CALLS = ("jit", "pjit", "closed_call", "core_call", "custom_jvp_call", "custom_vjp_call",
@@ -91,8 +92,8 @@ def evaluate(jaxpr: core.Jaxpr, consts, args) -> list:
 @contextlib.contextmanager
 def _context(eqn):
     """The equation's source line and context, for what is traced from it."""
-    name_stack = source_info_util.current_name_stack() + eqn.source_info.name_stack
-    with (source_info_util.user_context(eqn.source_info.traceback, name_stack=name_stack),
+    name_stack = privates.source_info_util.current_name_stack() + eqn.source_info.name_stack
+    with (privates.source_info_util.user_context(eqn.source_info.traceback, name_stack=name_stack),
           eqn.ctx.manager):
         yield
 

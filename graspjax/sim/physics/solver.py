@@ -40,11 +40,11 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
+from graspjax import privates
+from graspjax.privates import impl
+
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
     from mujoco import mjx
-    from mujoco.mjx._src import math as mjx_math
-    from mujoco.mjx._src import solver as mjx_solver
-    from mujoco.mjx._src import support
 
 MIN_VALUE = mujoco.mjMINVAL  # MuJoCo's floor of divisors (cone and frictionloss terms)
 
@@ -57,14 +57,14 @@ def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
         return mjx.solve(m, d)
 
     def unfinished(ctx):  # MJX's stopping rule: iterations, improvement, gradient
-        improvement = mjx_solver._rescale(m, d, ctx.prev_cost - ctx.cost)
-        gradient = mjx_solver._rescale(m, d, mjx_math.norm(ctx.grad))
+        improvement = privates.rescale(m, d, ctx.prev_cost - ctx.cost)
+        gradient = privates.rescale(m, d, privates.norm(ctx.grad))
         done = ((ctx.solver_niter >= m.opt.iterations) | (improvement < m.opt.tolerance)
                 | (gradient < m.opt.tolerance))
         return ~done
 
     def iteration(ctx):
-        ctx = mjx_solver._linesearch(m, d, ctx)
+        ctx = privates.linesearch(m, d, ctx)
         ctx = newton_step(m, d, update_constraint(m, d, ctx))
         return ctx.replace(solver_niter=ctx.solver_niter + 1)
 
@@ -76,24 +76,24 @@ def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
         d = d.replace(qacc=d.qacc_smooth)
     ctx = newton_step(m, d, context(m, d))
     ctx = iteration(ctx) if m.opt.iterations == 1 else jax.lax.while_loop(unfinished, iteration, ctx)
-    return d.tree_replace({"qfrc_constraint": ctx.qfrc_constraint, "qacc": ctx.qacc,
-                           "_impl.efc_force": ctx.efc_force})
+    return privates.with_impl(d.replace(qfrc_constraint=ctx.qfrc_constraint, qacc=ctx.qacc),
+                              efc_force=ctx.efc_force)
 
 
-def context(m: mjx.Model, d: mjx.Data) -> mjx_solver.Context:
+def context(m: mjx.Model, d: mjx.Data) -> privates.SolverContext:
     """MJX's solver context at `d.qacc` (`solver.Context.create` without the gradient), for
     data with at least one cone contact: the regularized cone's friction `fri` (ncone, 6), its
     columns past each contact's condim zero, then the constraint update."""
     zero = jnp.zeros(m.nv, d.qacc.dtype)
     layout = cones(d)
-    friction = d._impl.contact.friction[layout.mask]  # (ncone, 5)
+    friction = impl(d).contact.friction[layout.mask]  # (ncone, 5)
     mu = friction[:, 0] / jnp.sqrt(m.opt.impratio)
     fri = jnp.concatenate((mu[:, None], friction), axis=1)
     fri = jnp.where(np.arange(6) < layout.dims[:, None], fri, 0.0)
-    ctx = mjx_solver.Context(
+    ctx = privates.SolverContext(
         qacc=d.qacc, qfrc_constraint=d.qfrc_constraint,
-        Jaref=d._impl.efc_J @ d.qacc - d._impl.efc_aref, efc_force=d._impl.efc_force,
-        Ma=support.mul_m(m, d, d.qacc), grad=zero, Mgrad=zero, search=zero, gauss=0.0,
+        Jaref=impl(d).efc_J @ d.qacc - impl(d).efc_aref, efc_force=impl(d).efc_force,
+        Ma=privates.mul_m(m, d, d.qacc), grad=zero, Mgrad=zero, search=zero, gauss=0.0,
         cost=jnp.inf, prev_cost=0.0, solver_niter=0, active=0.0, fri=fri, dm=0.0, u=0.0, h=0.0)
     return update_constraint(m, d, ctx)
 
@@ -116,33 +116,33 @@ class Cones(NamedTuple):
 
 def cones(d: mjx.Data) -> Cones:
     """The cones' layout of `d`'s contacts (static: from their condims and efc addresses)."""
-    dim, address = np.asarray(d._impl.contact.dim), np.asarray(d._impl.contact.efc_address)
+    dim, address = np.asarray(impl(d).contact.dim), np.asarray(impl(d).contact.efc_address)
     mask = dim > 1
     dims, rows = dim[mask], address[mask]
-    owner, offset = np.full((2, d._impl.efc_J.shape[0]), -1)
+    owner, offset = np.full((2, impl(d).efc_J.shape[0]), -1)
     for i, (condim, row) in enumerate(zip(dims, rows, strict=True)):
         owner[row:row + condim], offset[row:row + condim] = i, np.arange(condim)
     return Cones(mask, dims, rows, owner, offset)
 
 
-def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx_solver.Context:
+def update_constraint(m: mjx.Model, d: mjx.Data, ctx: privates.SolverContext) -> privates.SolverContext:
     """MJX's `_update_constraint` for the Newton solver and the elliptic cone (at least one cone
     contact), each efc row's cone values gathered by its static cone index where MJX scatters
     them: the active set (bottom zone), the forces (quadratic rows, plus each cone's middle-zone
     normal and friction forces), the cost, the cones' `u` (ncone, 6), `dm` (ncone,) and
     Hessians `h` (ncone, 6, 6), and the joint-space constraint force."""
-    nefc = d._impl.efc_J.shape[0]
+    nefc = impl(d).efc_J.shape[0]
     layout = cones(d)
     rows, owner, offset = layout.rows, layout.owner, layout.offset
     cone = np.maximum(owner, 0)  # gather indices (rows of no cone are masked)
     normal_row, friction_row = offset == 0, offset > 0
-    always = np.arange(nefc) < d._impl.ne + d._impl.nf  # equality and friction rows
+    always = np.arange(nefc) < impl(d).ne + impl(d).nf  # equality and friction rows
     active = jnp.where(always, True, ctx.Jaref < 0)
 
     floss_force, floss_cost = jnp.zeros(nefc), 0.0
-    if ((m._impl.dof_hasfrictionloss.any() or m._impl.tendon_hasfrictionloss.any())
+    if ((impl(m).dof_hasfrictionloss.any() or impl(m).tendon_hasfrictionloss.any())
             and not m.opt.disableflags & mjx.DisableBit.FRICTIONLOSS):
-        f, efc_d = d._impl.efc_frictionloss, d._impl.efc_D
+        f, efc_d = impl(d).efc_frictionloss, impl(d).efc_D
         r = 1.0 / (efc_d + (efc_d == 0.0) * MIN_VALUE)
         below, above = (ctx.Jaref <= -r * f) * (f > 0), (ctx.Jaref >= r * f) * (f > 0)
         active = active & ~below & ~above
@@ -150,17 +150,17 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
         floss_cost = jnp.sum(below * (-0.5 * r * f * f - f * ctx.Jaref)
                              + above * (-0.5 * r * f * f + f * ctx.Jaref))
 
-    friction = d._impl.contact.friction[layout.mask]  # (ncone, 5)
+    friction = impl(d).contact.friction[layout.mask]  # (ncone, 5)
     u = layout.window(ctx.Jaref) * ctx.fri  # (ncone, 6)
-    mu, n, t = ctx.fri[:, 0], u[:, 0], jax.vmap(mjx_math.norm)(u[:, 1:])
+    mu, n, t = ctx.fri[:, 0], u[:, 0], jax.vmap(privates.norm)(u[:, 1:])
 
     bottom = ((t <= 0) & (n < 0)) | ((t > 0) & ((mu * n + t) <= 0))  # quadratic zone
     active = jnp.where(owner >= 0, bottom[cone], active)
-    efc_force = d._impl.efc_D * -ctx.Jaref * active + floss_force
-    cost = 0.5 * jnp.sum(d._impl.efc_D * ctx.Jaref * ctx.Jaref * active)
+    efc_force = impl(d).efc_D * -ctx.Jaref * active + floss_force
+    cost = 0.5 * jnp.sum(impl(d).efc_D * ctx.Jaref * ctx.Jaref * active)
 
     middle = (t > 0) & (n < (mu * t)) & ((mu * n + t) > 0)  # the cone's surface
-    dm = d._impl.efc_D[rows] / jnp.maximum(mu * mu * (1 + mu * mu), MIN_VALUE)
+    dm = impl(d).efc_D[rows] / jnp.maximum(mu * mu * (1 + mu * mu), MIN_VALUE)
     nmt = n - mu * t
     cost = cost + 0.5 * jnp.sum(dm * nmt * nmt * middle)
     force = -dm * nmt * mu * middle
@@ -180,7 +180,7 @@ def update_constraint(m: mjx.Model, d: mjx.Data, ctx: mjx_solver.Context) -> mjx
     h = h * middle[:, None, None]
 
     gauss = 0.5 * jnp.dot(ctx.Ma - d.qfrc_smooth, ctx.qacc - d.qacc_smooth)
-    return ctx.replace(qfrc_constraint=d._impl.efc_J.T @ efc_force, gauss=gauss,
+    return ctx.replace(qfrc_constraint=impl(d).efc_J.T @ efc_force, gauss=gauss,
                        cost=cost + gauss + floss_cost, prev_cost=ctx.cost, efc_force=efc_force,
                        active=active, dm=dm, u=u, h=h)
 
@@ -192,15 +192,15 @@ def hessian(m: mjx.Model, d: mjx.Data, ctx) -> jax.Array:
     active weight plus, for a cone's row, that row of the cone block times the cone's rows
     (`H_c J_c`, sums of at most 6 products: elementwise, not small matrix products, which XLA's
     deterministic GPU ops run with untuned kernels)."""
-    jac = d._impl.efc_J  # (nefc, nv)
+    jac = impl(d).efc_J  # (nefc, nv)
     layout = cones(d)
     window = layout.window(jac)  # (ncone, 6, nv)
     # ctx.h is zero past each cone's condim, so rows of the window past it add nothing
     cone_rows = jnp.sum(ctx.h[:, :, :, None] * window[:, None, :, :], axis=2)  # (ncone, 6, nv)
     in_cone = (layout.owner >= 0)[:, None]
     from_cone = cone_rows[np.maximum(layout.owner, 0), np.maximum(layout.offset, 0)]  # (nefc, nv)
-    weighted = jac * (d._impl.efc_D * ctx.active)[:, None] + jnp.where(in_cone, from_cone, 0.0)
-    h = support.full_m(m, d) + jac.T @ weighted
+    weighted = jac * (impl(d).efc_D * ctx.active)[:, None] + jnp.where(in_cone, from_cone, 0.0)
+    h = privates.full_m(m, d) + jac.T @ weighted
     return (h + h.T) * 0.5
 
 

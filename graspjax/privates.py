@@ -1,0 +1,77 @@
+"""Every private name of MuJoCo MJX and JAX that graspjax uses, and nowhere else.
+
+Checked against mujoco-mjx 3.17.0 with jax 0.10.2 (CPU) and jax 0.11.2 (CUDA); pyproject pins
+both to those minor versions. An upgrade of either starts here: each name below says what it
+is and who uses it, and `tests/test_architecture.py` keeps private access out of every other
+module. Nothing is imported until a name is first used, so importing this module loads
+neither MuJoCo nor JAX's internals (`graspjax report` loads no simulator).
+
+MJX's data and model keep the JAX implementation's fields (contacts, constraint rows, model
+flags) in a private `_impl`: `impl` reads them and `with_impl` replaces them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import io
+from typing import Any
+
+# name here: (module, its name there), what it is, and who uses it
+_NAMES = {
+    # MJX's collision driver (sim/physics/collision.py: groups cut into parts)
+    "COLLISION_FUNCTIONS": ("mujoco.mjx._src.collision_driver", "_COLLISION_FUNC"),
+    "numeric": ("mujoco.mjx._src.collision_driver", "_numeric"),  # a model's numeric field
+    "geom_groups": ("mujoco.mjx._src.collision_driver", "_geom_groups"),
+    "contact_groups": ("mujoco.mjx._src.collision_driver", "_contact_groups"),
+    # MJX's convex collision (sim/physics/convex.py: hull pairs on grids)
+    "ConvexInfo": ("mujoco.mjx._src.collision_types", "ConvexInfo"),
+    "collider": ("mujoco.mjx._src.collision_convex", "collider"),
+    "project_poly_onto_poly_plane": ("mujoco.mjx._src.collision_convex",
+                                     "_project_poly_onto_poly_plane"),
+    "project_poly_onto_plane": ("mujoco.mjx._src.collision_convex", "_project_poly_onto_plane"),
+    "point_in_front_of_plane": ("mujoco.mjx._src.collision_convex", "_point_in_front_of_plane"),
+    "manifold_points": ("mujoco.mjx._src.collision_convex", "_manifold_points"),
+    # MJX's vector helpers (convex.py, solver.py)
+    "normalize": ("mujoco.mjx._src.math", "normalize"),
+    "norm": ("mujoco.mjx._src.math", "norm"),
+    "make_frame": ("mujoco.mjx._src.math", "make_frame"),
+    "closest_segment_to_segment_points": ("mujoco.mjx._src.math",
+                                          "closest_segment_to_segment_points"),
+    # MJX's Newton solver (sim/physics/solver.py: the cone Hessian as one product)
+    "SolverContext": ("mujoco.mjx._src.solver", "Context"),
+    "rescale": ("mujoco.mjx._src.solver", "_rescale"),
+    "linesearch": ("mujoco.mjx._src.solver", "_linesearch"),
+    "mul_m": ("mujoco.mjx._src.support", "mul_m"),
+    "full_m": ("mujoco.mjx._src.support", "full_m"),
+    # JAX: each equation's source line (sim/physics/scatters.py re-binds equations)
+    "source_info_util": ("jax._src.source_info_util", None),
+    # JAX: whether a backend has started (runtime/xla.py: XLA's flags are read then)
+    "backends_are_initialized": ("jax._src.xla_bridge", "backends_are_initialized"),
+    # JAX: the thread-local switch to one source line per operation (batch/exported.py)
+    "include_full_tracebacks_in_locations": ("jax._src.config",
+                                             "include_full_tracebacks_in_locations"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    """The private `name` of `_NAMES`, imported on first use."""
+    if name not in _NAMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module_name, attribute = _NAMES[name]
+    with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
+        module = importlib.import_module(module_name)
+    value = module if attribute is None else getattr(module, attribute)
+    globals()[name] = value
+    return value
+
+
+def impl(x: Any) -> Any:
+    """The JAX implementation's private fields of an `mjx.Data` or `mjx.Model` (contacts,
+    constraint rows and forces, friction-loss flags)."""
+    return x._impl
+
+
+def with_impl(data: Any, **fields: Any) -> Any:
+    """`data` (an `mjx.Data`) with the named private fields replaced."""
+    return data.tree_replace({f"_impl.{name}": value for name, value in fields.items()})
