@@ -6,7 +6,7 @@ BATCH: worlds per chunk (default 4096, as `graspjax run` on a GPU); GROUPS: comm
 indices of the run's groups (0: a-f Setup 1, 1: a-f Setups 2-3, 2: g-l; default all).
 `parallel` compiles the groups in threads at once. XLA flags come from the environment
 (`XLA_FLAGS=--xla_gpu_deterministic_ops=true`, as the CLI sets them); no compilation cache is
-used. Results: results/benchmarks/README.md.
+used. Results: results/benchmarks/history/physics_step.md.
 """
 
 import concurrent.futures

@@ -5,7 +5,7 @@
 Each line times everything before it plus one stage (working views; support plane; virtual
 view and targets; the whole pipeline; the whole with one target instead of three), then the
 detector and the alignment alone on a 192-pixel window. Images: `synthetic.random_real_scene`
-at 640 x 480, as `graspjax bench detect`. Results: results/benchmarks/README.md.
+at 640 x 480, as `graspjax bench detect`. Results: results/benchmarks/history/detect.md.
 """
 
 import dataclasses

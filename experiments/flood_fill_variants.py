@@ -14,7 +14,7 @@ real-image targets) and of `virtual.warp_depth`, swapped in by name:
 For each: `graspjax detect`'s whole pipeline batched (`detect_batch`, top 1 and top 5, images/s)
 and one image at a time (median latency), on `synthetic.random_real_scene` at 640 x 480 as
 `graspjax bench detect`; and whether every variant gives the same grasps as `before`.
-Results: results/benchmarks/README.md.
+Results: results/benchmarks/history/detect.md.
 """
 
 import statistics

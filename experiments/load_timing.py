@@ -6,7 +6,7 @@ the cache read and the executable rebuilt, per program of README's command (Tabl
 BATCH: worlds per chunk (default: the device's, as `graspjax run`). The XLA flags are the CLI's
 (`runtime.xla.with_xla_flags`), so the programs come out of the cache that run left. Last, each attempt
 program's executable is serialized and rebuilt on its own (`deserialize_and_load`). Results:
-results/benchmarks/README.md (stop 39).
+results/benchmarks/history/physics_step.md (stop 39).
 """
 
 import collections

@@ -11,7 +11,7 @@ of 0.05 s or more are printed to stderr at exit as `TL begin end seconds thread 
 interpreter's teardown). The graspjax modules are imported before the command runs, so the
 imports are timed apart (`graspjax run` itself starts the devices beside them). With
 TIMELINE_EXIT=1 the process ends at that point without the teardown. Results:
-results/benchmarks/README.md (stop 40).
+results/benchmarks/history/physics_step.md (stop 40).
 """
 
 import atexit
