@@ -32,7 +32,7 @@ CALLS = [
     "graspjax.batch.program:Program.lower",
     "graspjax.batch.program:Program.compile",
     "graspjax.batch.program:Program.play",
-    "graspjax.batch.program:trace_in_worker",
+    "graspjax.runtime.compiles:trace_in_worker",
     "graspjax.batch.rows:attempt_rows",
     "graspjax.batch.rows:round_rows",
     "graspjax.outputs:RunFolder.add",

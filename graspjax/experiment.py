@@ -23,14 +23,14 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.batch.plan import Group, Job, chunks, default_batch, plan, share
-from graspjax.batch.players import Helper, cores_of, kept_to
-from graspjax.batch.players import Job as HelperJob
-from graspjax.batch.program import program, run_chunks, trace_workers
+from graspjax.batch.program import program, run_chunks
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.config import Config, differences
 from graspjax.io import jsonable, write_atomic
 from graspjax.outputs import RunFolder, check_output_folder, run_id, writing
 from graspjax.provenance import provenance
+from graspjax.runtime.compiles import trace_workers
+from graspjax.runtime.players import Assignment, Helper, cores_of, kept_to
 from graspjax.tree import named_fields
 
 
@@ -99,7 +99,7 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     write its report. With `parts` > 1 this process runs every `parts`-th chunk from `part`
     into a folder shared with the other parts; the one that completes the last chunk writes
     the results. With `processes` > 1 (CPU) helper processes play some of its groups side by
-    side with it (`plan.share`, `batch.players`; not while views are kept)."""
+    side with it (`plan.share`, `runtime.players`; not while views are kept)."""
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
     out = check_output_folder(out, resume or parts > 1, overwrite)
     with writing(out, shared=parts > 1):  # one process writes a folder (a shared run's parts: several)
@@ -218,8 +218,8 @@ def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int]
         after_chunk()
 
 
-def play_helper_share(job: HelperJob, progress) -> None:
-    """A helper process's part of a run (`batch.players`): the same plan as the run's, its
+def play_helper_share(job: Assignment, progress) -> None:
+    """A helper process's part of a run (`runtime.players`): the same plan as the run's, its
     chunks into the run's folder, and `progress(attempts)` as each call finishes."""
     experiment = job.experiment
     configs, groups = _grouped(experiment)

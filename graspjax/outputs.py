@@ -9,7 +9,7 @@ While a run is going:
   atomically; a chunk is done when its attempts part exists;
 - `attempts.csv`: the rows of each finished chunk appended at once (in the
   order chunks finish), to watch a long run with any tool. Only the run's own
-  process appends: the chunks of its helper processes (`batch.players`) are
+  process appends: the chunks of its helper processes (`runtime.players`) are
   appended as it finds their parts (`RunFolder.catch_up`); the parts of a run
   split over hosts (`--part I/N`) write it only at the end.
 
@@ -189,7 +189,7 @@ class RunFolder:
     so several processes may share one folder, each running its own chunks
     (`--part I/N` on several hosts, `shared`: whichever finds every chunk done
     assembles the results and keeps the parts for the others; or helper
-    processes of one run, `batch.players`: the run assembles them). One process at most
+    processes of one run, `runtime.players`: the run assembles them). One process at most
     appends to `attempts.csv` (`append`): the run's own, for its chunks and its helpers'.
     """
 

@@ -48,7 +48,7 @@ _NAMES = {
     "source_info_util": ("jax._src.source_info_util", None),
     # JAX: whether a backend has started (runtime/xla.py: XLA's flags are read then)
     "backends_are_initialized": ("jax._src.xla_bridge", "backends_are_initialized"),
-    # JAX: the thread-local switch to one source line per operation (batch/exported.py)
+    # JAX: the thread-local switch to one source line per operation (runtime/exported.py)
     "include_full_tracebacks_in_locations": ("jax._src.config",
                                              "include_full_tracebacks_in_locations"),
 }

@@ -15,15 +15,15 @@ LAYERS = [
     ("foundations", ["tree", "figures", "stats", "io", "provenance", "geometry", "camera", "codes",
                      "schema", "privates"]),
     ("configuration", ["config"]),
+    ("runtime", ["runtime", "runtime.*"]),
     ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",
                               "graspjax"]),
     ("the procedure; real-image inputs", ["procedure", "realimage", "realimage.inputs"]),
-    ("batches", ["batch", "batch.*", "realimage.detect", "realimage.records", "runtime",
-                 "runtime.*"]),
+    ("batches", ["batch", "batch.*", "realimage.detect", "realimage.records"]),
     ("studies, files, reports, benchmarks", ["planes", "views", "viz", "outputs", "report",
                                              "bench"]),
     ("workflows", ["experiment"]),
-    ("entry point", ["cli"]),
+    ("entry point", ["cli", "arguments"]),
 ]
 
 
@@ -53,13 +53,19 @@ def _imports(path: pathlib.Path) -> set[str]:
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            names = [f"{node.module}.{a.name}" for a in node.names]
+            if not all(_dotted(name) in MODULES for name in names):  # names from the module
+                names.append(node.module)
         else:
             continue
-        for name in names:
-            if name == "graspjax" or name.startswith("graspjax."):
-                found.add(name.removeprefix("graspjax.") if name != "graspjax" else "graspjax")
+        found |= {_dotted(name) for name in names
+                  if name == "graspjax" or name.startswith("graspjax.")}
     return found
+
+
+def _dotted(name: str) -> str:
+    """A module's name under the package ("graspjax" for the root)."""
+    return name.removeprefix("graspjax.") if name != "graspjax" else "graspjax"
 
 
 MODULES = _modules()
@@ -83,7 +89,7 @@ def test_no_module_imports_one_above_it(name):
     assert not above, (f"{name} ({LAYERS[mine][0]}) imports {above} from a higher layer")
 
 
-HELPERS = {"batch.players", "batch.worker"}  # started by the run as `python -c "... main()"`
+HELPERS = {"runtime.players", "runtime.tracer"}  # started by the run as `python -c "... main()"`
 
 
 def test_the_entry_points_are_the_command_line_and_the_run_s_helpers():

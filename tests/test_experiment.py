@@ -17,10 +17,10 @@ import pandas as pd
 import pytest
 
 from graspjax import experiment, procedure
-from graspjax.batch import exported, plan, players, program
+from graspjax.batch import plan, program
 from graspjax.cli import main
 from graspjax.config import Config, override
-from graspjax.io import InputError
+from graspjax.runtime import exported, players
 from graspjax.views import attempt_name
 
 # Objects a and c alone (Setup 1), 3 trials each: 6 worlds, in chunks of 3 (c needs a re-alignment).
@@ -135,41 +135,6 @@ def test_same_seed_same_attempts(tiny_run, tmp_path):
     again = tmp_path / "again"
     assert main(["run", *TINY, "--out", str(again)]) == 0
     assert (again / "attempts.csv").read_bytes() == (tiny_run / "attempts.csv").read_bytes()
-
-
-class _Deferred(concurrent.futures.Executor):
-    """An executor that runs nothing until told: the order of two threads, made explicit."""
-
-    def __init__(self):
-        self.calls = []
-
-    def submit(self, fn, *args):
-        self.calls.append((fn, args))
-        return concurrent.futures.Future()
-
-
-class _Untraceable:
-    """A program whose tracing fails."""
-
-    compiled, devices = False, ("cpu",)
-
-    @property
-    def portable(self):
-        raise ValueError("cannot trace")
-
-    def prepare(self):  # its scene builds
-        pass
-
-
-def test_a_program_that_fails_to_trace_fails_the_run_instead_of_hanging_it():
-    """The run may take a program's futures before the lowering thread reaches it (a race that
-    once hung runs): the failure still reaches the futures it waits on."""
-    pool, broken = _Deferred(), _Untraceable()
-    waiting = program._start_compiles([broken], pool).pop(id(broken))
-    (lower_in_order, args), = pool.calls
-    lower_in_order(*args)  # the lowering thread, after the run took its futures
-    with pytest.raises(ValueError, match="cannot trace"):
-        waiting[0].result(timeout=0)
 
 
 def test_a_folder_holding_a_run_needs_resume_or_overwrite(tiny_run, tmp_path, capsys):
@@ -325,8 +290,6 @@ def test_a_paired_sweep_plays_the_same_worlds_at_every_point():
         assert first == [(w.setup, w.trial, w.objects) for w in group.worlds if w.point == 1]
 
 
-
-
 @pytest.fixture(scope="module")
 def rounds_runs(tmp_path_factory):
     """Setup 2 alone, and Setups 2 and 3 together, in one chunk of 4 worlds each (three of Table
@@ -475,7 +438,7 @@ def test_a_method_sweep_plays_the_same_worlds_and_compares_them(methods_sweep, t
 def test_a_worker_process_traces_the_second_program_and_the_rows_stay(methods_sweep, tmp_path,
                                                                        monkeypatch):
     """With a trace worker and an empty store, the run traces its first program itself and a
-    helper process traces the second (`program.trace_in_worker`); the run loads the helper's,
+    helper process traces the second (`compiles.trace_in_worker`); the run loads the helper's,
     says so in timings.csv, and gives the rows of the sweep traced in one process."""
     monkeypatch.setattr(exported, "store", lambda: tmp_path / "exported")
     monkeypatch.setattr(program, "_PROGRAMS", {})  # not the sweep's compiled programs
@@ -567,17 +530,6 @@ def test_a_stored_program_loads_and_lowers_without_its_scene(tiny_run, monkeypat
     assert len(built) == 1 and fresh.arrays[0] is fresh.scene.model
 
 
-@pytest.mark.parametrize("value, workers",
-                         [("3", 3), (" 0 ", 0), ("two", None), ("-1", None), ("\u00b2", None)])
-def test_trace_workers_come_from_the_environment(monkeypatch, value, workers):
-    monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", value)
-    if workers is None:
-        with pytest.raises(InputError, match="GRASPJAX_TRACE_WORKERS must be a whole number"):
-            program.trace_workers()
-    else:
-        assert program.trace_workers() == workers
-
-
 def test_a_bad_trace_worker_count_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", "many")
     assert main(["run", *TINY, "--out", str(tmp_path / "run")]) == 2
@@ -595,70 +547,12 @@ def test_the_rounds_group_has_the_most_device_work():
     assert [g.work for g in groups] == [60 * 2 * 1, 20 * 7 * 6, 60 * 2 * 1]
 
 
-def test_the_next_chunk_is_the_first_whose_program_is_ready():
-    """Plan order among the chunks whose programs have compiled; wait when none has."""
-    first, second = (concurrent.futures.Future() for _ in range(2))
-    waiting = [plan.Chunk(0, 0, ()), plan.Chunk(1, 0, ()), plan.Chunk(2, 1, ())]
-    compiles = {0: [first], 1: [second]}
-    for delay, future in ((0.2, second), (2.0, first)):  # the second program compiles first
-        threading.Timer(delay, future.set_result, [None]).start()
-    assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 2  # waited for it
-    first = compiles[0][0] = concurrent.futures.Future()
-    first.set_exception(RuntimeError("failed to compile"))  # done: playing it will raise
-    assert program.next_ready(waiting, lambda c: compiles[c.group]).index == 0
-
-
-class _LoggedProgram:
-    """A program that notes when the lowering thread reaches it."""
-
-    def __init__(self, name, work, stored, reached):
-        self.group, self.name = types.SimpleNamespace(work=work, letters=tuple(name)), name
-        self.compiled, self.devices, self._stored, self.reached = False, [None], stored, reached
-
-    def stored(self):
-        return self._stored
-
-    @property
-    def portable(self):
-        self.reached.append(self.name)
-
-    def prepare(self):
-        self.reached.append(f"{self.name} scene")
-
-    def lower(self, device):
-        return None
-
-    def compile(self, device, lowered, lower_s):
-        pass
-
-
-@pytest.mark.parametrize("stored, order", [(False, ["heavy", "light"]),
-                                           (True, ["light", "heavy"])])
-def test_with_helpers_the_heaviest_program_goes_first_unless_it_is_stored(
-        monkeypatch, tmp_path, stored, order):
-    """A cold start traces the program of the most device work first (helpers trace the rest);
-    a warm start keeps the plan's order, so that its first chunk waits for nothing but a load."""
-    monkeypatch.setenv("GRASPJAX_TRACE_WORKERS", "1")
-    monkeypatch.setattr(exported, "store", lambda: tmp_path)
-    monkeypatch.setattr(program, "trace_in_worker", lambda p: None)  # traced "elsewhere": no-op
-    reached = []
-    programs = [_LoggedProgram("light", 1, stored, reached),
-                _LoggedProgram("heavy", 10, stored, reached)]
-    with concurrent.futures.ThreadPoolExecutor(4) as pool:
-        futures = program._start_compiles(programs, pool)
-        concurrent.futures.wait([f for fs in futures.values() for f in fs], timeout=30)
-    assert [name for name in reached if "scene" not in name] == order
-    # Every scene is built, in the same order, each from its program's turn on.
-    assert [name for name in reached if "scene" in name] == [f"{name} scene" for name in order]
-    assert all(reached.index(f"{name} scene") < reached.index(later)
-               for i, name in enumerate(order) for later in order[i + 1:])
-
-
 class _FakeProgram:
     """A compiled program whose `play` says when each chunk starts playing."""
 
     def __init__(self, group, started):
         self.group, self.batch, self.started, self.calls = group, 3, started, 0
+        self.name = "".join(group.letters)
         self.compiled, self.origin, self.trace_s, self.compile_s = True, "loaded", 0.0, 0.0
         self.devices = [types.SimpleNamespace(memory_stats=lambda: None)]
 
@@ -692,7 +586,7 @@ def test_a_program_that_failed_to_compile_raises_after_the_chunks_before_it(monk
     failed = concurrent.futures.Future()
     failed.set_exception(RuntimeError("failed to compile"))
     monkeypatch.setattr(program, "program", lambda group, batch, keep: fakes[group.letters])
-    monkeypatch.setattr(program, "_start_compiles",
+    monkeypatch.setattr(program, "start_compiles",
                         lambda programs, pool, log: {id(fakes[("g",)]): [failed]})
     chunks = program.run_chunks(groups, [Config()], 3)
     assert next(chunks).chunk.index == 0

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from graspjax.batch import exported
+from graspjax.runtime import exported
 
 
 @jax.tree_util.register_dataclass

@@ -8,8 +8,8 @@ import jax
 import pytest
 
 from graspjax import experiment
-from graspjax.batch import players
 from graspjax.io import InputError
+from graspjax.runtime import players
 
 
 @pytest.mark.parametrize("cores, process, processes, expected", [

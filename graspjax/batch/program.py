@@ -1,15 +1,14 @@
-"""Compiled batch programs: a group's `start_round` and `attempt`, one copy per local device,
-compiled in the background, and the chunks played on them.
+"""Batch programs: a group's `start_round` and `attempt` vmapped over its worlds, one copy per
+local device, and the chunks played on them.
 
 A chunk is `start_round`, then `attempt` for k = -1 (the drop settles), 0, 1, ... (one compiled
 call each, all on the device), then one transfer of its records to the host. Nothing a world
 does depends on the other worlds of its chunk: same seed, same batch size, same device kind
 give the same records.
 
-The groups' programs compile in the background (one thread lowers them in turn, helper
-processes trace later ones beside it where there are cores to spare, XLA compiles them in
-parallel threads); the next chunk is the first in plan order whose program is ready, so the
-device runs one group while the host still compiles the others.
+The groups' programs compile in the background (`runtime/compiles.py`); the next chunk is the
+first in plan order whose program is ready, so the device runs one group while the host still
+compiles the others.
 Records become rows in `rows.py`; this module never builds a table.
 """
 
@@ -18,11 +17,6 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
-import json
-import os
-import pickle
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -31,11 +25,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.batch import exported, worker
 from graspjax.batch.plan import Chunk, Group, World, chunks, padded_size
 from graspjax.config import Config, stack_configs
-from graspjax.io import InputError
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
+from graspjax.runtime import exported
+from graspjax.runtime.compiles import first_ready, next_ready, start_compiles
 from graspjax.sim.physics import WORLDS
 from graspjax.sim.scene import Scene, mjx, scene_for
 
@@ -58,9 +52,24 @@ class Program:
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
         self._settle = None
-        self._worker_s: float | None = None  # a worker process's tracing seconds, if it traced
+        self.worker_s: float | None = None  # a trace helper's seconds, if one traced it (`compiles`)
         self._scene: tuple[Scene, tuple[mjx.Model, mjx.Data]] | None = None  # `_built`
         self._building = threading.Lock()  # one build of the scene, whichever thread asks
+
+    @property
+    def name(self) -> str:
+        """The group's object letters (messages)."""
+        return "".join(self.group.letters)
+
+    @property
+    def work(self) -> float:
+        """The group's device work (`Group.work`): the heaviest program traces first."""
+        return self.group.work
+
+    def trace_recipe(self) -> tuple[Callable, tuple]:
+        """How a trace helper builds this program: the group reduced to its first world."""
+        return Program, (dataclasses.replace(self.group, worlds=self.group.worlds[:1]),
+                         self.batch, self.keep_views)
 
     @property
     def scene(self) -> Scene:
@@ -192,14 +201,14 @@ class Program:
         process of this run, or `loaded` from the store of an earlier run."""
         if not all(p.loaded for p in self.portable):
             return "traced"
-        return "loaded" if self._worker_s is None else "worker"
+        return "loaded" if self.worker_s is None else "worker"
 
     @property
     def trace_s(self) -> float:
         """Seconds to trace and export both functions (in the worker, if one did), or to read
         them from the store."""
         if self.origin == "worker":
-            return self._worker_s
+            return self.worker_s
         return sum(p.seconds for p in self.portable)
 
     def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
@@ -280,184 +289,6 @@ def program(group: Group, batch: int, keep_views: bool) -> Program:
     return _PROGRAMS[key]
 
 
-WORKER_TIMEOUT_S = 900  # a trace worker still running after this is given up (tracing: ~1 min)
-
-
-class WorkerFailed(RuntimeError):
-    """A trace worker that did not hand its program over: the run traces it itself."""
-
-
-def trace_workers() -> int:
-    """How many helper processes may trace programs beside the run's own lowering thread:
-    `GRASPJAX_TRACE_WORKERS` if set, else one per 8 CPU cores this process may use (none on a
-    small machine, where they would only take cores from the compiles and the chunks)."""
-    value = os.environ.get("GRASPJAX_TRACE_WORKERS", "").strip()
-    if value:
-        if not (value.isascii() and value.isdigit()):
-            raise InputError(f"GRASPJAX_TRACE_WORKERS must be a whole number, got {value!r}")
-        return int(value)
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return (cores or 1) // 8
-
-
-def trace_in_worker(p: Program) -> float | None:
-    """Trace `p` in a helper process (`worker.py`) into the store; the helper's tracing seconds,
-    or None when it found the program already stored. `WorkerFailed` (with the helper's last
-    words) when it fails or hangs; `InterruptedError` when a signal stopped it (Ctrl-C reaches
-    the whole process group)."""
-    name = "".join(p.group.letters)
-    group = dataclasses.replace(p.group, worlds=p.group.worlds[:1])
-    settings = {key: getattr(jax.config, key) for key in worker.SETTINGS}
-    job = worker.Job(group, p.batch, p.keep_views, str(exported.store().resolve().parent),
-                     settings)
-    # The run's flags and devices, but not its memory: the helper only traces. It runs in the
-    # folder that holds this graspjax package, so that it imports this one and no other.
-    env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
-    command = "import sys; from graspjax.batch.worker import main; sys.exit(main())"
-    try:
-        done = subprocess.run([sys.executable, "-c", command],
-                              input=pickle.dumps(job), capture_output=True, env=env,
-                              cwd=exported.SOURCES.parent, timeout=WORKER_TIMEOUT_S)
-    except subprocess.TimeoutExpired:
-        raise WorkerFailed(f"the trace worker of {name} ran over {WORKER_TIMEOUT_S} s") from None
-    if done.returncode < 0:
-        raise InterruptedError(f"the trace worker of {name} was stopped by a signal")
-    if done.returncode == 0:
-        result = json.loads(done.stdout.decode().strip().splitlines()[-1])
-        return result["seconds"] if result["traced"] else None
-    last = (done.stderr.decode(errors="replace").strip().splitlines() or ["no output"])[-1]
-    raise WorkerFailed(f"the trace worker of {name} failed: {last}")
-
-
-def _start_compiles(programs: list[Program], pool: concurrent.futures.Executor,
-                    log: Callable[[str], None] = lambda m: None
-                    ) -> dict[int, list[concurrent.futures.Future]]:
-    """Compile every program not yet compiled, for every device, in the background; the
-    futures per program id.
-
-    One thread lowers the programs in order and hands each to `pool` to compile. Lowering is
-    Python and holds the GIL: lowered in parallel threads, every program would finish lowering
-    only when all do; XLA's compiles release the GIL and run in parallel. With helper processes
-    (`trace_workers()` at a time, `trace_in_worker`) the programs go in order of device work,
-    most first (`Group.work`), unless that program is in the store already; at the first
-    program that must be traced, the programs after it go to the helpers, which trace them
-    while this thread traces that one; the thread then loads theirs from the store. A helper
-    starts seconds after this thread (its imports), so the group with the longest chunks waits
-    the least for its program. A thread of its own builds each program's scene from its turn
-    on: a stored program needs none to load, so on a warm start the first chunk waits for the
-    longer of the two, not for both.
-    """
-    todo = list({id(p): p for p in programs if not p.compiled}.values())
-    # One future per device's compile, and a last one for the scene (`Program.prepare`).
-    futures = {id(p): [concurrent.futures.Future() for _ in range(len(p.devices) + 1)]
-               for p in todo}
-
-    def done_into(future, task: Callable, *args) -> None:
-        """Run `task(*args)`; its end, or its error, goes to `future`."""
-        try:
-            task(*args)
-            future.set_result(None)
-        except BaseException as error:  # handed to the thread that waits for it
-            future.set_exception(error)
-
-    # The scenes are built in a thread of their own, in order, each from its program's turn
-    # on: a stored program then loads beside its scene (a traced one waits for it).
-    scenes = concurrent.futures.ThreadPoolExecutor(max_workers=1)
-
-    # The lowering thread keeps its own references: the caller pops programs off the dict it
-    # gets back as it reaches them, possibly before this thread does.
-    work = [(p, futures[id(p)]) for p in todo]
-
-    workers = trace_workers() if exported.store() is not None else 0
-    helpers = concurrent.futures.ThreadPoolExecutor(max_workers=workers) if workers else None
-    traced_elsewhere: dict[int, concurrent.futures.Future] = {}
-
-    def take_over(p: Program) -> None:
-        """The worker's program for `p`, or none: not started yet (then traced here at once), or
-        failed; a program a worker traced but the store does not hold (a key that differs) is
-        traced here too, and said so."""
-        job = traced_elsewhere[id(p)]
-        if job.cancel():
-            return
-        try:
-            p._worker_s = job.result()
-        except WorkerFailed as failure:
-            log(f"{failure}; tracing it here")
-            return
-        if p._worker_s is not None and not p.stored():
-            log(f"the trace worker's program of {''.join(p.group.letters)} is not in the store "
-                "under this run's key; tracing it here")
-
-    def order() -> None:
-        """With helpers, the program of the most device work goes first when it must be traced:
-        this thread traces it itself, so its chunks wait the least. When it is in the store (a
-        warm start), the plan's order stands: nothing waits for a trace, and the first chunk
-        starts as soon as the first program loads (the others load while it plays)."""
-        if not helpers or not work:
-            return
-        try:
-            heaviest_stored = max(todo, key=lambda p: p.group.work).stored()
-        except Exception:  # its scene failed: its own turn raises it through its futures
-            return
-        if not heaviest_stored:
-            work.sort(key=lambda item: -item[0].group.work)
-
-    def lower_in_order() -> None:
-        order()
-        for i, (p, program_futures) in enumerate(work):
-            *device_futures, scene_future = program_futures
-            scenes.submit(done_into, scene_future, p.prepare)
-            try:
-                if helpers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
-                    traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
-                                             for q, _ in work[i + 1:]})
-                    log(f"tracing {len(work) - i - 1} program(s) in "
-                        f"{min(workers, len(work) - i - 1)} worker process(es)")
-                if id(p) in traced_elsewhere:
-                    take_over(p)
-                _ = p.portable  # traced or loaded once, then lowered for each device
-            except BaseException as error:  # handed to the threads that wait for it
-                for future in device_futures:
-                    future.set_exception(error)
-                continue
-            for device, future in enumerate(device_futures):
-                try:
-                    start = time.perf_counter()
-                    lowered = p.lower(device)
-                    pool.submit(done_into, future, p.compile, device, lowered,
-                                time.perf_counter() - start)
-                except BaseException as error:  # likewise
-                    future.set_exception(error)
-
-    def lower_then_release() -> None:
-        try:
-            lower_in_order()
-        finally:
-            scenes.shutdown(wait=False)  # the scenes submitted are still built
-            if helpers:
-                helpers.shutdown(wait=False, cancel_futures=True)
-
-    if todo:
-        pool.submit(lower_then_release)
-    return futures
-
-
-def first_ready(waiting: list[Chunk],
-                compiles: Callable[[Chunk], list[concurrent.futures.Future]]) -> Chunk | None:
-    """The first of the `waiting` chunks whose program's `compiles` are all done (a failed one
-    counts: playing it raises), or None while there is none."""
-    return next((c for c in waiting if all(f.done() for f in compiles(c))), None)
-
-
-def next_ready(waiting: list[Chunk],
-               compiles: Callable[[Chunk], list[concurrent.futures.Future]]) -> Chunk:
-    """`first_ready`, once there is one."""
-    while (chunk := first_ready(waiting, compiles)) is None:
-        concurrent.futures.wait([f for c in waiting for f in compiles(c) if not f.done()],
-                                return_when=concurrent.futures.FIRST_COMPLETED)
-    return chunk
-
-
 @dataclasses.dataclass(frozen=True)
 class ChunkResult:
     """One finished chunk, on the host: what `rows.py` turns into rows."""
@@ -505,7 +336,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     fresh = {g for g, p in programs.items() if not p.compiled}
     tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)  # + lowering
     with concurrent.futures.ThreadPoolExecutor(max_workers=tasks) as pool:
-        compiling = _start_compiles(list(programs.values()), pool, log)
+        compiling = start_compiles(list(programs.values()), pool, log)
         if compiling:
             log(f"compiling {len(compiling)} program(s) ...")
 
@@ -514,7 +345,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             for future in futures:
                 future.result()
             if futures:
-                log(f"compiled the program of {''.join(prog.group.letters)} "
+                log(f"compiled the program of {prog.name} "
                     f"({prog.group.attempts} attempt(s) per world): "
                     f"{prog.origin} in {prog.trace_s:.1f} s, "
                     f"compiled in {prog.compile_s:.1f} s")
@@ -536,7 +367,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             first = chunk.group in fresh  # a group's first chunk carries its compile time
             fresh.discard(chunk.group)
             timings = {"chunk": chunk.index, "group": chunk.group,
-                       "scene": "".join(prog.group.letters), "worlds": real,
+                       "scene": prog.name, "worlds": real,
                        "batch": prog.batch, "attempts": attempts,
                        "program": prog.origin,
                        "trace_s": round(prog.trace_s if first else 0.0, 3),

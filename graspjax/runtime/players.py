@@ -28,12 +28,12 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
-from graspjax.batch import exported, worker
 from graspjax.io import InputError
+from graspjax.runtime import exported, tracer
 
 MAX_DEFAULT = 4  # each process holds its own JAX client and programs: memory grows with them
 # JAX settings a helper takes from the run: those of a trace worker, and the compilation cache.
-SETTINGS = (*worker.SETTINGS, "jax_compilation_cache_dir",
+SETTINGS = (*tracer.SETTINGS, "jax_compilation_cache_dir",
             "jax_persistent_cache_min_compile_time_secs")
 
 
@@ -101,7 +101,7 @@ def kept_to(cores: set[int] | None):
 
 
 @dataclasses.dataclass(frozen=True)
-class Job:
+class Assignment:
     """What a helper plays, and where it writes."""
 
     play: Callable  # play(job, progress): a module-level function (pickled by its name), the
@@ -127,13 +127,13 @@ class Helper:
                  cores: set[int] | None = None):
         import jax
 
-        job = Job(play, experiment, out, meta, process, chunks,
+        job = Assignment(play, experiment, out, meta, process, chunks,
                   {k: getattr(jax.config, k) for k in SETTINGS})
         self._stderr = tempfile.TemporaryFile()  # a file: a full pipe would stall the helper
         # Its cores are set first, before any import starts a thread.
         command = ("import os, sys; cores = [int(c) for c in sys.argv[1:]]; "
                    "cores and os.sched_setaffinity(0, cores); "
-                   "from graspjax.batch.players import main; sys.exit(main())")
+                   "from graspjax.runtime.players import main; sys.exit(main())")
         # It runs in the folder that holds this graspjax package, so that it imports this one.
         self._process = subprocess.Popen([sys.executable, "-c", command, *map(str, sorted(cores or ()))],
                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -181,9 +181,9 @@ class Helper:
 
 
 def main() -> int:
-    """A helper: play the job on stdin (`Job.play`)."""
+    """A helper: play the job on stdin (`Assignment.play`)."""
     _end_with_the_run()
-    job: Job = pickle.load(sys.stdin.buffer)
+    job: Assignment = pickle.load(sys.stdin.buffer)
     import jax
 
     for name, value in job.jax_settings.items():

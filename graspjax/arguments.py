@@ -1,0 +1,278 @@
+"""Command-line values checked and turned into requests, before anything compiles: numbers,
+pixel boxes, intrinsics, jobs, grids, parts and the experiment a run or sweep asks for. A bad
+value is a `UsageError` (one line; the command line prints it and exits with status 2).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from graspjax.io import check_writable
+
+
+class UsageError(Exception):
+    """A bad combination of command-line arguments (one line)."""
+
+
+def numbers(text: str, count: int, name: str) -> list[float]:
+    """`count` finite numbers separated by commas or spaces, or a one-line error naming `name`."""
+    parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise UsageError(f"{name} takes {count} comma-separated numbers, got {text!r}")
+    return values
+
+
+def roi(text: str | None) -> tuple[int, int, int, int] | None:
+    """--roi X0,Y0,X1,Y1 in whole pixels (its fit in the image is checked with the images)."""
+    if text is None:
+        return None
+    values = numbers(text, 4, "--roi")
+    if any(v != int(v) for v in values):
+        raise UsageError(f"--roi takes whole pixels, got {text!r}")
+    return tuple(int(v) for v in values)
+
+
+def depth_range(text: str | None) -> tuple[float, float] | None:
+    """--range MIN,MAX in metres, 0 <= MIN < MAX."""
+    if text is None:
+        return None
+    lo, hi = numbers(text, 2, "--range")
+    if not 0 <= lo < hi:
+        raise UsageError(f"--range needs 0 <= MIN < MAX (metres), got {text!r}")
+    return lo, hi
+
+
+def intrinsics(args):
+    """The one way the user gave intrinsics (`IntrinsicsRequest`); two ways at once is an error."""
+    import numpy as np
+
+    from graspjax.io import check_matrix
+    from graspjax.realimage.inputs import IntrinsicsRequest
+
+    given = {"--fx/--fy/--cx/--cy": any(v is not None for v in (args.fx, args.fy, args.cx, args.cy)),
+             "--K": args.K is not None, "--intrinsics": args.intrinsics is not None,
+             "--fov-x/--fov-y": args.fov_x is not None or args.fov_y is not None}
+    chosen = [name for name, used in given.items() if used]
+    if len(chosen) > 1:
+        raise UsageError(f"give the intrinsics one way, not {' and '.join(chosen)}")
+    if given["--fx/--fy/--cx/--cy"]:
+        if args.fx is None:
+            raise UsageError("--fy, --cx and --cy need --fx")
+        fy = args.fx if args.fy is None else args.fy
+        if args.fx <= 0 or fy <= 0:
+            raise UsageError("focal lengths must be > 0")
+        return IntrinsicsRequest(focal=(args.fx, fy), centre=(args.cx, args.cy),
+                                 source="--fx {fx:g} --fy {fy:g} --cx {cx:g} --cy {cy:g}")
+    if given["--K"]:
+        k = check_matrix(np.reshape(numbers(args.K, 9, "--K"), (3, 3)), "--K")
+        return IntrinsicsRequest(focal=(k[0, 0], k[1, 1]), centre=(k[0, 2], k[1, 2]), source="--K")
+    if given["--intrinsics"]:
+        return IntrinsicsRequest(file=args.intrinsics, source=args.intrinsics)
+    if given["--fov-x/--fov-y"]:
+        return IntrinsicsRequest(fov_deg=(args.fov_x, args.fov_y), source="--fov-x/--fov-y")
+    return IntrinsicsRequest()
+
+
+def detect_settings(preset_name: str | None, top: int | None, sets: list[str] | None
+                     ) -> list[str]:
+    """`--set` items of a detect command: its preset's, then --top, then the user's own."""
+    from graspjax.config import PRESETS, parse_assignments
+
+    if top is not None and top < 1:
+        raise UsageError(f"--top must be >= 1, got {top}")
+    parse_assignments(sets or [])  # the user's own: malformed or twice is an error
+    items = [f"{k}={v}" for k, v in PRESETS[preset_name or "paper"].items()]
+    items += [f"image.top_k={top}"] if top is not None else []
+    return items + (sets or [])
+
+
+def ints(text: str, name: str, allowed) -> tuple[int, ...]:
+    try:
+        values = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise UsageError(f"{name} takes comma-separated integers, got {text!r}") from None
+    bad = [v for v in values if v not in allowed]
+    if bad or not values:
+        raise UsageError(f"{name} must be among {', '.join(map(str, allowed))}, got {text!r}")
+    if len(set(values)) < len(values):
+        raise UsageError(f"{name} names a value twice: {text!r}")
+    return values
+
+
+def jobs(args):
+    """Jobs from --table or --setup/--objects, validated (no compilation yet)."""
+    from graspjax.batch.plan import Job, table_job
+    from graspjax.sim.objects import parse_letters
+
+    if args.trials < 1:
+        raise UsageError(f"--trials must be >= 1, got {args.trials}")
+    if args.seed < 0:
+        raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    if args.batch is not None and args.batch < 1:
+        raise UsageError(f"--batch must be >= 1, got {args.batch}")
+    if getattr(args, "max_views", 0) < 0:
+        raise UsageError(f"--max-views must be >= 0, got {args.max_views}")
+    if getattr(args, "resume", False) and args.overwrite:
+        raise UsageError("give --resume or --overwrite, not both")
+    part(getattr(args, "part", None))
+    table = getattr(args, "table", None)  # `planes` has no --table
+    if (table is None) == (args.setup is None):
+        raise UsageError("give either --table 1|2|1,2 or --setup S [--objects ...]")
+    if table is not None:
+        if args.objects is not None:
+            raise UsageError("--objects goes with --setup; the tables fix their objects")
+        return [table_job(t, args.trials) for t in ints(table, "--table", (1, 2))]
+    try:
+        objects = parse_letters("abcdef" if args.objects is None else args.objects)
+    except ValueError as exc:
+        raise UsageError(f"--objects: {exc}") from None
+    return [Job(objects, ints(args.setup, "--setup", (1, 2, 3)), args.trials)]
+
+
+def grid(items: list[str], base, fixed=()):
+    """--grid key=v1,v2,... -> (keys, list of (values dict, config)); every point validated,
+    none twice, no key twice nor among the `fixed` keys of --set.
+
+    Keys joined by ':' vary together: --grid camera.width:camera.height=80:60,160:120.
+    """
+    import itertools
+
+    from graspjax.config import override, parse_assignments
+
+    axes = []
+    for name, text in parse_assignments(items).items():
+        names = name.split(":")
+        values = [v.strip().split(":") for v in text.split(",") if v.strip()]
+        if not values:
+            raise UsageError(f"--grid {name}= has no values")
+        if any(len(v) != len(names) for v in values):
+            raise UsageError(f"--grid {name}: every value needs {len(names)} parts joined by ':'")
+        axes.append([dict(zip(names, v, strict=True)) for v in values])
+    keys = [k for axis in axes for k in axis[0]]
+    twice = sorted({k for k in keys if keys.count(k) > 1} | (set(keys) & set(fixed)))
+    if twice:
+        raise UsageError(f"{twice[0]} is given twice (in two --grid, or in --grid and --set)")
+    points = []
+    for combo in itertools.product(*axes):
+        assignment = {k: v for part in combo for k, v in part.items()}
+        points.append((assignment, override(base, assignment)))
+    for i, (assignment, config) in enumerate(points):
+        for earlier, other in points[:i]:
+            if other == config:
+                raise UsageError(f"--grid gives one point twice ({_point(earlier)} and "
+                                 f"{_point(assignment)}): its seeds would be pooled as one cell")
+    return keys, points
+
+
+def _point(assignment: dict) -> str:
+    return ", ".join(f"{k}={v}" for k, v in assignment.items())
+
+
+def part(text: str | None) -> tuple[int, int]:
+    """--part I/N -> (I, N); no --part is (0, 1)."""
+    if text is None:
+        return 0, 1
+    try:
+        part, parts = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise UsageError(f"--part takes I/N (e.g. 0/4), got {text!r}") from None
+    if not 0 <= part < parts:
+        raise UsageError(f"--part I/N needs 0 <= I < N, got {text!r}")
+    return part, parts
+
+
+def experiment_request(args, grid_items):
+    """The checked `Experiment` of a run (no grid) or sweep, before anything compiles."""
+    from graspjax.config import override, parse_assignments, preset
+    from graspjax.experiment import Experiment
+
+    method = [f"method={args.method}"] if args.method else []
+    config = override(preset(args.preset), method + (args.set or []))
+    fixed = parse_assignments(args.set or [])
+    keys, points = (([], [({}, config)]) if grid_items is None
+                    else grid(grid_items, config, fixed))
+    return Experiment(jobs=jobs(args), base=config, points=points, keys=keys, seed=args.seed,
+                      batch=args.batch, paired=getattr(args, "paired", False), preset=args.preset,
+                      save_views=args.save_views, max_views=args.max_views,
+                      deterministic=not args.fast)
+
+
+
+def detect_request(args):
+    """`graspjax detect`'s checked request: (inputs, outputs, batch, several images)."""
+    from graspjax.experiment import DetectOutputs
+    from graspjax.realimage.inputs import expand_images, prepare
+
+    many = len(expand_images(args.images)) > 1
+    if args.figure and many:
+        raise UsageError("--figure takes one image; give --figures DIR for several")
+    if args.batch is not None and args.batch < 1:
+        raise UsageError(f"--batch must be >= 1, got {args.batch}")
+    if args.downsample is not None and args.downsample < 1:
+        raise UsageError(f"--downsample must be >= 1, got {args.downsample}")
+    if not (args.depth_scale > 0 and math.isfinite(args.depth_scale)):
+        raise UsageError(f"--depth-scale must be > 0, got {args.depth_scale!r}")
+    to_csv = args.out is not None and args.out.lower().endswith(".csv")
+    outputs = DetectOutputs(json=args.json, figure=args.figure, figures=args.figures,
+                            csv=args.out if to_csv else None,
+                            folder=args.out if args.out and not to_csv else None)
+    for path, what, folder in ((outputs.json, "--json", False), (outputs.figure, "--figure", False),
+                               (outputs.csv, "--out", False), (outputs.folder, "--out", True),
+                               (outputs.figures, "--figures", True)):
+        check_writable(path, what, directory=folder)
+    inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=intrinsics(args),
+                     roi=roi(args.roi), mask=args.mask, depth_range=depth_range(args.range),
+                     downsample=args.downsample,
+                     overrides=detect_settings(args.preset, args.top, args.set))
+    return inputs, outputs, args.batch or 16, many
+
+
+def bench_request(args) -> dict:
+    """`graspjax bench`'s checked request: the keyword arguments of `bench.measure`."""
+    from graspjax.config import override, preset
+    from graspjax.realimage.inputs import split_overrides
+    from graspjax.sim.objects import parse_letters
+
+    check_writable(args.out, "--out")
+    if args.batch is not None and args.batch < 1 or args.repeats < 1:
+        raise UsageError("--batch and --repeats must be >= 1")
+    for name, value in (("--width", args.width), ("--height", args.height)):
+        if value is not None and value < 16:
+            raise UsageError(f"{name} must be >= 16 pixels, got {value}")
+    if args.trials < 1:
+        raise UsageError(f"--trials must be >= 1, got {args.trials}")
+    if not (math.isfinite(args.seconds) and args.seconds > 0):
+        raise UsageError(f"--seconds must be a positive number, got {args.seconds:g}")
+    if args.what == "detect":  # configured as graspjax detect is
+        config, image = split_overrides(detect_settings(args.preset, None, args.set))
+    else:
+        config, image = override(preset(args.preset or "paper"), args.set or []), None
+    try:
+        letters = "".join(parse_letters(args.objects))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    return dict(config=config, image=image, objects=letters,
+                setups=ints(str(args.setup), "--setup", (1, 2, 3)), trials=args.trials,
+                seconds=args.seconds, batch=args.batch, width=args.width, height=args.height,
+                repeats=args.repeats)
+
+
+def plane_request(args):
+    """`graspjax planes`' checked request: (jobs, config, points, keys); the grid may vary
+    only traced alignment values, so that every point shares one compiled program."""
+    import jax
+
+    from graspjax.config import override, preset
+
+    config = override(preset(args.preset), args.set or [])
+    keys, points = grid(args.grid, config) if args.grid else ([], [({}, config)])
+    bad = [k for k in keys if not k.startswith("align.")]
+    if bad or any(jax.tree.structure(c) != jax.tree.structure(config) for _, c in points):
+        raise UsageError("planes --grid takes traced align.* values that compile once (e.g. "
+                         f"align.window_px, align.distance_threshold), got {', '.join(keys)}")
+    return jobs(args), config, points, keys
