@@ -1,5 +1,5 @@
 """Every output's columns and labels in one place, importing neither JAX nor the simulator, so
-that reports and tables (`report.py`) read a run's files without loading MJX.
+that reports and tables (`report/`) read a run's files without loading MJX.
 
 - `attempts.csv`: one row per attempt (`batch/rows.py` builds them from a chunk's records);
   `FIRST_COLUMNS` lead, the record's columns follow, then a `cfg.<key>` column per grid key

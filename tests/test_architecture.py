@@ -20,7 +20,7 @@ LAYERS = [
                               "graspjax"]),
     ("the procedure; real-image inputs", ["procedure", "realimage", "realimage.inputs"]),
     ("batches", ["batch", "batch.*", "realimage.detect", "realimage.records"]),
-    ("studies, files, reports, benchmarks", ["planes", "views", "viz", "outputs", "report",
+    ("studies, files, reports, benchmarks", ["planes", "views", "viz", "outputs", "report", "report.*",
                                              "bench"]),
     ("workflows", ["experiment"]),
     ("entry point", ["cli", "arguments"]),

@@ -1,0 +1,131 @@
+"""Tables and figures computed from `attempts.csv` alone (plus the paper's published numbers).
+
+- `summary.csv`: one row per cell (setup, object, and every configuration
+  column that varies in the file): n, successes, rate, 95% Wilson interval,
+  the paper's rate, and counts per outcome, counting one outcome per object
+  and trial or round (`object_outcomes`), as the paper's tables do.
+- `table1.md/.tex`, `table2.md/.tex`: the paper's Table 1 (a-f, Setups 1-3)
+  and Table 2 (g-l, Setup 1) layouts, ours beside the paper's.
+- `success_by_object.png`: our rates with intervals beside the paper's bars;
+  `outcomes.png`: what happened in every cell.
+- Sweeps (configuration columns `cfg.*` that vary): `sweep_summary.csv`,
+  `sweep_<key>.png` (success against each parameter) and, for two-parameter
+  grids, `sweep_heatmap.png`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from graspjax.config import Config, override
+from graspjax.report.figures import comparison_figure, outcomes_figure, success_figure, sweep_outputs
+from graspjax.report.files import (
+    load_attempts,
+    load_rounds,
+    parse_attempts,
+    planned_worlds,
+    played_worlds,
+    read_meta,
+    run_state,
+)
+from graspjax.report.tables import (
+    TABLE_OBJECTS,
+    clutter_summary,
+    comparison_markdown,
+    layout_lines,
+    markdown,
+    object_outcomes,
+    paper_tables,
+    point_labels,
+    point_order,
+    shared_layouts,
+    summarize,
+    sweep_axes,
+    table_latex,
+    table_markdown,
+    varying_config,
+)
+
+__all__ = [
+    "TABLE_OBJECTS", "build", "clutter_summary", "comparison_markdown", "debug_figures",
+    "layout_lines", "load_attempts", "load_rounds", "markdown", "object_outcomes",
+    "paper_tables", "parse_attempts", "planned_worlds", "played_worlds", "point_config",
+    "point_labels", "point_order", "run_state", "shared_layouts", "summarize", "sweep_axes",
+    "table_latex", "table_markdown", "varying_config", "write_report",
+]
+
+
+def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
+          state: str = "") -> dict[str, bytes]:
+    """Every report file (name -> bytes) from the attempt rows (and the round rows); `state`
+    ("unfinished: n of N worlds", `run_state`) goes into every table's title."""
+    objects = object_outcomes(frame)  # the tables count objects per round, as the paper's
+    summary = summarize(objects)
+    files = {"summary.csv": summary.to_csv(index=False).encode()}
+    if not varying_config(frame):
+        for table in (1, 2):
+            if summary["object"].isin(TABLE_OBJECTS[table]).any():
+                text = table_markdown(summary, table, state)
+                if table == 1:
+                    text += "\n".join(layout_lines(rounds)) + ("\n" if rounds is not None else "")
+                files[f"table{table}.md"] = text.encode()
+                files[f"table{table}.tex"] = table_latex(summary, table, state).encode()
+        files["success_by_object.png"] = success_figure(summary)
+    files["outcomes.png"] = outcomes_figure(frame)  # every attempt
+    files.update(sweep_outputs(objects))
+    if varying_config(frame):
+        order = point_order(frame)
+        shared = shared_layouts(rounds)
+        text = comparison_markdown(summary, order, state) + "".join(f"{x}\n" for x in shared)
+        files["comparison.md"] = text.encode()
+        files["comparison.png"] = comparison_figure(summary, order)
+    clutter = clutter_summary(rounds)
+    if clutter is not None:
+        files["rounds_summary.csv"] = clutter.to_csv(index=False).encode()
+    return files
+
+
+def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
+    """Rebuild every table and figure of a run or sweep folder from its attempts.csv; with
+    `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/. Returns the
+    files written and the run's state (`run_state`: "" when finished)."""
+    from graspjax.io import write_atomic
+
+    folder = Path(folder)
+    frame = load_attempts(folder)
+    state = run_state(folder, frame)
+    files = build(frame, load_rounds(folder), state)
+    if state and read_meta(folder).get("finished"):  # the run finished meanwhile: report its whole rows
+        return write_report(folder, debug)
+    if debug:
+        files.update(debug_figures(folder, debug))
+    for name, data in files.items():
+        (folder / name).parent.mkdir(exist_ok=True)
+        write_atomic(folder / name, data)
+    return [folder / name for name in files], state
+
+
+def debug_figures(folder: Path, count: int) -> dict[str, bytes]:
+    """The first `count` saved attempts of a run, drawn (name -> PNG bytes), each with the
+    configuration of its own grid point."""
+    import json
+
+    from graspjax.views import load, point_of
+    from graspjax.viz import attempt_figure
+
+    saved = sorted((folder / "views").glob("*.npz"))
+    if not saved:
+        raise FileNotFoundError(f"no saved views in {folder / 'views'} (run with --save-views)")
+    meta = json.loads((folder / "config.json").read_text())
+    return {f"debug/{path.stem}.png":
+            attempt_figure(load(path), point_config(meta, point_of(path.stem)))
+            for path in saved[:count]}
+
+
+def point_config(meta: dict, point: int) -> Config:
+    """The configuration grid point `point` of a run used, from its config.json: the base
+    configuration's overrides, then the point's grid values."""
+    base = override(Config(), {k: str(v) for k, v in meta.get("overrides", {}).items()})
+    return override(base, {k: str(values[point]) for k, values in meta.get("grid", {}).items()})

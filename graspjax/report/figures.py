@@ -1,0 +1,162 @@
+"""Figures from rows alone: success per object beside the paper's bars, outcomes per cell,
+success against swept parameters, a sweep's comparison."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from graspjax.figures import new_figure, png
+from graspjax.report.tables import point_labels, sweep_axes, varying_config
+from graspjax.schema import outcome_label
+from graspjax.stats import wilson
+
+
+def success_figure(summary: pd.DataFrame) -> bytes:
+    """Bars per object and setup: ours with 95% intervals (the share rescued by a re-alignment on
+    top), the paper's beside them."""
+    panels = [(t, s) for t in (1, 2) for s in sorted(summary["setup"].unique())
+              if ((summary["setup"] == s) & (summary["table"] == t)).any()]
+    fig = new_figure(4.2 * max(1, len(panels)), 3.6)
+    axes = fig.subplots(1, max(1, len(panels)), squeeze=False)[0]
+    for ax, (table, setup) in zip(axes, panels, strict=False):
+        part = summary[(summary["setup"] == setup) & (summary["table"] == table)]
+        part = part.sort_values("object")
+        x = np.arange(len(part))
+        err = np.maximum(0, np.vstack([part["rate"] - part["ci_low"],
+                                       part["ci_high"] - part["rate"]])) * 100
+        ax.bar(x - 0.2, 100 * part["rate"], 0.4, yerr=err, capsize=3, color="tab:blue",
+               label="ours (95% CI)")
+        if "rate_rescued" in part.columns:  # the top of each bar: rescued by a re-alignment
+            ax.bar(x - 0.2, 100 * part["rate_rescued"], 0.4, bottom=100 * part["rate_first_view"],
+                   color="tab:purple", label="of which rescued")
+        if part["paper_pct"].notna().any():
+            ax.bar(x + 0.2, part["paper_pct"], 0.4, color="none", edgecolor="tab:orange",
+                   hatch="//", label="paper")
+        ax.set_xticks(x, [f"{c})" for c in part["object"]])
+        ax.set_ylim(0, 105)
+        ax.set_title(f"Setup {setup}, objects {part['object'].iloc[0]}-{part['object'].iloc[-1]}")
+        ax.set_ylabel("grasp success (%)")
+        ax.legend(loc="lower left", fontsize=7)
+    return png(fig)
+
+
+def outcome_colours(labels) -> dict[str, object]:
+    """A distinct colour per outcome label: SUCCESS green, every failure its own non-green colour."""
+    import matplotlib
+
+    palette = [c for name in ("tab20", "tab20b") for c in matplotlib.colormaps[name].colors
+               if not (c[1] > c[0] + 0.1 and c[1] > c[2] + 0.1)]  # no greens among the failures
+    failures = sorted(label for label in set(labels) if label != "SUCCESS")
+    colours = {label: palette[i % len(palette)] for i, label in enumerate(failures)}
+    colours["SUCCESS"] = matplotlib.colors.to_rgb("tab:green")
+    return colours
+
+
+def outcomes_figure(frame: pd.DataFrame) -> bytes:
+    """Stacked shares of outcomes (and perception failures) per setup and object."""
+    label = outcome_label(frame)
+    cells = frame["setup"].astype(str) + "/" + frame["object"]
+    shares = pd.crosstab(cells, label, normalize="index") * 100
+    order = sorted(shares.index, key=lambda c: (int(c.split("/")[0]), c.split("/")[1]))
+    shares = shares.loc[order]
+    columns = (["SUCCESS"] if "SUCCESS" in shares.columns else []) + sorted(
+        c for c in shares.columns if c != "SUCCESS")
+    colours = outcome_colours(columns)
+    fig = new_figure(max(6.0, 0.45 * len(shares) + 3), 4.2)
+    ax = fig.subplots()
+    bottom = np.zeros(len(shares))
+    for column in columns:
+        ax.bar(np.arange(len(shares)), shares[column], bottom=bottom, label=column,
+               color=colours[column])
+        bottom += shares[column].to_numpy()
+    ax.set_xticks(np.arange(len(shares)), shares.index, rotation=90, fontsize=7)
+    ax.set_ylabel("share of attempts (%)")
+    ax.set_xlabel("setup / object")
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    return png(fig)
+
+
+def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
+    """Success against each swept parameter, per setup; a heat map for two-parameter grids."""
+    keys = varying_config(frame)
+    if not keys:
+        return {}
+    out = {}
+    pooled = frame.groupby([*keys, "setup"], dropna=False)["success"].agg(
+        n="size", successes="sum").reset_index()
+    pooled["rate"] = pooled["successes"] / pooled["n"]
+    pooled["ci_low"], pooled["ci_high"] = wilson(pooled["successes"], pooled["n"])
+    out["sweep_summary.csv"] = pooled.to_csv(index=False).encode()
+    axes = sweep_axes(frame)
+    for axis in axes:
+        key = axis[0]
+        per = frame.groupby([key, "setup"], dropna=False)["success"].agg(
+            n="size", successes="sum").reset_index()
+        per["rate"] = per["successes"] / per["n"]
+        per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
+        fig = new_figure(5.5, 3.8)
+        ax = fig.subplots()
+        for setup, part in per.groupby("setup"):
+            part = part.sort_values(key)
+            values = part[key].to_numpy()
+            numeric = np.issubdtype(values.dtype, np.number)
+            x = values if numeric else np.arange(len(values))
+            ax.errorbar(x, 100 * part["rate"], yerr=100 * np.maximum(0, np.vstack(
+                [part["rate"] - part["ci_low"], part["ci_high"] - part["rate"]])),
+                marker="o", capsize=3, label=f"Setup {setup}")
+            if not numeric:
+                ax.set_xticks(x, values)
+        ax.set_xlabel(" : ".join(k[len("cfg."):] for k in axis))
+        ax.set_ylabel("grasp success (%)")
+        ax.set_ylim(0, 105)
+        ax.legend(fontsize=8)
+        ax.set_title("other swept keys pooled" if len(axes) > 1 else "")
+        out[f"sweep_{key[len('cfg.'):]}.png"] = png(fig)
+    if len(axes) == 2:
+        keys = [axes[0][0], axes[1][0]]
+        grid = frame.groupby(keys)["success"].mean().unstack(keys[1]) * 100
+        fig = new_figure(6, 4.5)
+        ax = fig.subplots()
+        image = ax.imshow(grid.to_numpy(), origin="lower", cmap="viridis", vmin=0, vmax=100,
+                          aspect="auto")
+        ax.set_yticks(np.arange(len(grid.index)), grid.index)
+        ax.set_xticks(np.arange(len(grid.columns)), grid.columns)
+        ax.set_ylabel(keys[0][len("cfg."):])
+        ax.set_xlabel(keys[1][len("cfg."):])
+        for (i, j), value in np.ndenumerate(grid.to_numpy()):
+            ax.text(j, i, f"{value:.0f}", ha="center", va="center", color="w", fontsize=8)
+        fig.colorbar(image, ax=ax, label="grasp success (%), all setups and objects")
+        out["sweep_heatmap.png"] = png(fig)
+    return out
+
+
+def comparison_figure(summary: pd.DataFrame, labels: list[str]) -> bytes:
+    """Success per object, one bar per grid point (95 % intervals, in the order of `labels`),
+    a panel per table and setup; the share rescued by a re-alignment drawn on top."""
+    labelled = summary.assign(label=point_labels(summary))
+    panels = [(t, s) for t in (1, 2) for s in sorted(labelled["setup"].unique())
+              if ((labelled["setup"] == s) & (labelled["table"] == t)).any()]
+    fig = new_figure(4.8 * max(1, len(panels)), 4.4 + 0.2 * len(labels))
+    axes = fig.subplots(1, max(1, len(panels)), squeeze=False)[0]
+    width = 0.8 / max(1, len(labels))
+    for ax, (table, setup) in zip(axes, panels, strict=False):
+        part = labelled[(labelled["setup"] == setup) & (labelled["table"] == table)]
+        objects = sorted(part["object"].unique())
+        x = np.arange(len(objects))
+        for i, label in enumerate(labels):
+            cells = part[part["label"] == label].set_index("object").reindex(objects)
+            offset = x - 0.4 + (i + 0.5) * width
+            err = np.maximum(0, np.vstack([cells["rate"] - cells["ci_low"],
+                                           cells["ci_high"] - cells["rate"]])) * 100
+            bars = ax.bar(offset, 100 * cells["rate"], width, yerr=err, capsize=2, label=label)
+            if "rate_rescued" in cells.columns and cells["rescued"].sum() > 0:
+                ax.bar(offset, 100 * cells["rate_rescued"], width,
+                       bottom=100 * cells["rate_first_view"], color=bars.patches[0].get_facecolor(),
+                       hatch="///", edgecolor="white", linewidth=0)
+        ax.set_xticks(x, [f"{c})" for c in objects])
+        ax.set_ylim(0, 105)
+        ax.set_title(f"Setup {setup}, objects {objects[0]}-{objects[-1]}")
+        ax.set_ylabel("grasp success (%); hatched: rescued")
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.1))
+    return png(fig)

@@ -1,0 +1,106 @@
+"""A run folder read back: attempts.csv (or .gz), rounds.csv (or .gz), config.json, and how
+far the run got."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pandas as pd
+
+REQUIRED = ("setup", "object", "trial", "round", "seed", "success", "outcome", "reason")
+
+
+def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
+    """Attempt rows from CSV text, checking the columns the report needs and that every row is
+    complete (a file cut mid-row is refused: its last row would count as a failure)."""
+    if not text.strip():
+        raise ValueError(f"{name} has no attempts yet")
+    if not text.endswith("\n"):
+        raise ValueError(f"{name} ends in an incomplete row (still being written: try again; "
+                         "cut by a kill: --resume the run to rewrite it)")
+    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], low_memory=False,
+                        dtype={"object": str, "lifted_object": str, "run_id": str})
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    if missing:
+        raise ValueError(f"{name} lacks columns: {', '.join(missing)}")
+    if frame.empty:
+        raise ValueError(f"{name} has no attempts")
+    if "run_id" in frame.columns and frame["run_id"].nunique() > 1:
+        ids = sorted(frame["run_id"].astype(str).unique())
+        raise ValueError(f"{name} mixes the rows of {len(ids)} runs (run_id {', '.join(ids[:3])})")
+    return frame
+
+
+def load_attempts(folder: str | Path) -> pd.DataFrame:
+    """Read `attempts.csv` (or a gzipped `attempts.csv.gz`) from a run or sweep folder."""
+    import gzip
+
+    path = Path(folder) / "attempts.csv"
+    if path.is_file():
+        return parse_attempts(path.read_text(), str(path))
+    if path.with_suffix(".csv.gz").is_file():
+        text = gzip.decompress(path.with_suffix(".csv.gz").read_bytes()).decode()
+        return parse_attempts(text, str(path.with_suffix(".csv.gz")))
+    raise FileNotFoundError(f"no attempts.csv in {folder}")
+
+
+def planned_worlds(meta: dict) -> int:
+    """How many worlds a run plays, from its `config.json`: per grid point and job, each object's
+    trials in Setup 1 and one round per trial in Setups 2 and 3 (`batch.plan.plan`)."""
+    per_point = sum(len(job["objects"]) * job["trials"] if setup == 1 else job["trials"]
+                    for job in meta["jobs"] for setup in job["setups"])
+    return int(meta.get("points", 1)) * per_point
+
+
+def played_worlds(frame: pd.DataFrame) -> int:
+    """How many worlds the rows hold: (point, setup, object, trial) in Setup 1, (point, setup,
+    trial) in Setups 2 and 3."""
+    point = frame["point"] if "point" in frame.columns else pd.Series(0, frame.index)
+    single = frame["setup"] == 1
+    object_of = frame["object"].fillna("").where(single, "")
+    return len(pd.DataFrame({"p": point, "s": frame["setup"], "o": object_of,
+                             "t": frame["trial"]}).drop_duplicates())
+
+
+def read_meta(folder: str | Path) -> dict:
+    """The folder's `config.json` ({} when it has none a run wrote)."""
+    import json
+
+    try:
+        meta = json.loads((Path(folder) / "config.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return meta if isinstance(meta, dict) else {}
+
+
+def run_state(folder: str | Path, frame: pd.DataFrame) -> str:
+    """"" for a finished run whose rows are all there (or rows without a run's `config.json`),
+    "unfinished: n of N worlds" for a run still going or killed; a ValueError when the rows
+    are not the folder's run's, or a finished run's file lacks worlds (cut)."""
+    meta = read_meta(folder)
+    try:
+        planned = planned_worlds(meta)
+    except (KeyError, TypeError, ValueError):
+        return ""  # rows from elsewhere: nothing to check them against
+    ids = set(frame["run_id"].astype(str)) if "run_id" in frame.columns else set()
+    if meta.get("run_id") and ids and ids != {str(meta["run_id"])}:
+        raise ValueError(f"{folder}: attempts.csv holds rows of run {', '.join(sorted(ids))}, "
+                         f"config.json describes run {meta['run_id']}")
+    played = played_worlds(frame)
+    if meta.get("finished") and played < planned:
+        raise ValueError(f"{folder}: attempts.csv holds {played} of the run's {planned} "
+                         "worlds though the run finished (the file was cut)")
+    return "" if meta.get("finished") or played >= planned else \
+        f"unfinished: {played} of {planned} worlds"
+
+
+def load_rounds(folder: str | Path) -> pd.DataFrame | None:
+    """`rounds.csv` (or a gzipped `rounds.csv.gz`, as committed results keep it) of a run
+    folder (one row per Setup 2/3 round), None if it has none."""
+    path = Path(folder) / "rounds.csv"
+    if not path.is_file():
+        path = path.with_suffix(".csv.gz")
+    if not path.is_file() or not path.stat().st_size:
+        return None
+    return pd.read_csv(path)
