@@ -18,7 +18,7 @@ LAYERS = [
     ("runtime", ["runtime", "runtime.*"]),
     ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",
                               "graspjax"]),
-    ("the procedure; real-image inputs", ["procedure", "realimage", "realimage.inputs"]),
+    ("the procedure; real-image inputs", ["procedure", "procedure.*", "realimage", "realimage.inputs"]),
     ("batches", ["batch", "batch.*", "realimage.detect", "realimage.records"]),
     ("studies, files, reports, benchmarks", ["planes", "views", "viz", "outputs", "report", "report.*",
                                              "bench"]),

@@ -16,10 +16,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from graspjax import experiment, procedure
+from graspjax import experiment
 from graspjax.batch import plan, program
 from graspjax.cli import main
 from graspjax.config import Config, override
+from graspjax.procedure import steps
 from graspjax.runtime import exported, players
 from graspjax.views import attempt_name
 
@@ -601,9 +602,9 @@ def test_every_method_traces_into_the_attempt_program(monkeypatch):
     program measures no layout density (rounds.csv has no Setup 1 rows)."""
     monkeypatch.setattr(exported, "store", lambda: None)
     searches, densities = [], []
-    search, density = procedure._search, procedure.layout_stats
-    monkeypatch.setattr(procedure, "_search", lambda *a, **k: searches.append(1) or search(*a, **k))
-    monkeypatch.setattr(procedure, "layout_stats",
+    search, density = steps._search, steps.layout_stats
+    monkeypatch.setattr(steps, "_search", lambda *a, **k: searches.append(1) or search(*a, **k))
+    monkeypatch.setattr(steps, "layout_stats",
                         lambda *a: densities.append(1) or density(*a))
     config = override(Config(), ["method=highest-pca", "align.window_px=12"])
     group, = plan.plan([plan.Job(("a", "c"), (1,), 3)], [config], 3)

@@ -307,8 +307,8 @@ def test_contact_forces_read_as_mujoco_reads_them(cone):
     by friction; and the pads' friction balances the cube's weight (an independent check)."""
     from graspjax.config import GripperConfig
     from graspjax.privates import impl
+    from graspjax.sim.contacts import contact_forces
     from graspjax.sim.scene import mjx
-    from graspjax.sim.world import contact_forces
 
     model, data = _squeezed_cube(GripperConfig(), SimConfig(cone=cone), lift=0.03)
     assert data.ncon >= 4

@@ -6,23 +6,13 @@ import numpy as np
 import pytest
 from conftest import SIM_BATCH
 
-from graspjax.codes import Outcome
+from graspjax.codes import ALIGN_BASE, DETECT_BASE, Outcome, Reason, Surface
 from graspjax.config import Config, override
 from graspjax.geometry import axis_angle, look_down
 from graspjax.perception import Alignment, AlignReason, GraspReason
-from graspjax.procedure import (
-    _NO_PLANE,
-    ALIGN_BASE,
-    DETECT_BASE,
-    Reason,
-    Surface,
-    _record,
-    _with_error,
-    centred_pose,
-    plane_truth,
-    select_target,
-    view,
-)
+from graspjax.procedure import centred_pose, plane_truth, select_target, view
+from graspjax.procedure.state import NO_PLANE
+from graspjax.procedure.steps import _record, _with_error
 from graspjax.sim.world import Execution, GraspPose, LayoutStats
 
 CONFIG = Config()
@@ -68,7 +58,7 @@ def test_target_is_the_nearest_point_above_the_table(basic_sim):
 def test_in_the_bin_the_walls_are_never_the_target(basic_sim):
     """Setup 3: the bin's walls (5 cm) stand higher than a block (3 cm) inside it; the
     workspace, the bin's interior known by calibration, keeps them out."""
-    from graspjax.procedure import _candidates, _look, overview_pose
+    from graspjax.procedure.steps import _candidates, _look, overview_pose
 
     n = basic_sim.scene.num_objects
     pos, quat = np.zeros((SIM_BATCH, n, 3)), np.tile([1.0, 0, 0, 0], (SIM_BATCH, n, 1))
@@ -202,7 +192,7 @@ def _reason(*, executed=False, outcome=Outcome.NOT_EXECUTED, finite=True, aimed=
     nan = jnp.float32(jnp.nan)
     record = _record(jnp.int32(2), jnp.array(aimed), pose, done, jnp.array(finite),
                      jnp.array(blocked), jnp.int32(0), jnp.int32(detect), jnp.int32(align),
-                     jnp.array(lost), _NO_PLANE, jnp.int32(-1), (nan, nan), stats)
+                     jnp.array(lost), NO_PLANE, jnp.int32(-1), (nan, nan), stats)
     return Reason(int(record.reason))
 
 
@@ -324,7 +314,7 @@ def test_the_search_stops_at_the_re_alignment_budget(basic_sim, budget):
     grasp there; A at the band's centre turns to the same ramp plane, but its view of the
     ramp's middle fails the wall check again; windows around each triangle, the turn by the
     metric normal.)"""
-    from graspjax.procedure import _search
+    from graspjax.procedure.steps import _search
 
     config = override(CONFIG, ["detect.wall_check=true", "align.anchor=nearest",
                                "align.window_centre=triangle", "align.turn_normal=metric",
@@ -347,20 +337,20 @@ def test_the_search_stops_at_the_re_alignment_budget(basic_sim, budget):
 def _search_with_labels(scene, data, relabel, config):
     """`_search` (views kept) with the renderer's object label of every pixel passed through
     `relabel` (n,) int32 (a label < 0, no object, stays)."""
-    from graspjax import procedure
+    from graspjax.procedure import steps
 
-    original = procedure._look
+    original = steps._look
 
     def look(*args):
         depth, objects, table = original(*args)
         return depth, jnp.where(objects >= 0, relabel[jnp.maximum(objects, 0)], objects), table
 
-    procedure._look = look  # under this trace only
+    steps._look = look  # under this trace only
     try:
-        return procedure._search(scene, data, jnp.ones(scene.num_objects, bool), jnp.array(True),
+        return steps._search(scene, data, jnp.ones(scene.num_objects, bool), jnp.array(True),
                                  jnp.array(False), jax.random.key(5), config, True)
     finally:
-        procedure._look = original
+        steps._look = original
 
 
 def test_the_method_decides_on_depth_alone(basic_sim):

@@ -5,11 +5,10 @@ import numpy as np
 
 from graspjax.batch.plan import World
 from graspjax.batch.rows import _record_rows
-from graspjax.codes import Outcome
+from graspjax.codes import Outcome, Reason
 from graspjax.config import MAX_REORIENTATIONS, Config, override
 from graspjax.procedure import (
     PlaneTruth,
-    Reason,
     Record,
     RoundState,
     WorldSpec,

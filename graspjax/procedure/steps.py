@@ -1,67 +1,15 @@
-"""The paper's grasping procedure (Fig. 1) in ONE simulated world, top to bottom.
-
-A world plays one *round*: `start_round` places its layout, then `attempt`
-is called with k = -1 (the freshly placed layout settles: the drop) and
-k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
-
-1. Overview: the tool camera looks straight down from `camera_height` over
-   the workspace centre.
-2. Select: the nearest point (z_min) of the workspace that stands above the
-   table is the target point (`perception/target.py`). The method sees the
-   depth image and what a calibrated robot knows: the camera's pose and
-   intrinsics, the table plane and the workspace (Setup 3: the bin's
-   interior). The attempt is credited to the object that point lies on;
-   that lookup in the renderer's labels is for the record only.
-3. Centre: the camera moves parallel to the table until its optical axis
-   passes through that point, and looks again (`procedure.centre`: the
-   paper does, "otherwise the influence of shadows increases").
-4. Detect a grasp with the configured method (`Config.method`: the paper's
-   double T-beam, or a baseline from `perception/baselines.py`). In every
-   view the target is found again from its 3-D point alone: the visible
-   point nearest to it, and the depth-connected surface around that point
-   (`target.follow_target`), on which z_min is taken.
-5. Re-align when none is found: the camera turns to look along the negative
-   normal of the best neighbour plane, at the same distance from the plane's
-   inliers, and detects again; at most `max_reorientations` times (a
-   bounded loop with masks).
-6. Execute and judge (`world.play`): the robot reaches the grasp pose off by
-   the execution error (`procedure.tcp_error`, `tilt_error_deg`); a pre-grasp
-   pose that would put the open hand inside a part, the bin or the table is
-   refused (`COLLISION`); approach (stopped by a contact force above
-   `approach_force_limit`: `COLLISION`), close, lift, hold; the lifted
-   object leaves the scene, the hand returns home and the scene settles
-   for the next attempt.
-
-The protocol between attempts is the experimenter's and may use identity
-(docs/method.md): in the paper's protocol each object of a Setup 2/3 round
-gets one attempt, so a failed object is taken out by hand
-(`procedure.remove_failed`; false leaves it where it ends up); with
-`procedure.round_attempts` the round goes on until the scene is empty or
-`stuck_after` attempts in a row fail. `perception.oracle` (an ablation,
-never a preset) hands the method the renderer's labels of its target
-instead, as graspjax did before it saw depth alone.
-
-Every attempt ends with ONE reason code (`Reason`), computed here with this
-precedence: a diverged simulation; else the physical outcome of an executed
-grasp; else no target point; else a target not found again in the last view
-taken (nothing to detect on, nothing to re-align around); else the alignment
-failure that ended the search (no plane, or its view unreachable); else the
-detection failure of the last view searched.
-
-Batch with `jax.vmap` at the edge (`batch/program.py`).
-"""
+"""One attempt of the paper's procedure (Fig. 1) in one world, top to bottom: overview, select,
+centre, detect, re-align, execute and judge, one record."""
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.codes import ALIGN_BASE, DETECT_BASE, Reason, Surface
+from graspjax.codes import ALIGN_BASE, DETECT_BASE, Reason
 from graspjax.config import MAX_REORIENTATIONS, Config
 from graspjax.geometry import axis_angle, frame_from_axes, look_down, normalize, rotation_between
 from graspjax.perception import (
@@ -77,103 +25,24 @@ from graspjax.perception.cluster import nearest_pixel
 from graspjax.perception.support import known_support
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.workspace import box_workspace
-from graspjax.sim import layout
-from graspjax.sim.objects import LETTER_INDEX
-from graspjax.sim.raycast import render_depth_and_piece, world_planes
+from graspjax.procedure.protocol import attempt_keys, eligible_objects, in_bin, round_goes_on, settle_segments
+from graspjax.procedure.state import NO_LAYOUT, NO_PLANE, PlaneTruth, Record, RoundState, Views, WorldSpec
+from graspjax.procedure.truth import plane_truth, surfaces, target_faces, target_pixels, with_oracle
+from graspjax.sim.raycast import render_depth_and_piece
 from graspjax.sim.scene import Scene, mjx
 from graspjax.sim.world import (
     Execution,
     GraspPose,
     LayoutStats,
     Outcome,
-    PhysicsState,
     hand_clear,
     hand_waypoints,
     layout_stats,
     physics_model,
     physics_state,
     play,
-    reset,
 )
 from graspjax.tree import pytree_dataclass, where_tree
-
-
-@pytree_dataclass
-class WorldSpec:
-    """What a world plays, fixed for its round (one row of a batch)."""
-
-    seed: jax.Array  # () int32 seed of the grid point the world belongs to
-    setup: jax.Array  # () int32 paper setup 1, 2 or 3
-    trial: jax.Array  # () int32 trial (Setup 1) or round (Setups 2, 3)
-    order: jax.Array  # (A,) int32 scene objects in attempt order (Setup 1: the one object)
-    members: jax.Array  # (n,) bool objects in the layout
-    config: Config  # this world's traced configuration values
-
-
-@pytree_dataclass
-class RoundState:
-    """A world between attempts."""
-
-    data: mjx.Data  # the physics state
-    attempted: jax.Array  # (n,) bool objects that had their attempt
-    failures: jax.Array  # () int32 attempts in a row that lifted nothing (a stuck round)
-    removed: jax.Array  # (n,) bool objects lifted out of the scene
-    key: jax.Array  # the round's PRNG key (its layout key)
-
-
-@pytree_dataclass
-class PlaneTruth:
-    """The chosen re-alignment plane of one view against the simulation's ground truth."""
-
-    surface: jax.Array  # () int32 Surface most of the plane's inliers lie on (NONE: no plane)
-    on_target: jax.Array  # () share of the plane's inliers on the target (nan: no plane)
-    normal_error_deg: jax.Array  # () angle from the plane's normal to the nearest true face
-    # normal of the target at its current pose (deg; nan: no plane)
-    view_tilt_deg: jax.Array  # () the re-aligned view's optical axis from straight down (deg)
-
-
-@pytree_dataclass
-class Record:
-    """One attempt of one world, fixed-shape (`batch/rows.py` turns it into one CSV row)."""
-
-    target: jax.Array  # () int32 scene object the attempt is credited to: the one the target
-    # point lies on (ground truth, for the record only); -1 if none
-    aimed: jax.Array  # () bool the method chose a target point (an attempt was made)
-    reason: jax.Array  # () int32 Reason
-    outcome: jax.Array  # () int32 Outcome (NOT_EXECUTED without a grasp)
-    grasp_found: jax.Array  # () bool
-    reorientations: jax.Array  # () int32 re-alignments made
-    detect_reason: jax.Array  # () int32 GraspReason of the last view searched
-    align_reason: jax.Array  # () int32 AlignReason of the last re-alignment, -1 if none tried
-    lifted_object: jax.Array  # () int32 scene object lifted, -1 if none
-    rise: jax.Array  # () target rise after the hold (m; nan if not executed)
-    opening: jax.Array  # () half jaw opening after closing (m; nan if not executed)
-    tcp: jax.Array  # (3,) planned grasp: point between the finger tips (world, m; nan if none)
-    approach: jax.Array  # (3,) planned grasp: approach direction
-    closing: jax.Array  # (3,) planned grasp: closing axis
-    realign: PlaneTruth  # (R,) the plane of each re-alignment taken, judged by ground truth
-    grasp_object: jax.Array  # () int32 object under the planned grasp centre (ground truth; -1:
-    # none, or no grasp)
-    segment_precision: jax.Array  # () share of the centred view's target surface (where z_min
-    # was taken) on the credited object (ground truth; nan: empty)
-    segment_recall: jax.Array  # () share of the credited object's visible pixels in that surface
-    layout: LayoutStats  # the scene's density after this call's settling
-
-
-@pytree_dataclass
-class Views:
-    """Every image of one attempt, for debug pictures: the overview, then V = R + 1 views."""
-
-    depth: jax.Array  # (1 + V, H, W) metric depth
-    target_mask: jax.Array  # (1 + V, H, W) bool pixels of the credited object (ground truth)
-    seed_mask: jax.Array  # (1 + V, H, W) bool where the method took z_min: the overview's
-    # candidates, then the target's surface in each view
-    rotation: jax.Array  # (1 + V, 3, 3) camera-to-world rotation
-    position: jax.Array  # (1 + V, 3) camera centre
-    looked: jax.Array  # (1 + V,) bool the procedure took this image
-    grasp: Grasp  # detection of each view (leading axis V)
-    alignment: Alignment  # alignment of each view (leading axis V)
-    state: PhysicsState  # the world before the attempt (a replay starts here: sim/replay.py)
 
 
 @pytree_dataclass
@@ -196,70 +65,6 @@ class _View:
     recall: jax.Array  # () share of the target's visible pixels in `mask` (nan: none visible)
 
 
-_NO_LAYOUT = LayoutStats(objects=np.int32(-1), touching=np.int32(-1), stacked=np.int32(-1),
-                         gap=np.float32(np.nan), spread=np.float32(np.nan))  # not measured
-_NO_PLANE = PlaneTruth(surface=np.int32(Surface.NONE), on_target=np.float32(np.nan),  # numpy: no
-                       normal_error_deg=np.float32(np.nan), view_tilt_deg=np.float32(np.nan))  # backend
-
-
-# ---------------------------------------------------------------------------
-# Layouts and settling
-
-
-def in_bin(spec: WorldSpec) -> jax.Array:
-    """() bool: this world's objects lie in the bin (Setup 3 with `layout.bin`); else on the
-    open table."""
-    return (spec.setup == 3) & spec.config.layout.bin
-
-
-def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
-    """Setup 1: key(seed, 1, object letter, trial); Setups 2, 3: key(seed, setup, round)."""
-    letter = jnp.asarray([LETTER_INDEX[c] for c in scene.letters], jnp.int32)[spec.order[0]]
-    single = layout.layout_key(spec.seed, 1, letter, spec.trial)
-    pile = layout.layout_key(spec.seed, spec.setup, spec.trial)
-    return jnp.where(spec.setup == 1, jax.random.key_data(single), jax.random.key_data(pile))
-
-
-def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec,
-                setups: tuple[int, ...] = (1, 2, 3)) -> RoundState:
-    """Place the round's layout (not yet settled): one object dropped alone (Setup 1), a group
-    of resting objects (Setup 2) or a pile dropped on the table or into the bin (Setup 3). `setups` (static)
-    are those the batch's worlds may play: only their layouts are built."""
-    config = spec.config
-    key = jax.random.wrap_key_data(_layout_key(scene, spec))
-    n = scene.num_objects
-    points = jnp.asarray(scene.object_points, jnp.float32)
-    samplers = {
-        1: lambda: layout.single(key, spec.order[0], points, config.layout),
-        2: lambda: layout.grouped(key, jnp.asarray(scene.resting, jnp.float32), points,
-                                  config.layout),
-        3: lambda: layout.pile(key, jnp.asarray(scene.resting, jnp.float32), points,
-                               config.layout)}
-    placed = {s: samplers[s]() for s in sorted(set(setups))}
-    others = list(placed)[:-1]  # each picked where the world plays it; else the last
-    pos, quat = jax.tree.map(
-        lambda *poses: jnp.select([spec.setup == s for s in others], poses[:-1], poses[-1])
-        if others else poses[0], *(placed[s][:2] for s in placed))
-    active = jnp.where(spec.setup == 1, placed[1][2], spec.members) if 1 in placed else spec.members
-    data = reset(scene, data, pos, quat, active, bin_in_place=in_bin(spec))
-    return RoundState(data=data, attempted=jnp.zeros(n, bool), failures=jnp.int32(0),
-                      removed=jnp.zeros(n, bool), key=key)
-
-
-def _settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array:
-    """Segments this world settles after call k: the drop (k = -1), else until the next attempt."""
-    s = config.sim
-    extra = jnp.select([spec.setup == 1, spec.setup == 2],
-                       [s.segments(s.drop_settle_time), s.segments(s.group_settle_time)],
-                       s.segments(s.pile_settle_time))
-    between = jnp.where(k + 1 < spec.order.shape[0], s.segments(s.settle_time), 0)
-    return jnp.where(k < 0, s.segments(s.settle_time) + extra, between).astype(jnp.int32)
-
-
-# ---------------------------------------------------------------------------
-# Perception in the world
-
-
 def _look(scene: Scene, data, rotation, position, camera: Camera, config: Config, key):
     """Depth image (H, W), object index per pixel (H, W) (-1: table, bin or nothing) and whether
     each pixel shows the table (H, W) bool (rendered piece 0; the bin's walls follow it)."""
@@ -269,57 +74,9 @@ def _look(scene: Scene, data, rotation, position, camera: Camera, config: Config
     return depth, jnp.where(piece >= 0, objects[jnp.maximum(piece, 0)], -1), piece == 0
 
 
-def _surfaces(objects: jax.Array, table: jax.Array, depth: jax.Array, target) -> jax.Array:
-    """`Surface` (H, W) int32 of each pixel, from the object index (H, W) and the table (H, W)."""
-    return jnp.select([~(depth > 0), (objects == target) & (target >= 0), objects >= 0, table],
-                      [Surface.NONE, Surface.TARGET, Surface.OTHER_OBJECT, Surface.TABLE],
-                      Surface.BIN).astype(jnp.int32)
-
-
-def target_pixels(surface: jax.Array) -> jax.Array:
-    """Pixels (H, W) bool a view's ground truth `surface` (H, W) puts on the target: for
-    judging and for the oracle ablation only (`with_oracle`), never for a decision."""
-    return surface == Surface.TARGET
-
-
-def target_faces(scene: Scene, data, target) -> tuple[jax.Array, jax.Array]:
-    """Outward unit normals (G * P, 3) of the target's faces in the world (state after
-    kinematics), and which are real faces (G * P,) bool (not padding, not another piece's)."""
-    normals, _ = world_planes(scene.solids, data.geom_xpos, data.geom_xmat)
-    real = ((jnp.asarray(scene.piece_object) == target) & (target >= 0))[:, None] & (
-        jnp.linalg.norm(scene.solids.planes[..., :3], axis=-1) > 0.5)
-    return normals.reshape(-1, 3), real.reshape(-1)
-
-
-def plane_truth(surface: jax.Array, inliers: jax.Array, normal: jax.Array, faces, found,
-                view_axis: jax.Array) -> PlaneTruth:
-    """Judge a chosen plane: its inliers (H, W) bool against the `Surface` (H, W) of each pixel,
-    its world normal (3,) against the target's faces (`target_faces`), and the tilt of the view
-    whose optical axis (3,) looks along its negative normal."""
-    counts = jnp.stack([jnp.sum(inliers & (surface == c)) for c in range(4)])
-    on_target = counts[Surface.TARGET] / jnp.maximum(jnp.sum(counts), 1)
-    normals, real = faces
-    cosine = jnp.max(jnp.where(real, normals @ normal, -1.0))
-    nan = jnp.float32(jnp.nan)
-    return PlaneTruth(
-        surface=jnp.where(found, jnp.argmax(counts), Surface.NONE).astype(jnp.int32),
-        on_target=jnp.where(found, on_target, nan).astype(jnp.float32),
-        normal_error_deg=jnp.where(found, jnp.rad2deg(jnp.arccos(jnp.clip(cosine, -1.0, 1.0))), nan),
-        view_tilt_deg=jnp.where(found, jnp.rad2deg(jnp.arccos(jnp.clip(-view_axis[2], -1.0, 1.0))),
-                                nan))
-
-
 def overview_pose(config: Config):
     """The start pose: straight down over the workspace centre."""
     return look_down(jnp.array([0.0, 0.0, 1.0]) * config.procedure.camera_height)
-
-
-def with_oracle(config: Config, seen, labelled: Callable):
-    """What the method works on: `seen`, found from depth alone; only the ablation
-    `perception.oracle` (never in a preset: tests/test_config.py) puts `labelled()`, taken from
-    the renderer's labels, in its place. The one place where labels can reach a decision; the
-    flag is static, so without it no label-made choice is even traced."""
-    return labelled() if config.perception.oracle else seen
 
 
 def _candidates(depth: jax.Array, rotation, position, in_bin, camera: Camera, config: Config
@@ -393,7 +150,7 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.A
     score re-alignment planes around it. `target` () (the credited object) only judges."""
     k_render, k_align = view_keys(key)
     depth, obj, table = _look(scene, data, rotation, position, camera, config, k_render)
-    surface = _surfaces(obj, table, depth, target)  # ground truth: it judges, after the decisions
+    surface = surfaces(obj, table, depth, target)  # ground truth: it judges, after the decisions
     candidate = _candidates(depth, rotation, position, in_bin, camera, config)
     followed, _, _ = follow_target(depth, camera, candidate, rotation.T @ (point - position),
                                    config.perception.surface_step,
@@ -481,7 +238,7 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
         pos = jnp.where(move, v.next_position, pos)
         carry = (rot, pos, found, blocked, pose, turns + move.astype(jnp.int32), detect_reason,
                  align_reason, v.lost, under, first)
-        taken = where_tree(move, v.truth, _NO_PLANE)
+        taken = where_tree(move, v.truth, NO_PLANE)
         kept = jax.tree.map(lambda buffer, x: buffer.at[r].set(x), kept,
                             ((v, jnp.array(True)) if keep_views else None, taken))
         return r + 1, carry, kept
@@ -499,7 +256,7 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
                                             in_bin, camera, config, k_views))
         kept = jax.tree.map(lambda x: jnp.zeros((views_at_most,) + x.shape, x.dtype),
                             (blank, jax.ShapeDtypeStruct((), bool)))
-    kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), _NO_PLANE))
+    kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), NO_PLANE))
     # A masked loop: it ends when no world of a batch still searches (vmap runs it until then).
     _, carry, (per_view, taken) = jax.lax.while_loop(searching, look, (jnp.int32(0), carry, kept))
     _, _, found, blocked, pose, turns, detect_reason, align_reason, lost, under, first = carry
@@ -539,49 +296,13 @@ def _with_error(pose: GraspPose, key, config: Config) -> GraspPose:
                      valid=pose.valid)
 
 
-def settle(scene: Scene, state: RoundState, spec: WorldSpec) -> RoundState:
-    """Call -1 alone, for studies that look without grasping: the freshly placed layout settles
-    exactly as `attempt(..., k=-1)` settles it, without compiling the search."""
-    config = spec.config
-    zero3 = jnp.zeros(3, jnp.float32)
-    data, _ = play(scene, physics_model(scene, config), state.data,
-                   GraspPose(zero3, zero3, zero3, jnp.array(False)), jnp.int32(0),
-                   _settle_segments(spec, jnp.int32(-1), config), jnp.array(False), config,
-                   reachable=jnp.array(False))
-    return dataclasses.replace(state, data=data)
-
-
-def eligible_objects(state: RoundState, spec: WorldSpec) -> jax.Array:
-    """The objects (n,) bool the oracle (`perception.oracle`) may pick by identity: the paper's
-    protocol, those of the layout not yet attempted nor removed; a continued round
-    (`procedure.round_attempts`), any still in the scene, none once it is stuck."""
-    present = spec.members & ~state.removed
-    if spec.config.procedure.round_attempts == 0:
-        return present & ~state.attempted
-    return present & (state.failures < spec.config.procedure.stuck_after)
-
-
-def round_goes_on(state: RoundState, spec: WorldSpec) -> jax.Array:
-    """The protocol lets the next attempt happen () bool: an object is still in the scene (and,
-    in a continued round, the round is not stuck: `eligible_objects`). The experimenter sees
-    the scene; the method is told nothing of it."""
-    if spec.config.procedure.round_attempts == 0:
-        return jnp.any(spec.members & ~state.removed)
-    return jnp.any(eligible_objects(state, spec))
-
-
-def attempt_keys(state: RoundState, k) -> tuple[jax.Array, jax.Array]:
-    """Attempt k's keys: its search (images, planes) and its execution error."""
-    return jax.random.split(jax.random.fold_in(state.key, 1000 + k))
-
-
 def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
             keep_views: bool = False, setups: tuple[int, ...] = (1, 2, 3)
             ) -> tuple[RoundState, Record, Views | None]:
     """Call k of this world's round: k = -1 settles the freshly placed layout; k >= 0 is the
     k-th grasp attempt (steps 1-6). `k` is () int32, the same for every world of a batch.
     `setups` (static): those the batch's worlds may play; a batch of Setup 1 alone records no
-    layout density (`_NO_LAYOUT`: rounds.csv has rows for Setups 2 and 3 only)."""
+    layout density (`NO_LAYOUT`: rounds.csv has rows for Setups 2 and 3 only)."""
     config = spec.config
     model = physics_model(scene, config)
     n = scene.num_objects
@@ -613,7 +334,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     target, aimed, pose, reached, clear, progress, views = jax.lax.cond(k >= 0, search, idle, None)
     blocked, turns, detect_reason, align_reason, lost, realign, under, first = progress
     realign = where_tree(k >= 0, realign, jax.tree.map(
-        lambda x: jnp.broadcast_to(x, (MAX_REORIENTATIONS,)), _NO_PLANE))
+        lambda x: jnp.broadcast_to(x, (MAX_REORIENTATIONS,)), NO_PLANE))
     aimed = aimed & (k >= 0)
     target = jnp.where(aimed, target, -1)
     valid = pose.valid & finite & aimed
@@ -623,7 +344,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     if config.procedure.round_attempts > 0:  # clutter removal leaves it
         take_out = jnp.array(False)
     data, done = play(scene, model, state.data, dataclasses.replace(reached, valid=valid),
-                      target, _settle_segments(spec, k, config), k >= 0, config,
+                      target, settle_segments(spec, k, config), k >= 0, config,
                       reachable=clear, take_out=take_out)
 
     mine = (jnp.arange(n) == target) & (target >= 0)
@@ -634,7 +355,7 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     removed = state.removed | lifted | (mine & take_out)
     state = RoundState(data=data, attempted=attempted, failures=failures.astype(jnp.int32),
                        removed=removed, key=state.key)
-    density = layout_stats(scene, data) if {2, 3} & set(setups) else _NO_LAYOUT
+    density = layout_stats(scene, data) if {2, 3} & set(setups) else NO_LAYOUT
     return state, _record(target, aimed, pose, done, finite, blocked, turns, detect_reason,
                           align_reason, lost, realign, under, first, density), views
 
