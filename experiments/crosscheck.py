@@ -29,11 +29,11 @@ from tqdm import tqdm
 from graspjax.batch.plan import Job
 from graspjax.codes import Outcome
 from graspjax.report import load_attempts, markdown, point_config
+from graspjax.saved_views import attempt_name
 from graspjax.sim import scene_for
 from graspjax.sim.replay import replay
 from graspjax.sim.world import GraspPose, PhysicsState
 from graspjax.stats import wilson
-from graspjax.views import attempt_name
 
 
 def replays(folder: Path, iterations: int | None, quiet: bool = False) -> pd.DataFrame:

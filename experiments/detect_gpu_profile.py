@@ -30,7 +30,7 @@ import numpy as np
 
 from graspjax.bench import detect_workload, median_seconds
 from graspjax.config import Config, RealImageConfig
-from graspjax.realimage.detect import detect_batch, stack_cameras
+from graspjax.imagefiles.batches import detect_batch, stack_cameras
 
 W, H = 640, 480
 CAMERA, WORKSPACE, SCENES = detect_workload(W, H)  # graspjax bench detect's images

@@ -22,7 +22,7 @@ def save(path: str) -> None:
     import graspjax
     from graspjax.bench import detect_workload
     from graspjax.config import Config, RealImageConfig
-    from graspjax.realimage.detect import detect_batch, stack_cameras
+    from graspjax.imagefiles.batches import detect_batch, stack_cameras
 
     camera, workspace, scenes = detect_workload()
     result = jax.jit(lambda d, c: detect_batch(d, workspace, c, Config(),

@@ -32,8 +32,8 @@ import graspjax.perception.real_image as real_image_module
 import graspjax.perception.virtual as virtual_module
 from graspjax.bench import detect_workload, median_seconds
 from graspjax.config import Config, RealImageConfig
+from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception.real_image import detect_real_image
-from graspjax.realimage.detect import detect_batch, stack_cameras
 
 W, H = 640, 480
 CAMERA, WORKSPACE, SCENES = detect_workload(W, H)  # graspjax bench detect's images

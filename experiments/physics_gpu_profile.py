@@ -29,7 +29,7 @@ from detect_gpu_profile import print_profile
 
 from graspjax.bench import physics_workload
 from graspjax.config import Config, override
-from graspjax.sim.world import mjx_internals
+from graspjax.privates import impl
 
 
 def measure(out: pathlib.Path, batch: int, variant: str, profile: bool) -> dict:
@@ -49,7 +49,7 @@ def measure(out: pathlib.Path, batch: int, variant: str, profile: bool) -> dict:
         t0 = time.perf_counter()
         data, _ = jax.block_until_ready(work.simulate(data, spec, idle, zero, zero + second, False))
         times.append(time.perf_counter() - t0)
-    internals = mjx_internals(data)
+    internals = impl(data)
     touching = np.sum(np.asarray(internals.contact.dist) < 0, axis=-1)
     row = {"variant": variant, "compile_s": compile_s,
            "world_steps_per_s": batch * second * s.segment_steps / statistics.median(times),

@@ -51,8 +51,8 @@ def intrinsics(args):
     """The one way the user gave intrinsics (`IntrinsicsRequest`); two ways at once is an error."""
     import numpy as np
 
+    from graspjax.imagefiles.inputs import IntrinsicsRequest
     from graspjax.io import check_matrix
-    from graspjax.realimage.inputs import IntrinsicsRequest
 
     given = {"--fx/--fy/--cx/--cy": any(v is not None for v in (args.fx, args.fy, args.cx, args.cy)),
              "--K": args.K is not None, "--intrinsics": args.intrinsics is not None,
@@ -206,7 +206,7 @@ def experiment_request(args, grid_items):
 def detect_request(args):
     """`graspjax detect`'s checked request: (inputs, outputs, batch, several images)."""
     from graspjax.experiment import DetectOutputs
-    from graspjax.realimage.inputs import expand_images, prepare
+    from graspjax.imagefiles.inputs import expand_images, prepare
 
     many = len(expand_images(args.images)) > 1
     if args.figure and many:
@@ -235,7 +235,7 @@ def detect_request(args):
 def bench_request(args) -> dict:
     """`graspjax bench`'s checked request: the keyword arguments of `bench.measure`."""
     from graspjax.config import override, preset
-    from graspjax.realimage.inputs import split_overrides
+    from graspjax.imagefiles.inputs import split_overrides
     from graspjax.sim.objects import parse_letters
 
     check_writable(args.out, "--out")

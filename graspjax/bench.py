@@ -20,6 +20,7 @@ from graspjax.perception.support import known_support
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.workspace import block_factors
 from graspjax.provenance import device_line, provenance
+from graspjax.schema import BENCH_FIELDS, PERCEPTION_KERNELS, PROVENANCE_FIELDS
 
 
 def median_seconds(fn, repeats: int) -> float:
@@ -95,7 +96,17 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
                                                           max(repeats * 5, 20))
     found = jax.vmap(lambda d: detect_grasp(d, camera, config.detect, config.gripper).found)
     results["grasp_found_fraction"] = float(jnp.mean(jax.jit(found)(jnp.asarray(scenes))))
-    return results
+    return bench_record("perception", results)
+
+
+def bench_record(what: str, values: dict) -> dict:
+    """A benchmark's record in `schema.BENCH_FIELDS[what]`'s order, then the provenance; a
+    field missing or not in the schema is a bug here, not the user's."""
+    fields = (*BENCH_FIELDS[what], *PROVENANCE_FIELDS)
+    if set(values) != set(fields):
+        raise AssertionError(f"{what} record: {sorted(set(values) ^ set(fields))} differ from "
+                             "schema.BENCH_FIELDS")
+    return {name: values[name] for name in fields}
 
 
 def format_perception(r: dict) -> str:
@@ -106,7 +117,7 @@ def format_perception(r: dict) -> str:
         f"{r['unique_scenes']} distinct random scenes ({100 * r['grasp_found_fraction']:.0f}% graspable)",
         f"{'kernel':<14}{'compile s':>11}{'batch ms':>11}{'images/s':>12}",
     ]
-    for name in ("detect+align", "detect", "align", "target", "view"):
+    for name in PERCEPTION_KERNELS:
         lines.append(f"{name:<14}{r[name + '_compile_s']:>11.1f}{1e3 * r[name + '_batch_s']:>11.1f}"
                      f"{r[name + '_images_per_s']:>12,.0f}")
     lines.append(f"single image (detect+align): {r['single_latency_ms']:.2f} ms after a "
@@ -142,8 +153,8 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     single image goes in as a NumPy array (the transfer is timed); the batch is on the
     device already.
     """
+    from graspjax.imagefiles.batches import detect_batch, stack_cameras
     from graspjax.perception.real_image import detect_real_image
-    from graspjax.realimage.detect import detect_batch, stack_cameras
 
     progress(f"rendering {unique} real-looking scenes at {width}x{height} ...")
     camera, workspace, scenes = detect_workload(width, height, unique, seed)
@@ -179,7 +190,7 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     found = detect_batch(jnp.asarray(scenes), workspace, stack_cameras([camera] * unique),
                           config, image).found
     results["grasp_found_fraction"] = float(jnp.mean(found))
-    return results
+    return bench_record("detect", results)
 
 
 def format_detect(r: dict) -> str:
@@ -197,7 +208,7 @@ def format_detect(r: dict) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class PhysicsWorkload:
-    """`batch` freshly placed worlds of one scene and setup, and their vmapped `world.play`."""
+    """`batch` freshly placed worlds of one scene and setup, and their vmapped `world.simulate`."""
 
     scene: object  # sim.scene.Scene
     spec: object  # procedure.WorldSpec (batch,)
@@ -209,12 +220,13 @@ class PhysicsWorkload:
 
 def physics_workload(letters: str, setup: int, batch: int, config: Config) -> PhysicsWorkload:
     """The worlds `graspjax bench physics` times: the per-world functions of a run
-    (`procedure.start_round`, `world.play`) vmapped over `batch` worlds of `setup`."""
+    (`procedure.start_round`, `world.simulate`) vmapped over `batch` worlds of `setup`."""
     from graspjax.config import stack_configs
     from graspjax.procedure import WorldSpec, start_round
+    from graspjax.sim import world
     from graspjax.sim.physics import WORLDS
     from graspjax.sim.scene import mjx, scene_for
-    from graspjax.sim.world import GraspPose, physics_model, play
+    from graspjax.sim.world import GraspPose, physics_model
 
     scene = scene_for(tuple(letters), config, setup != 1)
     n = scene.num_objects
@@ -227,8 +239,8 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
     data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, (setup,)).data))(spec)
 
     def run(d, w, grasp, target, segments, execute):
-        return play(scene, physics_model(scene, w.config), d, grasp, target, segments, execute,
-                    w.config)
+        return world.simulate(scene, physics_model(scene, w.config), d, grasp, target, segments,
+                              execute, w.config)
 
     simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, None), axis_name=WORLDS),
                        static_argnums=5)
@@ -243,8 +255,9 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     """World-steps/s of a scene (settling and grasp execution) and depth images/s
     (`physics_workload`); compile time apart."""
     from graspjax.geometry import look_down
+    from graspjax.privates import impl
     from graspjax.sim.scene import mjx, scene_for
-    from graspjax.sim.world import GraspPose, depth_image, mjx_internals
+    from graspjax.sim.world import GraspPose, depth_image
 
     start = time.perf_counter()
     scene_for(tuple(letters), config, setup != 1)  # built once, shared with the workload
@@ -289,7 +302,7 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     jax.block_until_ready(draw(kin, keys))
     render_compile_s = time.perf_counter() - t0
     render_s = median_seconds(lambda: draw(kin, keys), 5)
-    return {
+    return bench_record("physics", {
         "scene": letters, "setup": setup, "batch": batch, "build_s": build_s,
         "compile_s": compile_s,
         "settle_world_steps_per_s": batch * settle * s.segment_steps / settle_s,
@@ -298,9 +311,9 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
         "grasp_success_fraction": float(np.mean(np.asarray(done.outcome) == 0)),
         "render_compile_s": render_compile_s, "render_images_per_s": batch / render_s,
         "render_resolution": [camera.width, camera.height], "sensor": config.camera.sensor,
-        "ncon": int(mjx_internals(data).ncon),  # static: the same for every world
+        "ncon": int(impl(data).ncon),  # static: the same for every world
         **provenance(),
-    }
+    })
 
 
 def format_physics(r: dict) -> str:
@@ -346,14 +359,14 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
     wall_s = time.perf_counter() - first
     attempts = sum(int((f["attempt"] >= 0).sum()) for f in frames)
     success = float(np.mean(np.concatenate([f["success"].to_numpy() for f in frames])))
-    return {
+    return bench_record("pipeline", {
         "objects": objects, "setups": list(setups), "trials": trials, "batch": size,
         "attempts": attempts, "success_rate": success, "trace_s": trace_s,
         "compile_s": compile_s,
         "run_s": wall_s, "attempts_per_s": attempts / wall_s,
         "deterministic": "xla_gpu_deterministic_ops=true" in os.environ.get("XLA_FLAGS", ""),
         **provenance(),
-    }
+    })
 
 
 def format_pipeline(r: dict) -> str:

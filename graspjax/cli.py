@@ -22,11 +22,11 @@ from graspjax.io import InputError, check_writable
 
 def cmd_detect(args) -> int:
     """Detect grasps on depth images from disk: one JSON record each, or a table of many."""
-    from graspjax.experiment import detect
-    from graspjax.realimage.records import line
+    from graspjax.experiment import detect_images
+    from graspjax.imagefiles.records import line
 
     inputs, outputs, batch, many = arguments.detect_request(args)
-    records = detect(inputs, outputs, batch, args.quiet)
+    records = detect_images(inputs, outputs, batch, args.quiet)
     if many:
         for rec in records:
             print(line(rec))
@@ -326,8 +326,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def entry() -> None:
     """The `graspjax` command: `main`, then the process ends without the interpreter's teardown
-    (every file is written and closed by then). Tearing down JAX's GPU client and the programs
-    loaded on it took about 2 s of a warm run (one H100; results/benchmarks)."""
+    (every file is written and closed by then): tearing down JAX's GPU client and the programs
+    loaded on it is a noticeable share of a warm run (results/benchmarks)."""
     code = main()  # an exception (argparse's SystemExit, a bug's traceback) ends it as usual
     try:
         sys.stdout.flush()

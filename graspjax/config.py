@@ -578,8 +578,7 @@ class RealImageConfig:
     full_pixel: float = 0.001  # input resolution: an image whose pixels are finer than this
     # at its median depth (m) is block-medianed down to it first; the jaws' checks (a 2 cm wide,
     # 1.2 cm thick finger) gain nothing from finer pixels, and the support's block median
-    # compiles in time that grows steeply with its block (graspjax detect on 4000 x 3000: more
-    # than 500 s)
+    # compiles in time that grows steeply with its block (minutes for 4000 x 3000 images)
     max_full_pixels: int = 1_310_720  # ... and to at most this many pixels (1280 x 1024)
     detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
     downsample: int = 0  # block factor of the detection resolution (0: from detect_width)

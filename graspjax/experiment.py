@@ -2,8 +2,8 @@
 study, and a detection on real depth images.
 
 Each reads top to bottom: plan the work, write what identifies it, run the compiled kernels
-chunk by chunk (`batch.program`, `planes`, `realimage.detect`), turn their records into rows
-or records (`batch.rows`, `realimage.records`), write them as they come (`outputs`), then the
+chunk by chunk (`batch.program`, `planes`, `imagefiles.batches`), turn their records into rows
+or records (`batch.rows`, `imagefiles.records`), write them as they come (`outputs`), then the
 report computed from the written rows alone (`report`). The command line parses and checks
 the arguments and prints what these return.
 """
@@ -109,7 +109,7 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
 def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int, quiet: bool,
          processes: int) -> RunResult:
     """`run`, with the folder checked and locked."""
-    from graspjax.views import ViewSaver
+    from graspjax.saved_views import ViewSaver
 
     batch = experiment.batch or default_batch()
     configs, groups = _grouped(experiment)
@@ -135,7 +135,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     shares = share(work, processes if experiment.save_views == "none" else 1)
     # The run plays the lightest share itself: its XLA threads were started for every core
     # before it keeps to its block, so its chunks run slower than a helper's, whose threads
-    # start on its block alone (README's command warm: 115-122 s the other way round).
+    # start on its block alone (measured the other way round: slower).
     mine = {c.index for c in ours if c.group in shares[-1]}
     skip = folder.done | {c.index for c in planned if c.index not in mine}
     per_chunk = {c.index: len(c.worlds) * groups[c.group].attempts for c in ours}
@@ -157,7 +157,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         try:
             # Each process keeps to cores of its own only when every program loads from the
             # store: a process compiling on one core could not take the core another is done
-            # with (README's command cold, 2 cores: 500 s kept apart, 429 s in one process).
+            # with (measured cold on 2 cores: slower kept apart than in one process).
             warm = len(shares) > 1 and all(program(groups[g], batch, keep_views=False).stored()
                                            for g in work)
             for process, groups_of_helper in enumerate(shares[:-1], start=1):
@@ -270,12 +270,12 @@ class DetectOutputs:
     folder: str | None = None  # a folder: results.csv and results.json
 
 
-def detect(inputs, outputs: DetectOutputs, batch: int = 16, quiet: bool = False) -> list[dict]:
-    """`graspjax detect`: every image of `inputs` (`realimage.inputs.prepare`) through the
+def detect_images(inputs, outputs: DetectOutputs, batch: int = 16, quiet: bool = False) -> list[dict]:
+    """`graspjax detect`: every image of `inputs` (`imagefiles.inputs.prepare`) through the
     batched detector; its records (JSON values), with the files of `outputs` written
     atomically once everything has run (figures as each image is done)."""
-    from graspjax.realimage import records as rec
-    from graspjax.realimage.detect import detect_files
+    from graspjax.imagefiles import records as rec
+    from graspjax.imagefiles.batches import detect_files
     from graspjax.viz import real_image_figure
 
     many = len(inputs.paths) > 1

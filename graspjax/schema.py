@@ -7,6 +7,8 @@ that reports and tables (`report/`) read a run's files without loading MJX.
 - `rounds.csv`: one row per settled Setup 2/3 layout; its density is `LAYOUT_COLUMNS`.
 - `timings.csv`: one row per chunk, `TIMINGS_COLUMNS`.
 - `planes.csv.gz` (`graspjax planes`): one row per grid point and world, `PLANES_COLUMNS`.
+- `graspjax bench ... --out FILE.json`: one record per benchmark, `BENCH_FIELDS[what]` and then
+  `PROVENANCE_FIELDS`.
 """
 
 from __future__ import annotations
@@ -47,6 +49,53 @@ PLANES_COLUMNS = (
     "normal_error_deg",  # its normal against the target's nearest true face
     "view_tilt_deg",  # the re-aligned view's tilt from straight down
 )
+PROVENANCE_FIELDS = (
+    "versions",  # package -> version (jax, jaxlib, mujoco, mujoco-mjx, numpy, ...)
+    "python",  # Python's version
+    "devices",  # every local device, "platform:kind:id"
+    "device",  # the first device's platform and kind, and the device count
+    "cpu",  # the host CPU's model (XLA:CPU compiles for its instruction set)
+    "host",  # the host's name
+    "command",  # the graspjax command as typed
+)
+PERCEPTION_KERNELS = ("detect+align", "detect", "align", "target", "view")  # timed batched
+_WORKLOAD = (
+    "batch",  # images per batched call
+    "width", "height",  # image size (pixels)
+    "unique_scenes",  # distinct random scenes the batch cycles through
+    "repeats",  # timed calls (the median is reported)
+)
+BENCH_FIELDS = {
+    "perception": (  # `bench.perception_benchmark`: kernels on simulated 160 x 120 views
+        *_WORKLOAD,
+        *(f"{kernel}_{measure}" for kernel in PERCEPTION_KERNELS
+          for measure in ("compile_s", "batch_s", "images_per_s")),  # s, s per call, images/s
+        "single_compile_s", "single_latency_ms",  # one image, detect+align
+        "grasp_found_fraction",  # share of the scenes where `detect_grasp` finds a grasp
+    ),
+    "detect": (  # `bench.detect_benchmark`: `graspjax detect`'s kernel on real-looking images
+        *_WORKLOAD,
+        "detect_width", "support_width",  # working resolutions (pixels across)
+        "batch_compile_s", "batch_s", "images_per_s",  # the batch: compile, s per call, rate
+        "single_compile_s", "single_latency_ms", "single_latency_p90_ms",  # one image, NumPy in
+        "grasp_found_fraction",  # share of the scenes with a grasp
+    ),
+    "physics": (  # `bench.physics_benchmark`: one scene's worlds settling and grasping
+        "scene", "setup", "batch",  # object letters, setup, worlds
+        "build_s", "compile_s",  # scene build, physics compile (s)
+        "settle_world_steps_per_s", "execute_world_steps_per_s", "execute_s",
+        "grasp_success_fraction",  # share of blind top-down grasps that lifted
+        "render_compile_s", "render_images_per_s", "render_resolution", "sensor",  # depth images
+        "ncon",  # contact slots of the scene's model
+    ),
+    "pipeline": (  # `bench.pipeline_benchmark`: attempts end to end
+        "objects", "setups", "trials", "batch",
+        "attempts", "success_rate",
+        "trace_s", "compile_s", "run_s",  # tracing, compiling, then running every chunk (s)
+        "attempts_per_s",
+        "deterministic",  # XLA's deterministic GPU ops were on
+    ),
+}
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)  # Reason -> label
 SURFACE_LABELS = np.array([s.name.lower().replace("_", " ") if s != Surface.NONE else ""

@@ -87,7 +87,7 @@ def top_down_pose(height: float, x: float = 0.0, y: float = 0.0):
     return rotation, np.array([x, y, height], float)
 
 
-def render_depth(camera: Camera, rotation: np.ndarray, position, solids, ground: float | None = 0.0):
+def analytic_depth(camera: Camera, rotation: np.ndarray, position, solids, ground: float | None = 0.0):
     """Depth image `(H, W)` float32 of `solids` seen from a camera pose (0 = no hit).
 
     rotation: camera-to-world (3, 3); position: camera centre (3,) in the world;
@@ -140,7 +140,7 @@ def random_scene(rng: np.random.Generator, camera: Camera, height: float = 0.5) 
     neighbours, clutter); used by the benchmark and examples, never by tests.
     """
     rotation, eye = top_down_pose(height)
-    return render_depth(camera, rotation, eye, _random_solids(rng))
+    return analytic_depth(camera, rotation, eye, _random_solids(rng))
 
 
 def random_real_scene(rng: np.random.Generator, camera: Camera, height: float = 0.7) -> np.ndarray:
@@ -159,7 +159,7 @@ def random_real_scene(rng: np.random.Generator, camera: Camera, height: float = 
     eye = np.array([0.0, 0.0, 0.0]) - rotation[:, 2] * height / np.cos(tilt)
     finger = eye + rotation @ np.array([0.0, 0.5 * camera.height / camera.fy * 0.3, 0.3])
     solids = [*_random_solids(rng), box((0.03, 0.03, 0.08), finger - [0.0, 0.0, 0.04])]
-    depth = render_depth(camera, rotation, eye, solids)
+    depth = analytic_depth(camera, rotation, eye, solids)
     depth[rng.random(depth.shape) < 0.03] = 0.0
     rows, cols = rng.integers(0, depth.shape[0], 20), rng.integers(0, depth.shape[1], 20)
     depth[rows, cols] = rng.uniform(0.3, 0.5, 20)

@@ -149,7 +149,7 @@ def _draw_view(fig, axes, depth, camera: Camera, grasp: Grasp, alignment: Alignm
 
 
 def attempt_figure(saved, config: Config = Config()) -> bytes:
-    """PNG bytes of one simulated attempt (`views.SavedAttempt`): the overview with the
+    """PNG bytes of one simulated attempt (`saved_views.SavedAttempt`): the overview with the
     target, then one row of three panels per view the procedure took."""
     height, width = saved.depth.shape[1:]
     camera = Camera(width, height, *map(float, saved.camera))

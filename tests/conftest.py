@@ -13,7 +13,7 @@ import pytest
 
 from graspjax import Camera, align_tool, detect_grasp
 from graspjax.runtime.xla import with_xla_flags
-from graspjax.synthetic import render_depth, top_down_pose
+from graspjax.synthetic import analytic_depth, top_down_pose
 
 # A persistent compilation cache makes local reruns fast (CI starts cold); the CLI in a
 # subprocess shares it through GRASPJAX_CACHE.
@@ -92,7 +92,7 @@ def render(camera):
     rotation, eye = top_down_pose(CAMERA_HEIGHT)
 
     def _render(solids, ground=0.0):
-        return render_depth(camera, rotation, eye, solids, ground=ground)
+        return analytic_depth(camera, rotation, eye, solids, ground=ground)
 
     return _render
 
@@ -119,21 +119,21 @@ SIM_BATCH = 6  # every physics test uses this many worlds, so each scene compile
 
 
 class Worlds:
-    """`SIM_BATCH` worlds of one scene: layouts, settling and grasps through `world.play`."""
+    """`SIM_BATCH` worlds of one scene: layouts, settling and grasps through `world.simulate`."""
 
     def __init__(self, scene):
         from graspjax.config import Config
         from graspjax.sim.physics.collision import WORLDS
         from graspjax.sim.scene import mjx
-        from graspjax.sim.world import physics_model, play, reset
+        from graspjax.sim.world import physics_model, reset, simulate
 
         self.scene, config = scene, Config()
         model = physics_model(scene, config)
         template = mjx.make_data(scene.mj_model)
 
         def one(data, grasp, target, segments, execute, take_out):
-            return play(scene, model, data, grasp, target, segments, execute, config,
-                        take_out=take_out)
+            return simulate(scene, model, data, grasp, target, segments, execute, config,
+                            take_out=take_out)
 
         self._reset = jax.jit(jax.vmap(lambda p, q, a, b: reset(scene, template, p, q, a, b)))
         self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))

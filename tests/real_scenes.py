@@ -14,7 +14,7 @@ import dataclasses
 import numpy as np
 
 from graspjax import Camera
-from graspjax.synthetic import box, render_depth, rot_x, rot_y, top_down_pose
+from graspjax.synthetic import analytic_depth, box, rot_x, rot_y, top_down_pose
 
 WIDTH, HEIGHT = 640, 480
 
@@ -67,7 +67,7 @@ def table_scene() -> RealScene:
     target = box((*size, 0.04), (*centre, 0.0), yaw)
     finger_centre = eye + rotation @ np.array([-0.10, 0.12, 0.30])
     finger = box((0.03, 0.03, 0.08), finger_centre - [0.0, 0.0, 0.04])
-    depth = render_depth(camera, rotation, eye, [target, finger])
+    depth = analytic_depth(camera, rotation, eye, [target, finger])
     roi = (40, 20, 600, 400)
     return RealScene(depth, camera, rotation, eye, _roi_mask(roi), roi,
                      np.array([*centre, 0.04]), size, yaw)
@@ -110,7 +110,7 @@ def bin_scene() -> RealScene:
     objects = [box((*size, 0.06), (*centre, 0.0), yaw),
                box((0.05, 0.08, 0.03), (cx - 0.08, cy + 0.03, 0.0), 0.2),
                box((0.06, 0.06, 0.02), (cx + 0.12, cy + 0.06, 0.0))]
-    depth = render_depth(camera, rotation, eye, walls + objects)
+    depth = analytic_depth(camera, rotation, eye, walls + objects)
     rim = np.array([camera.project(rotation.T @ (np.array([cx + sx * length / 2,
                                                             cy + sy * width / 2, height]) - eye))
                     for sx in (-1, 1) for sy in (-1, 1)])  # (-,-), (-,+), (+,-), (+,+)
@@ -125,7 +125,7 @@ def table_with(solids, roi=(40, 20, 600, 400)):
     and the camera-to-world rotation (3, 3) and centre (3,) to check results in world terms."""
     camera = Camera(WIDTH, HEIGHT, 525.0, 525.0, 319.5, 239.5)
     rotation, eye = tilted_pose(0.73, 13.0)
-    return (render_depth(camera, rotation, eye, solids), camera, _roi_mask(roi), rotation, eye)
+    return (analytic_depth(camera, rotation, eye, solids), camera, _roi_mask(roi), rotation, eye)
 
 
 def table_centre() -> np.ndarray:

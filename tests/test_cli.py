@@ -13,7 +13,7 @@ from real_scenes import table_scene, with_holes_and_specks
 
 from graspjax import Camera
 from graspjax.cli import main
-from graspjax.synthetic import box, render_depth, top_down_pose
+from graspjax.synthetic import analytic_depth, box, top_down_pose
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -23,7 +23,7 @@ def kinect_scene(tmp_path_factory):
     """A 640x480 Kinect-like image of a 5 x 9 cm box, as .npy (m) and 16-bit .png (mm)."""
     folder = tmp_path_factory.mktemp("scene")
     rotation, eye = top_down_pose(0.6)
-    depth = render_depth(Camera.kinect(640, 480), rotation, eye,
+    depth = analytic_depth(Camera.kinect(640, 480), rotation, eye,
                          [box((0.05, 0.09, 0.05), (0.01, 0.02, 0.0), 0.35)])
     np.save(folder / "scene.npy", depth)
     Image.fromarray((depth * 1000).round().astype(np.uint16)).save(folder / "scene.png")
@@ -205,7 +205,7 @@ def test_bench_detect_takes_the_preset_as_detect_does(tmp_path, monkeypatch):
     """`bench detect --preset realistic --set ...` measures the configuration that `detect
     --preset realistic --set ...` runs (the measurement itself is replaced: not timed here)."""
     import graspjax.bench
-    import graspjax.realimage.inputs as inputs
+    import graspjax.imagefiles.inputs as inputs
     from graspjax.config import Config, RealImageConfig
 
     seen = {}

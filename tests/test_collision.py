@@ -1,4 +1,4 @@
-"""The physics step's broad phase over the batch (`sim/collision.py`), against MJX's own."""
+"""The physics step's broad phase over the batch (`sim/physics/collision.py`), against MJX's own."""
 
 import copy
 

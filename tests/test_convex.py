@@ -1,4 +1,4 @@
-"""Hull-hull contacts on pair grids (`sim/convex.py`), against MJX's `convex_convex` and against
+"""Hull-hull contacts on pair grids (`sim/physics/convex.py`), against MJX's `convex_convex` and against
 contacts computed by hand."""
 
 import jax

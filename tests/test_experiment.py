@@ -22,7 +22,7 @@ from graspjax.cli import main
 from graspjax.config import Config, override
 from graspjax.procedure import steps
 from graspjax.runtime import exported, players
-from graspjax.views import attempt_name
+from graspjax.saved_views import attempt_name
 
 # Objects a and c alone (Setup 1), 3 trials each: 6 worlds, in chunks of 3 (c needs a re-alignment).
 TINY = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--seed", "3", "--quiet",

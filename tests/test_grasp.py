@@ -270,7 +270,7 @@ def test_the_wall_angle_follows_the_pad_friction(camera, detect, render, frictio
 
 def test_the_slope_seen_head_on_is_grasped_across_the_ramp(camera, detect):
     """Camera on the ramp's normal: the whole slope is one face, grasped across its 5 cm."""
-    from graspjax.synthetic import render_depth, rot_y, top_down_pose
+    from graspjax.synthetic import analytic_depth, rot_y, top_down_pose
 
     slope = np.deg2rad(25.0)
     normal = np.array([-np.sin(slope), 0.0, np.cos(slope)])
@@ -280,7 +280,7 @@ def test_the_slope_seen_head_on_is_grasped_across_the_ramp(camera, detect):
     np.testing.assert_allclose(rotation[:, 2], -normal, atol=1e-12)
     # No table: tilted with the view, it would come nearer than the ramp at the image border
     # (the procedure passes the target's pixels as `seed_mask` for that).
-    depth = render_depth(camera, rotation, centre + 0.4 * normal, [_wedge(25.0)], ground=None)
+    depth = analytic_depth(camera, rotation, centre + 0.4 * normal, [_wedge(25.0)], ground=None)
     g = detect(jnp.asarray(depth), camera)
     assert bool(g.found), _reason(g)
     assert float(g.surface_depth) == pytest.approx(0.4, abs=1e-4)

@@ -9,9 +9,9 @@ import pytest
 from real_scenes import table_centre, table_with
 
 from graspjax.config import Config, RealImageConfig, preset
+from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
 from graspjax.perception.jaws import check_jaws
-from graspjax.realimage.detect import detect_batch, stack_cameras
 from graspjax.synthetic import box, regular_prism, rot_y
 
 CENTRE = table_centre()

@@ -1,4 +1,4 @@
-"""Settling and grasp execution in MJX (`world.play`), judged by physics (CPU, small batches)."""
+"""Settling and grasp execution in MJX (`world.simulate`), judged by physics (CPU, small batches)."""
 
 import copy
 

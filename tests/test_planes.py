@@ -12,7 +12,7 @@ from graspjax.codes import Surface
 from graspjax.config import Config, override
 from graspjax.planes import FirstView, judge, summarize
 from graspjax.stats import detectable_difference
-from graspjax.synthetic import box, render_depth, rot_y, top_down_pose
+from graspjax.synthetic import analytic_depth, box, rot_y, top_down_pose
 
 CENTRE = override(Config(), ["align.anchor=centre", "align.turn_normal=metric"])  # ours
 
@@ -26,8 +26,8 @@ def _box_view(tilt_deg: float) -> FirstView:
     pivot = np.array([0.0, 0.0, 0.05])
     swing = rot_y(np.deg2rad(tilt_deg))
     rotation, position = swing @ rotation, pivot + swing @ (position - pivot)
-    depth = render_depth(camera, rotation, position, [solid])
-    on_box = render_depth(camera, rotation, position, [solid], ground=None) > 0
+    depth = analytic_depth(camera, rotation, position, [solid])
+    on_box = analytic_depth(camera, rotation, position, [solid], ground=None) > 0
     surface = np.where(on_box, Surface.TARGET, np.where(depth > 0, Surface.TABLE, Surface.NONE))
     return FirstView(depth=jnp.asarray(depth), mask=jnp.asarray(on_box),
                      surface=jnp.asarray(surface, jnp.int32),

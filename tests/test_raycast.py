@@ -10,7 +10,7 @@ from graspjax.config import CameraConfig
 from graspjax.geometry import axis_angle, look_down, matrix_to_quat
 from graspjax.sim.objects import OBJECTS
 from graspjax.sim.world import depth_image, move_hand
-from graspjax.synthetic import render_depth, rot_z
+from graspjax.synthetic import analytic_depth, rot_z
 
 
 def _poses():
@@ -33,7 +33,7 @@ def _state(sim):
 def _reference(camera, rotation, position):
     solids = [hull_solid(OBJECTS[sim_letter].pieces[0].points(), r, p)
               for sim_letter, (p, r) in zip("ade", _poses().values(), strict=True)]
-    return render_depth(camera, np.asarray(rotation), np.asarray(position), solids)
+    return analytic_depth(camera, np.asarray(rotation), np.asarray(position), solids)
 
 
 @pytest.mark.parametrize("view", ["top_down", "tilted"])

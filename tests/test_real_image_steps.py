@@ -19,7 +19,7 @@ from graspjax.perception.target import (
 )
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
 from graspjax.perception.workspace import block_median, fill_holes
-from graspjax.synthetic import box, render_depth
+from graspjax.synthetic import analytic_depth, box
 
 WORK = Camera(320, 240, 262.5, 262.5, 159.5, 119.5)  # the PrimeSense at half resolution
 
@@ -37,7 +37,7 @@ def _angle_deg(a, b):
 def _table(solids=(), tilt_deg=13.0, camera=WORK):
     """Working-resolution depth of `solids` on a table, seen from 0.73 m, tilted; and the pose."""
     rotation, eye = tilted_pose(0.73, tilt_deg)
-    return render_depth(camera, rotation, eye, list(solids)), rotation, eye
+    return analytic_depth(camera, rotation, eye, list(solids)), rotation, eye
 
 
 @pytest.mark.parametrize("factor", [2, 3, 4])
@@ -235,7 +235,7 @@ def test_known_support_is_the_table_seen_from_a_tilted_camera():
 
         heights = []
         for solids in ([], [box((0.05, 0.05, 0.04))]):
-            depth = jnp.asarray(render_depth(WORK, rotation, eye, solids))
+            depth = jnp.asarray(analytic_depth(WORK, rotation, eye, solids))
             assert bool(jnp.all(depth > 0))
             heights.append(np.asarray(plane_height(WORK.unproject(WORK.pixel_grid(), depth),
                                                    plane.normal, plane.distance)))
@@ -251,7 +251,7 @@ def test_box_workspace_keeps_the_points_inside_the_box():
 
     rotation, eye = tilted_pose(0.6, 25.0)
     eye = eye + np.array([0.02, -0.03, 0.0])
-    depth = render_depth(WORK, rotation, eye, [])
+    depth = analytic_depth(WORK, rotation, eye, [])
     depth[0, :5] = 0.0  # no depth: never inside
     lower, upper = np.array([-0.03, -0.10, -1.0]), np.array([0.08, 0.02, 1.0])
     inside = np.asarray(box_workspace(jnp.asarray(depth), WORK, jnp.asarray(rotation, jnp.float32),

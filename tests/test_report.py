@@ -109,7 +109,7 @@ def test_debug_figures_use_each_grid_points_own_configuration():
     from types import SimpleNamespace
 
     from graspjax.report import point_config
-    from graspjax.views import attempt_name, point_of
+    from graspjax.saved_views import attempt_name, point_of
 
     meta = {"overrides": {"camera.sensor": "kinect", "align.window_px": 20},
             "grid": {"align.window_px": ["5", "10", "30"],

@@ -3,7 +3,7 @@ round never got an attempt; the protocol's bookkeeping between attempts (`proced
 
 import numpy as np
 
-from graspjax.batch.plan import World
+from graspjax.batch.plan import WorldKey
 from graspjax.batch.rows import _record_rows
 from graspjax.codes import Outcome, Reason
 from graspjax.config import MAX_REORIENTATIONS, Config, override
@@ -45,7 +45,7 @@ def _record(target, aimed, reason, lifted=(-1, -1), under=(-1, -1)):
 def test_rows_credit_the_object_the_target_point_lay_on():
     """World 0: a lifted, then b tried twice (left in the scene) while c is never reached.
     World 1: b lifted with a's attempt, then no target point at all while c is still there."""
-    worlds = (World(0, 0, 2, 0, LETTERS), World(0, 0, 2, 1, LETTERS))
+    worlds = (WorldKey(0, 0, 2, 0, LETTERS), WorldKey(0, 0, 2, 1, LETTERS))
     records = [_record([0, 0], [True, True], [Outcome.SUCCESS, Outcome.WRONG_OBJECT],
                        lifted=(0, 1), under=(0, 1)),
                _record([1, -1], [True, False], [Reason.DETECT_NO_ROOM, Reason.NO_TARGET]),

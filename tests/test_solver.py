@@ -1,4 +1,4 @@
-"""The Newton solver with the elliptic cone's Hessian assembled as one product (`sim/solver.py`)."""
+"""The Newton solver with the elliptic cone's Hessian assembled as one product (`sim/physics/solver.py`)."""
 
 import jax
 import numpy as np

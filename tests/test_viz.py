@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.perception.grasp import surface_contour
+from graspjax.saved_views import SavedAttempt
 from graspjax.synthetic import box
-from graspjax.views import SavedAttempt
 from graspjax.viz import attempt_figure
 
 

@@ -64,8 +64,8 @@ def table_job(table: int, trials: int) -> Job:
 
 
 @dataclasses.dataclass(frozen=True)
-class World:
-    """One world of a run, host side: which round of which grid point it plays."""
+class WorldKey:
+    """One world's key, host side: which round of which grid point it plays (its seeds follow)."""
 
     point: int  # grid point index (0 for a plain run)
     seed: int  # the grid point's seed
@@ -82,7 +82,7 @@ class Group:
     collide: bool  # objects touch each other (Setups 2, 3)
     attempts: int  # attempts per round
     config: Config  # static configuration (traced values: per world, from its point)
-    worlds: tuple[World, ...]
+    worlds: tuple[WorldKey, ...]
 
     @property
     def setups(self) -> tuple[int, ...]:
@@ -103,7 +103,7 @@ class Chunk:
 
     index: int  # position in the run (stable for a given command and batch size)
     group: int
-    worlds: tuple[World, ...]
+    worlds: tuple[WorldKey, ...]
 
 
 def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False) -> list[Group]:
@@ -115,10 +115,10 @@ def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False)
         for job in jobs:
             for setup in job.setups:
                 if setup == 1:
-                    worlds = [World(i, seed_i, 1, t, (c,)) for c in job.objects
+                    worlds = [WorldKey(i, seed_i, 1, t, (c,)) for c in job.objects
                               for t in range(job.trials)]
                 else:
-                    worlds = [World(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
+                    worlds = [WorldKey(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
                 key = (job.letters, setup > 1, round_attempts(setup, job.objects, config),
                        jax.tree.structure(config))
                 groups.setdefault(key, (config, []))[1].extend(worlds)
@@ -148,8 +148,7 @@ def default_batch() -> int:
     """Worlds per chunk: device-sized. A GPU needs thousands to be busy. The CPU is busy with a
     few, and chunks of 10 keep a 10-trial Setup 1 chunk to one object (the broad phase then
     skips every other object's pairs) and Setups 2 and 3 apart (a Setup 2 round does not wait
-    out the bin's longer drop): README's command ran its chunks in 145 s instead of 189 s at
-    32 (2-core CPU, results/benchmarks)."""
+    out the bin's longer drop): README's command plays faster than at 32 (results/benchmarks)."""
     return 4096 * jax.local_device_count() if jax.default_backend() == "gpu" else 10
 
 

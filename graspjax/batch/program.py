@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.batch.plan import Chunk, Group, World, chunks, padded_size
+from graspjax.batch.plan import Chunk, Group, WorldKey, chunks, padded_size
 from graspjax.config import Config, stack_configs
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
 from graspjax.runtime import exported
@@ -154,7 +154,7 @@ class Program:
         of the devices); tracing apart (`trace_s`)."""
         return max(self._compile_s)
 
-    def spec(self, worlds: tuple[World, ...], points: list[Config]) -> WorldSpec:
+    def spec(self, worlds: tuple[WorldKey, ...], points: list[Config]) -> WorldSpec:
         """These worlds' batch on the host (grid point i: `points[i]`), padded with copies of the
         first world."""
         letters, n = self.group.letters, len(self.group.letters)
@@ -170,7 +170,7 @@ class Program:
                          trial=np.array([w.trial for w in padded], np.int32),
                          order=order, members=members, config=config)
 
-    def settle(self, worlds: tuple[World, ...], points: list[Config]) -> tuple[RoundState, WorldSpec]:
+    def settle(self, worlds: tuple[WorldKey, ...], points: list[Config]) -> tuple[RoundState, WorldSpec]:
         """These worlds placed and settled (no attempt), on the first device: for studies that
         look at the layouts a run would attempt without grasping (`planes`)."""
         if self._settle is None:
@@ -224,7 +224,7 @@ class Program:
             self._attempt[device] = attempt_fn  # last: `compiled` looks at it
         self._compile_s[device] = lower_s + time.perf_counter() - start
 
-    def play(self, worlds: tuple[World, ...], points: list[Config], progress: Callable[[int], None]
+    def play(self, worlds: tuple[WorldKey, ...], points: list[Config], progress: Callable[[int], None]
              ) -> tuple[Record, list[Record], ChunkViews | None]:
         """One round in every world: the drop, then each attempt; the drop's record and the
         attempts' records on the host, and the views (left on the devices) if kept.

@@ -21,7 +21,7 @@ import jax
 import numpy as np
 import pandas as pd
 
-from graspjax.batch.plan import World
+from graspjax.batch.plan import WorldKey
 from graspjax.codes import Outcome
 from graspjax.config import MAX_REORIENTATIONS, Config, differences
 from graspjax.perception import AlignReason, GraspReason
@@ -60,7 +60,7 @@ def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     return frame[FIRST_COLUMNS + rest]
 
 
-def _record_rows(letters: tuple[str, ...], worlds: tuple[World, ...], records: list[Record]
+def _record_rows(letters: tuple[str, ...], worlds: tuple[WorldKey, ...], records: list[Record]
                  ) -> pd.DataFrame:
     """One row per attempt (and per object of a round that never got one), in world order:
     the columns a world and its records give, before the run's own."""

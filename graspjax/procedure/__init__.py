@@ -24,7 +24,7 @@ k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
    normal of the best neighbour plane, at the same distance from the plane's
    inliers, and detects again; at most `max_reorientations` times (a
    bounded loop with masks).
-6. Execute and judge (`world.play`): the robot reaches the grasp pose off by
+6. Execute and judge (`world.simulate`): the robot reaches the grasp pose off by
    the execution error (`procedure.tcp_error`, `tilt_error_deg`); a pre-grasp
    pose that would put the open hand inside a part, the bin or the table is
    refused (`COLLISION`); approach (stopped by a contact force above

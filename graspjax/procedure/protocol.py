@@ -16,8 +16,8 @@ from graspjax.sim.scene import Scene, mjx
 from graspjax.sim.world import (
     GraspPose,
     physics_model,
-    play,
     reset,
+    simulate,
 )
 
 
@@ -76,10 +76,10 @@ def settle(scene: Scene, state: RoundState, spec: WorldSpec) -> RoundState:
     exactly as `attempt(..., k=-1)` settles it, without compiling the search."""
     config = spec.config
     zero3 = jnp.zeros(3, jnp.float32)
-    data, _ = play(scene, physics_model(scene, config), state.data,
-                   GraspPose(zero3, zero3, zero3, jnp.array(False)), jnp.int32(0),
-                   settle_segments(spec, jnp.int32(-1), config), jnp.array(False), config,
-                   reachable=jnp.array(False))
+    data, _ = simulate(scene, physics_model(scene, config), state.data,
+                       GraspPose(zero3, zero3, zero3, jnp.array(False)), jnp.int32(0),
+                       settle_segments(spec, jnp.int32(-1), config), jnp.array(False), config,
+                       reachable=jnp.array(False))
     return dataclasses.replace(state, data=data)
 
 

@@ -40,7 +40,7 @@ from graspjax.sim.world import (
     layout_stats,
     physics_model,
     physics_state,
-    play,
+    simulate,
 )
 from graspjax.tree import pytree_dataclass, where_tree
 
@@ -343,9 +343,9 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     take_out = aimed & (target >= 0) & config.procedure.remove_failed
     if config.procedure.round_attempts > 0:  # clutter removal leaves it
         take_out = jnp.array(False)
-    data, done = play(scene, model, state.data, dataclasses.replace(reached, valid=valid),
-                      target, settle_segments(spec, k, config), k >= 0, config,
-                      reachable=clear, take_out=take_out)
+    data, done = simulate(scene, model, state.data, dataclasses.replace(reached, valid=valid),
+                          target, settle_segments(spec, k, config), k >= 0, config,
+                          reachable=clear, take_out=take_out)
 
     mine = (jnp.arange(n) == target) & (target >= 0)
     attempted = state.attempted | mine

@@ -112,7 +112,7 @@ def debug_figures(folder: Path, count: int) -> dict[str, bytes]:
     configuration of its own grid point."""
     import json
 
-    from graspjax.views import load, point_of
+    from graspjax.saved_views import load, point_of
     from graspjax.viz import attempt_figure
 
     saved = sorted((folder / "views").glob("*.npz"))

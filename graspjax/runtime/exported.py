@@ -132,7 +132,7 @@ def _one_source_line():
     """Trace or lower with one source line per operation instead of its Python traceback (up
     to 100 frames): XLA's GPU executable builds a profiler annotation from every operation's
     frames each time it is created, compiled or loaded, which was most of a warm load
-    (results/benchmarks, stops 39 and 40). Profiles still name each operation's line. (JAX's
+    (results/benchmarks). Profiles still name each operation's line. (JAX's
     thread-local switch: private API.)"""
     return privates.include_full_tracebacks_in_locations(False)
 

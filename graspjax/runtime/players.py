@@ -2,9 +2,8 @@
 
 On a CPU one process keeps fewer cores busy than it has: a chunk's physics step is thousands
 of small kernels, mostly one after another (1.4 of 2 cores). Groups played in processes side
-by side then end sooner than one after another in one process: README's command warm, on a
-2-core CPU, 139-143 s in one process and 99-107 s with its groups split in two
-(results/benchmarks). `plan.share` splits the groups; each process traces or loads
+by side then end sooner than one after another in one process (README's command, warm, on 2
+cores; results/benchmarks). `plan.share` splits the groups; each process traces or loads
 only its own groups' programs, so a cold run compiles nothing twice.
 
 A helper gets the run's experiment, its `config.json` (`meta`) and the chunks it plays; it
@@ -65,9 +64,9 @@ def count(requested: int | None = None) -> int:
 
 def cores_of(process: int, processes: int) -> set[int] | None:
     """The cores `process` of `processes` keeps to (None: no affinity here, or fewer cores than
-    processes): this process's cores in contiguous blocks, one per process. Two processes on 2
-    cores, each kept to one, played README's rounds and g-l groups in 99 s; sharing both cores,
-    their XLA threads contended and took 107 s (results/benchmarks)."""
+    processes): this process's cores in contiguous blocks, one per process. Two processes sharing
+    both of 2 cores played slower than each kept to one: their XLA threads contended
+    (results/benchmarks)."""
     if not hasattr(os, "sched_getaffinity"):
         return None
     cores = sorted(os.sched_getaffinity(0))

@@ -26,8 +26,8 @@ DETERMINISTIC = "--xla_gpu_deterministic_ops=true"
 SMALL_DOTS = "--xla_gpu_gemm_rewrite_size_threshold=300"
 # XLA's CPU backend (jaxlib 0.10.2 on) hands products to YNNPACK, whose per-call overhead
 # outweighs the physics' products of a few elements, and whose kernels make a cached program slow
-# to load: README's command's rounds chunks took 82 s with it and 57 s with XLA's own loops
-# (2-core CPU; results/benchmarks). An empty list of fusion types switches it off.
+# to load (README's command is slower with it; results/benchmarks). An empty list of fusion
+# types switches it off.
 CPU_SMALL_DOTS = "--xla_cpu_experimental_ynn_fusion_type="
 
 

@@ -3,7 +3,7 @@
 A layout is data, not a model: initial object poses plus an `active` mask
 (inactive objects stay parked). Every sampler takes one PRNG key; derive it
 with `layout_key(seed, setup, ...)` so that any attempt can be rebuilt from
-(seed, setup, object, trial). The world's settling (`procedure.py`) then
+(seed, setup, object, trial). The world's settling (`procedure/protocol.py`) then
 lets the physics finish the layout.
 
 - Setup 1: one object dropped from a uniformly random orientation, its

@@ -288,8 +288,8 @@ def resting_poses_of(letters: tuple[str, ...], count: int = RESTING_POSES, seed:
 @functools.cache
 def _resting_poses(letter: str, count: int, seed: int) -> np.ndarray:
     """`_drops`, read from the store beside the compilation cache when an earlier process kept
-    them (the drops are about 9 s of CPU for the twelve objects, every process), else run and
-    kept there."""
+    them (the drops of the twelve objects take seconds of CPU in every process otherwise), else
+    run and kept there."""
     path = _stored_drops(letter, count, seed)
     if path is not None:
         try:

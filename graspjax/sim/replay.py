@@ -1,6 +1,6 @@
 """A grasp execution replayed in C MuJoCo: the cross-check of MJX's outcomes.
 
-`world.play` executes a grasp in MJX. `replay` runs the same execution from the same state
+`world.simulate` executes a grasp in MJX. `replay` runs the same execution from the same state
 in C MuJoCo (`mujoco.mj_step`): the same model with the world's physics values
 (`world.physics_model`, `world.with_parking`), the same refusal of a pre-grasp pose inside a
 part (`world.hand_clear`), the same waypoints, schedule, collision reflex and judge. What
@@ -64,7 +64,7 @@ def _hand_force(scene: Scene, model: mujoco.MjModel, data: mujoco.MjData) -> flo
 def replay(scene: Scene, config: Config, state: PhysicsState, grasp: GraspPose,
            target: int, iterations: int | None = None) -> Outcome:
     """Execute `grasp` (numpy fields) on object `target` from `state` (numpy fields, the world
-    before the attempt) in C MuJoCo, as `world.play` does in MJX; returns the judged outcome.
+    before the attempt) in C MuJoCo, as `world.simulate` does in MJX; returns the judged outcome.
     `iterations`: C's solver iterations (None: the scene's; see `c_model`)."""
     model = c_model(scene, config, state, iterations)
     data = mujoco.MjData(model)

@@ -306,10 +306,10 @@ class Schedule:
                    n[0], n[0] + n[1] - 1)
 
 
-def play(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose, target: jax.Array,
-         settle_segments: jax.Array, execute: jax.Array, config: Config,
-         reachable: jax.Array | bool = True, take_out: jax.Array | bool = False
-         ) -> tuple[mjx.Data, Execution]:
+def simulate(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose,
+             target: jax.Array, settle_segments: jax.Array, execute: jax.Array, config: Config,
+             reachable: jax.Array | bool = True, take_out: jax.Array | bool = False
+             ) -> tuple[mjx.Data, Execution]:
     """Execute `grasp` on object `target` (-1: none), judge it, remove what was lifted, then
     settle.
 

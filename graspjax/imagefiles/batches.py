@@ -16,8 +16,8 @@ import jax
 import numpy as np
 
 from graspjax.camera import Camera
+from graspjax.imagefiles.inputs import Inputs
 from graspjax.perception.real_image import RealImageDetection, detect_real_image
-from graspjax.realimage.inputs import Inputs
 
 #: `detect_real_image` over a batch: depth (B, H, W), workspace (H, W), a `Camera` whose fx, fy,
 #: cx, cy are (B,) arrays (`stack_cameras`), `Config`, `RealImageConfig`. One compile per batch

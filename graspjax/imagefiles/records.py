@@ -9,11 +9,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from graspjax.codes import SupportReason, TargetReason
+from graspjax.imagefiles.batches import Detection
+from graspjax.imagefiles.inputs import Inputs
 from graspjax.io import jsonable
 from graspjax.perception import AlignReason, GraspReason
 from graspjax.perception.workspace import block_factors
-from graspjax.realimage.detect import Detection
-from graspjax.realimage.inputs import Inputs
 
 
 def record(d: Detection, inputs: Inputs) -> dict:

@@ -2,7 +2,7 @@
 
 Tilted table with a robot finger nearer than the table, holes and outlier
 specks, a bin with walls and a rim: the grasp must land on the object, with
-the geometry of the analytic scene. Runs through `realimage.detect.detect_batch`
+the geometry of the analytic scene. Runs through `imagefiles.batches.detect_batch`
 (batched), the function `graspjax detect` uses, so that the compiles are
 shared with the CLI tests.
 """
@@ -15,8 +15,8 @@ from real_scenes import bin_scene, table_scene, with_holes_and_specks
 
 from graspjax.codes import SupportReason, TargetReason
 from graspjax.config import Config, RealImageConfig
+from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
-from graspjax.realimage.detect import detect_batch, stack_cameras
 
 PIXEL = 0.73 / 525.0  # a detection pixel (full resolution) on the table, metres
 
@@ -113,15 +113,15 @@ def test_a_large_fine_image_is_detected_at_the_resolution_it_needs(tmp_path):
     from real_scenes import table_scene
 
     from graspjax import Camera
-    from graspjax.realimage.detect import detect_files
-    from graspjax.realimage.inputs import IntrinsicsRequest, prepare
-    from graspjax.realimage.records import record
-    from graspjax.synthetic import box, render_depth
+    from graspjax.imagefiles.batches import detect_files
+    from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
+    from graspjax.imagefiles.records import record
+    from graspjax.synthetic import analytic_depth, box
 
     scene = table_scene()
     camera = Camera(2560, 1920, 3100.0, 3100.0, 1279.5, 959.5)
     target = box((*scene.size, 0.04), (*scene.top[:2], 0.0), scene.yaw)
-    np.save(tmp_path / "large.npy", render_depth(camera, scene.rotation, scene.eye, [target]))
+    np.save(tmp_path / "large.npy", analytic_depth(camera, scene.rotation, scene.eye, [target]))
     inputs = prepare([tmp_path / "large.npy"], intrinsics=IntrinsicsRequest(focal=(3100, 3100)),
                      roi=(160, 80, 2400, 1600))
     assert (inputs.reduction, inputs.width, inputs.height) == (4, 640, 480)
@@ -137,7 +137,7 @@ def test_a_large_fine_image_is_detected_at_the_resolution_it_needs(tmp_path):
 
 def test_the_input_reduction_follows_the_pixel_footprint_and_the_pixel_count():
     from graspjax import Camera
-    from graspjax.realimage.inputs import block_median, input_reduction, reduced
+    from graspjax.imagefiles.inputs import block_median, input_reduction, reduced
 
     image = RealImageConfig()  # pixels of at least 1 mm, at most 1280 x 1024 of them
     flat = np.full((480, 640), 0.73, np.float32)
@@ -162,8 +162,8 @@ def test_the_input_reduction_follows_the_pixel_footprint_and_the_pixel_count():
 def test_a_reduced_image_keeps_its_workspace_and_range_out_of_the_medians(tmp_path):
     """Pixels outside the workspace or the depth range take no part in a block's median, and a
     workspace too small for the reduced resolution is refused in one line."""
+    from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
     from graspjax.io import InputError
-    from graspjax.realimage.inputs import IntrinsicsRequest, prepare
 
     depth = np.full((1920, 2560), 0.7, np.float32)
     depth[:, :1281] = 0.2  # nearer than --range: a block straddling column 1280 keeps 0.7

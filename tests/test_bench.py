@@ -1,0 +1,36 @@
+"""Benchmark records (graspjax.bench): the fields `schema.BENCH_FIELDS` names, in its order, and
+the printed summary; speed is never asserted."""
+
+import pytest
+
+from graspjax import bench
+from graspjax.provenance import provenance
+from graspjax.schema import BENCH_FIELDS, PROVENANCE_FIELDS
+
+
+def test_provenance_has_the_schema_s_fields():
+    assert tuple(provenance()) == PROVENANCE_FIELDS
+
+
+def test_a_record_follows_the_schema_and_refuses_other_fields():
+    values = {name: 0 for name in (*BENCH_FIELDS["pipeline"], *PROVENANCE_FIELDS)}
+    record = bench.bench_record("pipeline", dict(reversed(values.items())))
+    assert tuple(record) == (*BENCH_FIELDS["pipeline"], *PROVENANCE_FIELDS)
+    with pytest.raises(AssertionError, match="attempts_per_s"):
+        bench.bench_record("pipeline", {k: v for k, v in values.items() if k != "attempts_per_s"})
+
+
+def test_a_tiny_perception_benchmark_writes_its_record():
+    record = bench.perception_benchmark(batch=2, width=32, height=24, repeats=1, unique=2,
+                                        progress=lambda m: None)
+    assert tuple(record) == (*BENCH_FIELDS["perception"], *PROVENANCE_FIELDS)
+    assert record["batch"] == 2 and record["detect+align_images_per_s"] > 0
+    assert "single image (detect+align)" in bench.format_perception(record)
+
+
+def test_a_tiny_detect_benchmark_writes_its_record():
+    record = bench.detect_benchmark(batch=2, width=64, height=48, repeats=1, unique=2,
+                                    progress=lambda m: None)
+    assert tuple(record) == (*BENCH_FIELDS["detect"], *PROVENANCE_FIELDS)
+    assert record["images_per_s"] > 0 and 0 <= record["grasp_found_fraction"] <= 1
+    assert "images/s" in bench.format_detect(record)
