@@ -22,7 +22,7 @@ xla.compilation_cache()
 from jax._src import compilation_cache, compiler  # noqa: E402 - after the flags are set
 from jax.experimental import serialize_executable  # noqa: E402
 
-from graspjax.batch.plan import default_batch, padded_size, plan, table_job  # noqa: E402
+from graspjax.batch.plan import default_batch, plan, table_job  # noqa: E402
 from graspjax.batch.program import program  # noqa: E402
 from graspjax.config import Config  # noqa: E402
 
@@ -48,7 +48,7 @@ def main(batch: int) -> None:
     timed(compilation_cache, "decompress_executable", "decompress")
     groups = plan([table_job(1, 10), table_job(2, 10)], [Config()], 0)
     for group in groups:
-        p = program(group, padded_size(len(group.worlds), batch), False)
+        p = program(group, batch, False)
         SECONDS.clear()
         t0 = time.perf_counter()
         _ = p.portable

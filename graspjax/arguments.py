@@ -276,3 +276,38 @@ def plane_request(args):
         raise UsageError("planes --grid takes traced align.* values that compile once (e.g. "
                          f"align.window_px, align.distance_threshold), got {', '.join(keys)}")
     return jobs(args), config, points, keys
+
+
+def distributed(text: str | None, part: str | None):
+    """--distributed [HOST:PORT,N,I] -> None (not given), `distributed.AUTO` (the launcher's
+    environment) or (coordinator address, process count, this process's index)."""
+    from graspjax.runtime.distributed import AUTO
+
+    if text is None:
+        return None
+    if part is not None:
+        raise UsageError("give --distributed or --part, not both")
+    if text == AUTO:
+        return AUTO
+    fields = text.split(",")
+    try:
+        address, count, index = fields[0], int(fields[1]), int(fields[2])
+    except (IndexError, ValueError):
+        raise UsageError(f"--distributed takes HOST:PORT,N,I (or nothing), got {text!r}") from None
+    if len(fields) != 3 or ":" not in address or not 0 <= index < count:
+        raise UsageError(f"--distributed HOST:PORT,N,I needs 0 <= I < N, got {text!r}")
+    return address, count, index
+
+
+def report_folder(args):
+    """`graspjax report`'s checked folder (a Path) and --debug."""
+    from pathlib import Path
+
+    from graspjax.io import InputError
+
+    folder = Path(args.folder)
+    if not folder.is_dir():
+        raise InputError(f"no such directory: {folder}")
+    if args.debug < 0:
+        raise UsageError(f"--debug must be >= 0, got {args.debug}")
+    return folder

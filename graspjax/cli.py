@@ -12,12 +12,12 @@ import argparse
 import json
 import os
 import sys
-from pathlib import Path
 
 from graspjax import arguments
 from graspjax.arguments import UsageError
 from graspjax.config import METHODS, ConfigError
 from graspjax.io import InputError, check_writable
+from graspjax.runtime import distributed
 
 
 def cmd_detect(args) -> int:
@@ -54,6 +54,9 @@ def _run_experiment(args, grid_items=None) -> int:
     from graspjax.runtime import xla
 
     part, parts = arguments.part(args.part)
+    spec = arguments.distributed(args.distributed, args.part)
+    if spec is not None:
+        distributed.initialize(spec)  # before any device starts
     xla.start_devices()
     from graspjax import experiment
 
@@ -62,11 +65,16 @@ def _run_experiment(args, grid_items=None) -> int:
 
     try:
         result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
-                                args.quiet, players.count(args.processes))
+                                args.quiet, 1 if spec else players.count(args.processes),
+                                distributed=spec is not None)
+        distributed.shutdown()
     except players.HelperFailed as exc:
         print(f"graspjax: error: {exc} (the finished chunks are kept: the same command with "
               "--resume continues)", file=sys.stderr)
         return 1
+    if not result.files and spec is not None:
+        print(f"this process's chunks are done; process 0 writes the results to {result.folder}")
+        return 0
     if not result.files:
         print(f"part {part}/{parts} done; {result.chunks_done} of {result.chunks} chunks of the "
               f"run are done in {result.folder} (the part that completes the last chunk writes "
@@ -122,11 +130,7 @@ def cmd_assets(args) -> int:
 def cmd_report(args) -> int:
     from graspjax.report import write_report
 
-    folder = Path(args.folder)
-    if not folder.is_dir():
-        raise InputError(f"no such directory: {folder}")
-    if args.debug < 0:
-        raise UsageError(f"--debug must be >= 0, got {args.debug}")
+    folder = arguments.report_folder(args)
     try:
         files, state = write_report(folder, debug=args.debug)
     except (FileNotFoundError, ValueError) as exc:
@@ -159,14 +163,18 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
     p.add_argument("--batch", type=int,
-                   help="worlds per chunk (default: 4096 per GPU, 10 on the CPU); the same seed and "
-                        "batch on the same device kind give the same attempts")
+                   help="worlds per device call (default: 2048 on a GPU, 10 on a CPU): a world's "
+                        "rows depend on its key, the device kind and this alone")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --out (same command): only unfinished chunks run")
     p.add_argument("--overwrite", action="store_true", help="replace a run already in --out")
     p.add_argument("--part", metavar="I/N",
                    help="run every N-th chunk from chunk I, into a folder shared by N processes "
                         "(one per host; see docs/running.md)")
+    p.add_argument("--distributed", nargs="?", const="auto", metavar="HOST:PORT,N,I",
+                   help="one of N processes (hosts) of one run on JAX's distributed runtime: "
+                        "alone, the launcher says which (Slurm, Open MPI); else coordinator, "
+                        "process count, this process's index (see docs/running.md)")
     p.add_argument("--processes", type=int, metavar="N",
                    help="CPU: play the run's groups (programs) in up to N processes side by side "
                         "(default: GRASPJAX_PROCESSES, else one per core, at most 4; a GPU takes "
@@ -256,7 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                    help="traced alignment values, e.g. align.window_px=5,15,30 (every "
                         "combination; one compiled program)")
-    p.add_argument("--batch", type=int, help="worlds per chunk (default: 4096 per GPU, 10 on the CPU)")
+    p.add_argument("--batch", type=int, help="worlds per device call (default: 2048 on a GPU, 10 on a CPU)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -30,6 +30,8 @@ from graspjax.io import jsonable, write_atomic
 from graspjax.outputs import RunFolder, check_output_folder, run_id, writing
 from graspjax.provenance import provenance
 from graspjax.runtime.compiles import trace_workers
+from graspjax.runtime.distributed import barrier
+from graspjax.runtime.distributed import process as process_of_run
 from graspjax.runtime.players import Assignment, Helper, cores_of, kept_to
 from graspjax.tree import named_fields
 
@@ -94,20 +96,28 @@ class RunResult:
 
 
 def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite: bool = False,
-        part: int = 0, parts: int = 1, quiet: bool = False, processes: int = 1) -> RunResult:
+        part: int = 0, parts: int = 1, quiet: bool = False, processes: int = 1,
+        distributed: bool = False) -> RunResult:
     """Run an experiment into the folder `out` (`outputs.RunFolder`), chunk by chunk, then
     write its report. With `parts` > 1 this process runs every `parts`-th chunk from `part`
     into a folder shared with the other parts; the one that completes the last chunk writes
-    the results. With `processes` > 1 (CPU) helper processes play some of its groups side by
-    side with it (`plan.share`, `runtime.players`; not while views are kept)."""
+    the results. With `distributed` (`runtime.distributed.initialize` done), the part and the
+    parts are this process's index and the process count of JAX's distributed runtime: process
+    0 sets the folder up, every process plays its chunks, and once all have, process 0 writes
+    the results (the others return none). With `processes` > 1 (CPU) helper processes play
+    some of its groups side by side with it (`plan.share`, `runtime.players`; not while views
+    are kept)."""
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
-    out = check_output_folder(out, resume or parts > 1, overwrite)
-    with writing(out, shared=parts > 1):  # one process writes a folder (a shared run's parts: several)
-        return _run(experiment, out, resume, part, parts, quiet, processes)
+    if distributed:
+        part, parts = process_of_run()
+    if part == 0 or not distributed:  # distributed: process 0 alone checks (and overwrites)
+        out = check_output_folder(out, resume or parts > 1 and not distributed, overwrite)
+    with writing(Path(out), shared=parts > 1):  # one process writes a folder (parts: several)
+        return _run(experiment, Path(out), resume, part, parts, quiet, processes, distributed)
 
 
 def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int, quiet: bool,
-         processes: int) -> RunResult:
+         processes: int, distributed: bool) -> RunResult:
     """`run`, with the folder checked and locked."""
     from graspjax.saved_views import ViewSaver
 
@@ -126,7 +136,12 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     meta = {"run_id": run_id(meta), **meta}
     columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
     ours = [c for c in planned if c.index % parts == part]
-    folder = RunFolder(out, meta, len(planned), resume, shared=parts > 1)
+    if distributed and part > 0:
+        barrier("folder")  # process 0 has set the folder up
+    folder = RunFolder(out, meta, len(planned), resume or distributed and part > 0,
+                       shared=parts > 1)
+    if distributed and part == 0:
+        barrier("folder")
     work: dict[int, float] = {}  # per group, the device work of its chunks still to play
     for c in ours:
         if c.index not in folder.done:
@@ -171,6 +186,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                 log(f"playing the groups in {len(helpers) + 1} processes side by side")
             with kept_to(cores_of(0, len(shares)) if helpers and warm else None):
                 _play(groups, configs, batch, skip, folder, columns, progress, log,
+                      process=part if distributed else 0,
                       saver=saver, keep_views=experiment.save_views != "none",
                       after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
             while any(helper.running() for helper in helpers):  # stream the helpers' rows
@@ -184,7 +200,11 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         finally:
             for helper in helpers:
                 helper.stop()
-    files = folder.finish()
+    if distributed:
+        barrier("played")  # every process's chunks are in the folder
+        if part > 0:
+            return RunResult(out, [], len(planned), len(planned), 0, float("nan"))
+    files = folder.finish(remove_parts=distributed or not folder.shared)
     if not files:
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
     from graspjax.report import write_report

@@ -260,8 +260,10 @@ class RunFolder:
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
 
-    def finish(self) -> list[Path]:
-        """Rebuild the attempts and rounds from the parts, sorted, and write the timings.
+    def finish(self, remove_parts: bool | None = None) -> list[Path]:
+        """Rebuild the attempts and rounds from the parts, sorted, and write the timings; the
+        parts are removed then (`remove_parts`; default: unless the folder is shared, where
+        another process may still be reading them).
 
         Returns the files written, or an empty list while chunks are missing. The report
         (tables, figures) is computed from these files afterwards (`report.write_report`).
@@ -284,7 +286,7 @@ class RunFolder:
             meta = {**self.meta, "finished": datetime.now(UTC).isoformat(timespec="seconds")}
             write_atomic(self.folder / "config.json",
                          (json.dumps(meta, indent=2, default=str) + "\n").encode())
-            if not self.shared:  # another process may still be reading them
+            if not self.shared if remove_parts is None else remove_parts:
                 shutil.rmtree(self.parts)
             self.finished = True
         data_files = ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "config.json")

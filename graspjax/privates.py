@@ -48,6 +48,8 @@ _NAMES = {
     "source_info_util": ("jax._src.source_info_util", None),
     # JAX: whether a backend has started (runtime/xla.py: XLA's flags are read then)
     "backends_are_initialized": ("jax._src.xla_bridge", "backends_are_initialized"),
+    # JAX: the distributed runtime's state, whose client holds barriers (runtime/distributed.py)
+    "distributed_state": ("jax._src.distributed", "global_state"),
     # JAX: the thread-local switch to one source line per operation (runtime/exported.py)
     "include_full_tracebacks_in_locations": ("jax._src.config",
                                              "include_full_tracebacks_in_locations"),
@@ -70,6 +72,12 @@ def impl(x: Any) -> Any:
     """The JAX implementation's private fields of an `mjx.Data` or `mjx.Model` (contacts,
     constraint rows and forces, friction-loss flags)."""
     return x._impl
+
+
+def distributed_client() -> Any:
+    """The client of JAX's distributed runtime (`jax.distributed.initialize`): its barriers
+    and key-value store."""
+    return __getattr__("distributed_state").client
 
 
 def with_impl(data: Any, **fields: Any) -> Any:

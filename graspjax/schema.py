@@ -35,7 +35,8 @@ TIMINGS_COLUMNS = (
     "compile_s",  # seconds compiling it (the group's first chunk only)
     "started_s",  # when the chunk started playing, seconds after the run began
     "wall_s",  # seconds it played
-    "peak_gib",  # the most device memory in use so far (GiB; empty where not reported)
+    "peak_gib",  # the most memory in use so far on its device (GiB; empty where not reported)
+    "device",  # the local device that played it
     "process",  # the helper process that played it (0: the run's own)
 )
 PLANES_COLUMNS = (

@@ -57,17 +57,23 @@ def test_trace_workers_come_from_the_environment(monkeypatch, value, workers):
         assert compiles.trace_workers() == workers
 
 
-def test_the_next_chunk_is_the_first_whose_program_is_ready():
-    """Plan order among the chunks whose programs have compiled; wait when none has."""
+def test_a_device_takes_the_first_chunk_whose_program_is_ready():
+    """Order among the chunks whose programs have compiled; wait when none has; a taken chunk
+    leaves the list; nothing once it is empty or the run stops."""
     first, second = (concurrent.futures.Future() for _ in range(2))
     waiting = [Chunk(0, 0, ()), Chunk(1, 0, ()), Chunk(2, 1, ())]
     futures = {0: [first], 1: [second]}
+    lock, stop = threading.Lock(), threading.Event()
     for delay, future in ((0.2, second), (2.0, first)):  # the second program compiles first
         threading.Timer(delay, future.set_result, [None]).start()
-    assert compiles.next_ready(waiting, lambda c: futures[c.group]).index == 2  # waited for it
+    assert compiles.take_ready(waiting, lambda c: futures[c.group], lock, stop).index == 2
     first = futures[0][0] = concurrent.futures.Future()
     first.set_exception(RuntimeError("failed to compile"))  # done: playing it will raise
-    assert compiles.next_ready(waiting, lambda c: futures[c.group]).index == 0
+    assert compiles.take_ready(waiting, lambda c: futures[c.group], lock, stop).index == 0
+    assert [c.index for c in waiting] == [1]
+    stop.set()
+    assert compiles.take_ready(waiting, lambda c: futures[c.group], lock, stop) is None
+    assert compiles.take_ready([], lambda c: [], lock, threading.Event()) is None
 
 
 class _LoggedProgram:

@@ -5,6 +5,7 @@ import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -63,7 +64,7 @@ def tiny_run(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def two_devices(tiny_run, tmp_path_factory):
-    """The tiny run again in a second process with two CPU devices, 3 worlds each: started by
+    """The tiny run again in a second process with two CPU devices, a chunk of 3 each: started by
     the module's first test and left to compile (for both devices, about a minute) beside the
     tests that follow; its test waits for it."""
     assert any(exported.store().glob("*.jaxexport"))  # the tiny run's programs, to be loaded
@@ -71,8 +72,8 @@ def two_devices(tiny_run, tmp_path_factory):
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2",
            "JAX_PLATFORMS": "cpu"}
     with open(folder / "stderr.txt", "w") as err:  # a file: a full pipe would stall it
-        proc = subprocess.Popen([sys.executable, "-m", "graspjax.cli", "run", *TINY[:-4],
-                                 "--batch", "6", *TINY[-2:], "--out", str(folder / "run")],
+        proc = subprocess.Popen([sys.executable, "-m", "graspjax.cli", "run", *TINY,
+                                 "--out", str(folder / "run")],
                                 env=env, stdout=subprocess.DEVNULL, stderr=err)
     yield proc, folder
     if proc.poll() is None:
@@ -117,7 +118,7 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
     assert row.ci_low <= row.rate <= row.ci_high
 
 
-def test_peak_memory_is_the_fullest_device_s_in_gib():
+def test_peak_memory_is_the_device_s_in_gib():
     class Device:
         def __init__(self, stats):
             self.stats = stats
@@ -126,10 +127,8 @@ def test_peak_memory_is_the_fullest_device_s_in_gib():
             return self.stats
 
     gib = 2**30
-    two = [Device({"peak_bytes_in_use": 3 * gib, "bytes_in_use": gib}),
-           Device({"peak_bytes_in_use": gib // 2})]
-    assert program.peak_gib(two) == 3.0
-    assert program.peak_gib([Device(None)]) is None  # the CPU's answer
+    assert program.peak_gib(Device({"peak_bytes_in_use": 3 * gib, "bytes_in_use": gib})) == 3.0
+    assert program.peak_gib(Device(None)) is None  # the CPU's answer
 
 
 def test_same_seed_same_attempts(tiny_run, tmp_path):
@@ -306,7 +305,8 @@ def test_a_world_does_not_depend_on_its_chunk(rounds_runs):
                     for d in rounds_runs)
     setup2 = mixed[mixed.setup == 2].reset_index(drop=True)
     pd.testing.assert_frame_equal(alone[alone["round"] < 2].reset_index(drop=True), setup2,
-                                  check_dtype=False)  # a column empty in one file reads as float
+                                  check_dtype=False,  # a column empty in one file reads as float
+                                  check_exact=True)  # bit for bit: one shape per device call
 
 
 def test_rounds_attempt_every_object_once(rounds_runs):
@@ -557,7 +557,7 @@ class _FakeProgram:
         self.compiled, self.origin, self.trace_s, self.compile_s = True, "loaded", 0.0, 0.0
         self.devices = [types.SimpleNamespace(memory_stats=lambda: None)]
 
-    def play(self, worlds, points, progress):
+    def play(self, worlds, points, device, progress):
         self.started[self.calls].set()
         self.calls += 1
         record = types.SimpleNamespace(aimed=np.ones(self.batch, bool))
@@ -657,18 +657,42 @@ def test_failed_attempts_keep_their_views_and_report_draws_them(rounds_runs, cap
 def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_rows(
         tiny_run, two_devices):
     """The tiny run left its programs' exported forms in the store; another process, with two
-    CPU devices running 3 worlds each, loads them instead of tracing, says so in timings.csv, and
-    gives the rows of one device running chunks of 3."""
+    CPU devices playing a chunk of 3 worlds each side by side, loads them instead of tracing,
+    says so in timings.csv, and gives the rows of one device playing both chunks."""
     proc, folder = two_devices
     assert proc.wait(timeout=900) == 0, (folder / "stderr.txt").read_text()[-2000:]
     out = folder / "run"
     meta = json.loads((out / "config.json").read_text())
-    assert len(meta["devices"]) == 2 and meta["batch"] == 6
+    assert len(meta["devices"]) == 2 and meta["batch"] == 3
     timings = pd.read_csv(out / "timings.csv")
-    assert list(timings["program"]) == ["loaded"] and timings["trace_s"].iloc[0] > 0
+    assert set(timings["program"]) == {"loaded"} and timings["trace_s"].max() > 0
+    assert sorted(timings["device"]) == [0, 1]  # the two chunks played side by side
     ours = pd.read_csv(out / "attempts.csv").drop(columns=VOLATILE)
     reference = pd.read_csv(tiny_run / "attempts.csv").drop(columns=VOLATILE)
-    pd.testing.assert_frame_equal(ours, reference)
+    pd.testing.assert_frame_equal(ours, reference, check_exact=True)
+
+
+def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tiny_run,
+                                                                            tmp_path):
+    """Two CPU processes joined by `jax.distributed` (`--distributed HOST:PORT,2,I`) share the
+    tiny run's two chunks by process index in one folder; once both are played, process 0
+    writes the results: the rows of one process, no parts left behind."""
+    with socket.socket() as probe:  # a free port for JAX's coordinator (the test's, not ours)
+        probe.bind(("localhost", 0))
+        port = probe.getsockname()[1]
+    out = tmp_path / "run"
+    procs = [_cli("run", *TINY, "--distributed", f"localhost:{port},2,{i}", "--out", str(out),
+                  env={"JAX_PLATFORMS": "cpu"}) for i in range(2)]
+    said = [proc.communicate(timeout=600) for proc in procs]
+    for proc, (_, stderr) in zip(procs, said, strict=True):
+        assert proc.returncode == 0, stderr[-2000:]
+    assert "process 0 writes the results" in said[1][0] and "success" in said[0][0]
+    timings = pd.read_csv(out / "timings.csv")
+    assert sorted(timings["process"]) == [0, 1]  # one chunk each
+    assert not (out / "parts").exists() and (out / "table1.md").is_file()
+    ours = pd.read_csv(out / "attempts.csv").drop(columns=VOLATILE)
+    reference = pd.read_csv(tiny_run / "attempts.csv").drop(columns=VOLATILE)
+    pd.testing.assert_frame_equal(ours, reference, check_exact=True)
 
 
 @pytest.mark.parametrize("args, message", [

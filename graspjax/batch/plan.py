@@ -135,30 +135,24 @@ def round_attempts(setup: int, objects: tuple[str, ...], config: Config) -> int:
 
 
 def chunks(groups: list[Group], batch: int) -> list[Chunk]:
-    """Each group's worlds cut into equal chunks of at most `batch`, numbered through the run."""
+    """Each group's worlds cut into chunks of `batch`, one device call each (the last one
+    padded by its program), numbered through the run. Neither the device count nor the group's
+    size changes a chunk's shape: a world plays in the same shape whatever the run."""
     out = []
     for g, group in enumerate(groups):
-        size = padded_size(len(group.worlds), batch)
-        for start in range(0, len(group.worlds), size):
-            out.append(Chunk(len(out), g, group.worlds[start:start + size]))
+        for start in range(0, len(group.worlds), batch):
+            out.append(Chunk(len(out), g, group.worlds[start:start + batch]))
     return out
 
 
 def default_batch() -> int:
-    """Worlds per chunk: device-sized. A GPU needs thousands to be busy. The CPU is busy with a
+    """Worlds per device call. A GPU needs thousands to be busy: 2,048 keeps the padding of the
+    last chunk small at the tables' sizes (1,000 rounds of Setups 2 and 3 fill one call) and
+    cuts larger runs into enough chunks to share among several GPUs. The CPU is busy with a
     few, and chunks of 10 keep a 10-trial Setup 1 chunk to one object (the broad phase then
     skips every other object's pairs) and Setups 2 and 3 apart (a Setup 2 round does not wait
     out the bin's longer drop): README's command plays faster than at 32 (results/benchmarks)."""
-    return 4096 * jax.local_device_count() if jax.default_backend() == "gpu" else 10
-
-
-def padded_size(worlds: int, batch: int) -> int:
-    """The static batch of a group: its worlds in as few equal chunks of at most `batch` as
-    possible (6,000 worlds at batch 4,096: two of 3,000), rounded up to the device count."""
-    devices = jax.local_device_count()
-    chunks_needed = -(-worlds // batch)
-    size = -(-worlds // chunks_needed)
-    return -(-size // devices) * devices
+    return 2048 if jax.default_backend() == "gpu" else 10
 
 
 def share(work: dict[int, float], processes: int) -> list[list[int]]:

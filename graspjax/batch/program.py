@@ -17,6 +17,7 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
+import queue
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -25,11 +26,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.batch.plan import Chunk, Group, WorldKey, chunks, padded_size
+from graspjax.batch.plan import Chunk, Group, WorldKey, chunks
 from graspjax.config import Config, stack_configs
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
 from graspjax.runtime import exported
-from graspjax.runtime.compiles import first_ready, next_ready, start_compiles
+from graspjax.runtime.compiles import start_compiles, take_ready
 from graspjax.sim.physics import WORLDS
 from graspjax.sim.scene import Scene, mjx, scene_for
 
@@ -37,17 +38,17 @@ from graspjax.sim.scene import Scene, mjx, scene_for
 class Program:
     """The compiled `start_round` and `attempt` of one group, one copy per local device.
 
-    The batch is cut into equal slices, one per device, and each device runs the one-device
-    program on its slice (dispatches are asynchronous, so the devices run together). Worlds
-    never communicate, so there is nothing to partition: no SPMD partitioner is involved (XLA's
-    crashed compiling the `shard_map` of this program over two H200s), and each device computes
-    exactly what one device would on a batch of its slice's size.
+    Every call has the one shape `batch` (worlds per device call; a chunk is one call's
+    worlds, padded): XLA's floats depend on the shape it compiles for, so a world's records
+    depend on its key, the device kind and `batch` alone, never on how many devices, chunks or
+    other worlds a run has. Each device plays whole chunks on its own copy; worlds never
+    communicate, so no SPMD partitioner is involved (XLA's crashed compiling the `shard_map` of
+    this program over two H200s).
     """
 
     def __init__(self, group: Group, batch: int, keep_views: bool):
         self.group, self.batch, self.keep_views = group, batch, keep_views
         self.devices = jax.local_devices()
-        self.per_device = batch // len(self.devices)
         self._start: list = [None] * len(self.devices)
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
@@ -92,7 +93,8 @@ class Program:
         with self._building:
             if self._scene is None:
                 scene = scene_for(self.group.letters, self.group.config, self.group.collide)
-                self._scene = scene, (scene.model, mjx.make_data(scene.mj_model))
+                self._scene = scene, (scene.model, mjx.make_data(scene.mj_model,
+                                                                  device=self.devices[0]))
             return self._scene
 
     def _key(self) -> tuple[WorldSpec, tuple]:
@@ -101,7 +103,7 @@ class Program:
         take (the scene's arrays, the round's state) follows from these and the package."""
         # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
         example = dataclasses.replace(self.group.worlds[0], point=0)
-        spec = jax.tree.map(lambda x: jax.ShapeDtypeStruct((self.per_device,) + x.shape[1:],
+        spec = jax.tree.map(lambda x: jax.ShapeDtypeStruct((self.batch,) + x.shape[1:],
                                                            x.dtype),
                             self.spec((example,), [self.group.config]))
         group = self.group
@@ -182,12 +184,6 @@ class Program:
         spec = jax.device_put(self.spec(worlds, points), self.devices[0])
         return self._settle(spec), spec
 
-    def on_device(self, spec: WorldSpec, device: int) -> WorldSpec:
-        """The slice of a host batch that `device` runs, on that device."""
-        m = self.per_device
-        return jax.device_put(jax.tree.map(lambda x: x[device * m:(device + 1) * m], spec),
-                              self.devices[device])
-
     def lower(self, device: int) -> tuple[jax.stages.Lowered, jax.stages.Lowered]:
         """Lower both functions for one device (Python: it holds the GIL): every device lowers
         the same exported modules (`portable`, traced or loaded first)."""
@@ -224,68 +220,47 @@ class Program:
             self._attempt[device] = attempt_fn  # last: `compiled` looks at it
         self._compile_s[device] = lower_s + time.perf_counter() - start
 
-    def play(self, worlds: tuple[WorldKey, ...], points: list[Config], progress: Callable[[int], None]
-             ) -> tuple[Record, list[Record], ChunkViews | None]:
-        """One round in every world: the drop, then each attempt; the drop's record and the
-        attempts' records on the host, and the views (left on the devices) if kept.
-
-        Each device's calls run in a thread of their own: a call whose physics loop is a
-        `while_loop` holds its caller until the device finishes it (the host reads the loop
-        condition), so calls from one thread would run the devices one after another."""
-        batch = self.spec(worlds, points)
-        m, lock = self.per_device, threading.Lock()
-
-        def one_device(i: int):
-            real = min(max(len(worlds) - i * m, 0), m)  # worlds of the slice that are not padding
-            spec = self.on_device(batch, i)
-            k_on = functools.partial(jax.device_put, device=self.devices[i])  # numpy in: one copy
-            arrays = jax.device_put(self.arrays, self.devices[i])
-            state = self._start[i](arrays, spec)
-            state, drop, _ = self._attempt[i](arrays[0], state, spec, k_on(np.int32(-1)))
-            records, views = [], []
-            for k in range(self.group.attempts):
-                state, record, view = self._attempt[i](arrays[0], state, spec,
-                                                       k_on(np.int32(k)))
-                jax.block_until_ready(record.reason)
-                records.append(record)
-                views.append(view)
-                with lock:
-                    progress(real)
-            return jax.device_get((drop, records)), views
-
-        with concurrent.futures.ThreadPoolExecutor(max_workers=len(self.devices)) as pool:
-            parts = list(pool.map(one_device, range(len(self.devices))))
-        joined = functools.partial(jax.tree.map, lambda *xs: np.concatenate(xs))
-        drop = joined(*[p[0][0] for p in parts])
-        records = [joined(*[p[0][1][k] for p in parts]) for k in range(self.group.attempts)]
-        kept = parts[0][1][0] is not None
-        return drop, records, ChunkViews([p[1] for p in parts], m) if kept else None
+    def play(self, worlds: tuple[WorldKey, ...], points: list[Config], device: int,
+             progress: Callable[[int], None]) -> tuple[Record, list[Record], ChunkViews | None]:
+        """One chunk's round on `device`: the drop, then each attempt; the drop's record and the
+        attempts' records on the host, and the views (left on the device) if kept."""
+        on = functools.partial(jax.device_put, device=self.devices[device])  # numpy in: one copy
+        spec, arrays = on(self.spec(worlds, points)), on(self.arrays)
+        state = self._start[device](arrays, spec)
+        state, drop, _ = self._attempt[device](arrays[0], state, spec, on(np.int32(-1)))
+        records, views = [], []
+        for k in range(self.group.attempts):
+            state, record, view = self._attempt[device](arrays[0], state, spec, on(np.int32(k)))
+            jax.block_until_ready(record.reason)
+            records.append(record)
+            views.append(view)
+            progress(len(worlds))
+        drop, records = jax.device_get((drop, records))
+        return drop, records, ChunkViews(views) if views and views[0] is not None else None
 
 
 @dataclasses.dataclass(frozen=True)
 class ChunkViews:
-    """The views of a chunk's attempts, left on the devices: at GPU batch sizes they are
+    """The views of a chunk's attempts, left on its device: at GPU batch sizes they are
     gigabytes, and only the few attempts that are saved come to the host."""
 
-    parts: list  # parts[device][k]: `Views` of attempt k in that device's slice of worlds
-    per_device: int  # worlds per device slice
+    attempts: list  # attempts[k]: `Views` of attempt k, leading axis the chunk's worlds
 
     def get(self, attempt: int, world: int) -> Views:
         """The views of one world's attempt (world: its index in the chunk), as numpy."""
-        part = self.parts[world // self.per_device][attempt]
-        return jax.tree.map(lambda x: np.asarray(x[world % self.per_device]), part)
+        return jax.tree.map(lambda x: np.asarray(x[world]), self.attempts[attempt])
 
 
 _PROGRAMS: dict = {}
 
 
 def program(group: Group, batch: int, keep_views: bool) -> Program:
-    """The shared program of a group at a batch size (compiled once per process)."""
-    size = padded_size(len(group.worlds), batch)
-    key = (group.letters, group.collide, group.attempts, jax.tree.structure(group.config), size,
+    """The shared program of a group at `batch` worlds per device call (compiled once per
+    process)."""
+    key = (group.letters, group.collide, group.attempts, jax.tree.structure(group.config), batch,
            keep_views, tuple(jax.local_devices()))
     if key not in _PROGRAMS:
-        _PROGRAMS[key] = Program(group, size, keep_views)
+        _PROGRAMS[key] = Program(group, batch, keep_views)
     return _PROGRAMS[key]
 
 
@@ -301,71 +276,92 @@ class ChunkResult:
     views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
 
 
-def peak_gib(devices: list[jax.Device]) -> float | None:
-    """The most memory in use at once so far in this process, in GiB, on the fullest of
-    `devices` (None where the backend keeps no such count: the CPU). It tells which `--batch`
-    fits a device."""
-    stats = [d.memory_stats() or {} for d in devices]
-    peaks = [s["peak_bytes_in_use"] for s in stats if "peak_bytes_in_use" in s]
-    return round(max(peaks) / 2**30, 3) if peaks else None
+def peak_gib(device: jax.Device) -> float | None:
+    """The most memory in use at once so far in this process on `device`, in GiB (None where
+    the backend keeps no such count: the CPU). It tells which `--batch` fits a device."""
+    peak = (device.memory_stats() or {}).get("peak_bytes_in_use")
+    return None if peak is None else round(peak / 2**30, 3)
+
+
+def heaviest_first(todo: list[Chunk], groups: list[Group]) -> list[Chunk]:
+    """The chunks in the order devices take them: the groups of the most device work per world
+    first (a round of six objects before a drop of one), plan order among equals, so that the
+    longest chunks do not start last."""
+    return sorted(todo, key=lambda c: -groups[c.group].work / len(groups[c.group].worlds))
 
 
 def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
                keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
                log: Callable[[str], None] = lambda m: None, overlap: bool = True,
                process: int = 0) -> Iterator[ChunkResult]:
-    """Play every chunk not in `done`; yield each as it finishes. While the caller handles a
-    yielded chunk, the next one whose program is ready already plays on the devices (unless
-    views are kept), so closing the generator early waits for that chunk to end.
+    """Play every chunk not in `done`; yield each as it finishes.
 
-    Programs compile in background threads; with `overlap`, a group's chunks start as soon as
-    its own program is ready, while the other groups' programs still compile (the device works
-    while the host compiles): the next chunk is the first in plan order whose program is ready.
-    Without it, every program is compiled before the first chunk (benchmarks: run time apart
-    from compile time). A chunk's timings say whether its program was traced here, traced by
-    a worker process or loaded from the store of exported programs (`program`), what tracing or
-    loading and compiling took (`trace_s`, `compile_s`, on a group's first chunk) and when it
-    started (`started_s`, seconds since this call began: gaps are the device waiting for a
-    compile), the device memory it had needed at most so far (`peak_gib`) and which of the
-    run's processes played it (`process`: 0 the run's own, else a helper's, `players.py`)."""
+    Every local device plays whole chunks in a thread of its own: the first chunk in
+    `heaviest_first` order whose program is ready, then the next, so no device waits while
+    there is work. While the caller handles a yielded chunk the devices play on (unless views
+    are kept: then a device starts its next chunk only once the caller has handled its last,
+    whose views it holds); closing the generator early waits for the chunks playing to end.
+
+    Programs compile in background threads (`runtime.compiles`); with `overlap`, a group's
+    chunks start as soon as its own program is ready, while other programs still compile (the
+    devices work while the host compiles). Without it, every program is compiled before the
+    first chunk (benchmarks: run time apart from compile time). A chunk's timings say where its
+    program came from (`program`: traced here, by a worker process, or loaded from the store),
+    what tracing or loading and compiling took (`trace_s`, `compile_s`, on a group's first
+    chunk), when it started (`started_s`, seconds since this call began: gaps are a device
+    waiting for a compile), the memory its device had needed at most so far (`peak_gib`), and
+    which device and which of the run's processes played it (`device`, `process`: 0 the run's
+    own, else a helper's, `runtime.players`)."""
     began = time.perf_counter()
-    plan_ = chunks(groups, batch)
-    todo = [c for c in plan_ if c.index not in done]
-    needed = list(dict.fromkeys(c.group for c in todo))  # in the order their chunks run
+    todo = [c for c in chunks(groups, batch) if c.index not in done]
+    needed = list(dict.fromkeys(c.group for c in todo))
     programs = {g: program(groups[g], batch, keep_views) for g in needed}
     fresh = {g for g, p in programs.items() if not p.compiled}
+    devices = jax.local_devices()
     tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)  # + lowering
+    lock = threading.Lock()  # the waiting list, the logged and fresh programs, the progress
     with concurrent.futures.ThreadPoolExecutor(max_workers=tasks) as pool:
         compiling = start_compiles(list(programs.values()), pool, log)
         if compiling:
             log(f"compiling {len(compiling)} program(s) ...")
+        logged: set[int] = set()
 
         def ready(prog: Program) -> None:
-            futures = compiling.pop(id(prog), [])
-            for future in futures:
+            """Wait for every device's copy of `prog` (a failed compile raises here)."""
+            for future in compiling.get(id(prog), []):
                 future.result()
-            if futures:
-                log(f"compiled the program of {prog.name} "
-                    f"({prog.group.attempts} attempt(s) per world): "
-                    f"{prog.origin} in {prog.trace_s:.1f} s, "
-                    f"compiled in {prog.compile_s:.1f} s")
+            with lock:
+                if id(prog) in compiling and id(prog) not in logged:
+                    logged.add(id(prog))
+                    log(f"compiled the program of {prog.name} "
+                        f"({prog.group.attempts} attempt(s) per world): "
+                        f"{prog.origin} in {prog.trace_s:.1f} s, "
+                        f"compiled in {prog.compile_s:.1f} s")
 
         if not overlap:
             for prog in programs.values():
                 ready(prog)
 
-        def play(chunk: Chunk) -> ChunkResult:
-            """Play one chunk on the devices (in the `device` thread) into its result; a failed
-            compile of its program raises here, after the chunks before it were handed over."""
+        def compiles(chunk: Chunk) -> list[concurrent.futures.Future]:
+            return compiling.get(id(programs[chunk.group]), [])
+
+        def counted(attempts: int) -> None:
+            with lock:
+                progress(attempts)
+
+        def play(chunk: Chunk, device: int) -> ChunkResult:
+            """Play one chunk on `device` into its result; a failed compile of its program
+            raises here."""
             prog = programs[chunk.group]
             ready(prog)
             start = time.perf_counter()
-            drop, records, views = prog.play(chunk.worlds, points, progress)
+            drop, records, views = prog.play(chunk.worlds, points, device, counted)
             wall_s = time.perf_counter() - start
             real = len(chunk.worlds)
             attempts = sum(int(np.sum(np.asarray(r.aimed)[:real])) for r in records)
-            first = chunk.group in fresh  # a group's first chunk carries its compile time
-            fresh.discard(chunk.group)
+            with lock:
+                first = chunk.group in fresh  # a group's first chunk carries its compile time
+                fresh.discard(chunk.group)
             timings = {"chunk": chunk.index, "group": chunk.group,
                        "scene": prog.name, "worlds": real,
                        "batch": prog.batch, "attempts": attempts,
@@ -374,26 +370,48 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                        "compile_s": round(prog.compile_s if first else 0.0, 3),
                        "started_s": round(start - began, 3),
                        "wall_s": round(wall_s, 3),
-                       "peak_gib": peak_gib(prog.devices), "process": process}
+                       "peak_gib": peak_gib(prog.devices[device]), "device": device,
+                       "process": process}
             return ChunkResult(chunk, prog.group, drop, records, timings, views)
 
-        # One thread plays the chunks, one after another. While the caller turns a chunk into
-        # rows and files, the next chunk whose program is ready already plays (not when views
-        # are kept: two chunks' views would share the devices' memory).
-        def compiles(chunk: Chunk) -> list[concurrent.futures.Future]:
-            return compiling.get(id(programs[chunk.group]), [])
+        waiting = heaviest_first(todo, groups)
+        finished: queue.Queue = queue.Queue()  # (result or error, device) as chunks end
+        stop = threading.Event()
+        handled = [threading.Semaphore(1) for _ in devices]  # views kept: the caller is done
 
-        waiting = list(todo)
-        with concurrent.futures.ThreadPoolExecutor(max_workers=1) as device:
-            def start(chunk: Chunk) -> concurrent.futures.Future:
-                waiting.remove(chunk)
-                return device.submit(play, chunk)
+        def device_loop(device: int) -> None:
+            while True:
+                if keep_views:
+                    handled[device].acquire()
+                chunk = take_ready(waiting, compiles, lock, stop)
+                if chunk is None:
+                    break
+                try:
+                    finished.put((play(chunk, device), device))
+                except BaseException as error:  # handed to the caller, which raises it
+                    finished.put((error, device))
+                    break
+            finished.put((None, device))
 
-            playing = None
-            while waiting or playing:
-                if playing is None:
-                    playing = start(next_ready(waiting, compiles))
-                result = playing.result()
-                following = None if keep_views else first_ready(waiting, compiles)
-                playing = start(following) if following is not None else None
+        threads = [threading.Thread(target=device_loop, args=(d,), daemon=True,
+                                    name=f"device {d}") for d in range(len(devices))]
+        for thread in threads:
+            thread.start()
+        try:
+            running = len(threads)
+            while running:
+                result, device = finished.get()
+                if result is None:
+                    running -= 1
+                    continue
+                if isinstance(result, BaseException):
+                    raise result
                 yield result
+                if keep_views:
+                    handled[device].release()
+        finally:
+            stop.set()
+            for semaphore in handled:
+                semaphore.release()
+            for thread in threads:
+                thread.join()

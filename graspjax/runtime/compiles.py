@@ -5,7 +5,7 @@ A program is anything with the `Compilable` shape (`batch.program.Program`). One
 the programs in turn (lowering is Python and holds the GIL), XLA compiles them in parallel
 threads (its compiles release the GIL), and on a machine with cores to spare helper processes
 (`tracer.py`) trace the later programs into the store of exported programs meanwhile. The
-caller takes its next chunk with `first_ready` / `next_ready`: the first in plan order whose
+caller's device threads take their next chunk with `take_ready`: the first in their order whose
 program is ready.
 """
 
@@ -17,6 +17,7 @@ import os
 import pickle
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
@@ -221,12 +222,20 @@ def first_ready(waiting: list,
     return next((c for c in waiting if all(f.done() for f in compiles(c))), None)
 
 
-def next_ready(waiting: list,
-               compiles: Callable[[Any], list[concurrent.futures.Future]]) -> Any:
-    """`first_ready`, once there is one."""
-    while (chunk := first_ready(waiting, compiles)) is None:
-        concurrent.futures.wait([f for c in waiting for f in compiles(c) if not f.done()],
+def take_ready(waiting: list, compiles: Callable[[Any], list[concurrent.futures.Future]],
+               lock: threading.Lock, stop: threading.Event) -> Any | None:
+    """Remove from `waiting` and return its first chunk whose program's `compiles` are all
+    done (`first_ready`), waiting for one; None once `waiting` is empty or `stop` is set.
+    Several device threads take from one list, under `lock`."""
+    while not stop.is_set():
+        with lock:
+            if not waiting:
+                return None
+            chunk = first_ready(waiting, compiles)
+            if chunk is not None:
+                waiting.remove(chunk)
+                return chunk
+            pending = [f for c in waiting for f in compiles(c) if not f.done()]
+        concurrent.futures.wait(pending, timeout=1.0,
                                 return_when=concurrent.futures.FIRST_COMPLETED)
-    return chunk
-
-
+    return None

@@ -149,7 +149,7 @@ def _path(description: tuple, key: tuple) -> pathlib.Path | None:
     if folder is None:
         return None
     shapes = [(a.shape, str(a.dtype)) for a in jax.tree.leaves(key)]
-    device = jax.devices()[0]
+    device = jax.local_devices()[0]
     text = repr((FORMAT, description, shapes, jax.tree.structure(key), _versions(),
                 _source_digest(), device.platform, device.device_kind,
                 *(getattr(jax.config, name) for name in KEY_SETTINGS)))

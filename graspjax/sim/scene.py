@@ -256,7 +256,7 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
     return Scene(
         letters=letters,
         mj_model=mj_model,
-        model=mjx.put_model(mj_model),
+        model=mjx.put_model(mj_model, device=jax.local_devices()[0]),  # not another process's
         object_body=bodies,
         object_qpos=mj_model.jnt_qposadr[joints],
         object_qvel=mj_model.jnt_dofadr[joints],

@@ -328,7 +328,7 @@ def _bind(primitive, params, invals) -> list:
 @functools.cache
 def _cpu():
     """The device constants are computed on while tracing."""
-    return jax.devices("cpu")[0]
+    return jax.local_devices(backend="cpu")[0]
 
 
 def destinations(params, operand_shape, indices, updates_shape) -> np.ndarray:

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Issue 53 on a 4-GPU host: Tables 1+2 (paper preset, seed 0) on 1, 2 and 4 GPUs of one process,
+# and on 2 processes of one GPU each joined by jax.distributed; whole commands timed (`time`), rows
+# compared across all of them (every column but run_id and chunk). MuJoCo goes along as wheels
+# (../shared/gpu/README.md). Runs write to /tmp/scaling; $OUT gets each run's config.json,
+# timings.csv and table1.md, the timings table and the comparison. Steps (in this order):
+#   a  1 GPU at 1,000 trials cold, then warm; 4 GPUs at 1,000 (compiles devices 1-3), then
+#      4 and 2 GPUs at 4,000 trials warm
+#   b  1 GPU at 4,000 trials warm; 2 processes x 1 GPU at 4,000 through jax.distributed;
+#      the rows of every run compared (4,000-trial runs together, 1,000-trial runs together)
+set -uo pipefail
+out=${OUT:?set OUT to the folder that collects the results}
+runs=/tmp/scaling
+mkdir -p "$runs"
+timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall time kept
+  local name=$1 gpus=$2 trials=$3 start
+  shift 3
+  start=$(date +%s.%N)
+  CUDA_VISIBLE_DEVICES=$gpus python3 -m graspjax.cli run --table 1,2 --trials "$trials" \
+    --seed 0 --quiet --overwrite --out "$runs/$name" "$@" > "$runs/$name.log" 2>&1
+  local code=$?
+  echo "$name,$gpus,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$out/walls.csv"
+  echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$out/walls.csv")"
+  mkdir -p "$out/$name"
+  cp "$runs/$name"/{config.json,timings.csv,table1.md} "$out/$name/" 2>/dev/null
+}
+distributed() {  # distributed NAME TRIALS: 2 processes of 1 GPU each, one coordinator
+  local name=$1 trials=$2 start
+  start=$(date +%s.%N)
+  for i in 0 1; do
+    CUDA_VISIBLE_DEVICES=$i python3 -m graspjax.cli run --table 1,2 --trials "$trials" \
+      --seed 0 --quiet --out "$runs/$name" --distributed "localhost:29500,2,$i" \
+      > "$runs/$name.$i.log" 2>&1 &
+  done
+  wait
+  echo "$name,0+1,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),0" >> "$out/walls.csv"
+  echo "== $name (2 processes): $(tail -n 1 "$out/walls.csv"); $(tail -n 1 "$runs/$name.1.log")"
+  mkdir -p "$out/$name"
+  cp "$runs/$name"/{config.json,timings.csv,table1.md} "$out/$name/" 2>/dev/null
+}
+[ -f "$out/walls.csv" ] || echo "run,gpus,trials,wall_s,exit" > "$out/walls.csv"
+for step in "$@"; do
+  case "$step" in
+    a) timed cold_1gpu_1000 0 1000
+       timed warm_1gpu_1000 0 1000
+       timed warm_4gpu_1000 0,1,2,3 1000
+       timed warm_4gpu_4000 0,1,2,3 4000
+       timed warm_2gpu_4000 0,1 4000 ;;
+    b) timed warm_1gpu_4000 0 4000
+       distributed two_processes_4000 4000
+       python3 - "$runs" > "$out/comparison.txt" <<'EOF'
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+runs = Path(sys.argv[1])
+for trials in (1000, 4000):
+    names = sorted(p.name for p in runs.iterdir() if p.is_dir() and p.name.endswith(f"_{trials}"))
+    frames = {n: pd.read_csv(runs / n / "attempts.csv").drop(columns=["run_id", "chunk"])
+              for n in names if (runs / n / "attempts.csv").is_file()}
+    if not frames:
+        continue
+    first, reference = next(iter(frames.items()))
+    print(f"{trials} trials per cell: reference {first}, {len(reference)} rows, "
+          f"success {reference['success'].mean():.4f}")
+    for name, frame in frames.items():
+        same = frame.equals(reference)
+        differing = (frame != reference) & ~(frame.isna() & reference.isna()) if not same \
+            and frame.shape == reference.shape else None
+        rows = int(differing.any(axis=1).sum()) if differing is not None else "shape differs"
+        print(f"  {name}: identical={same}, rows differing={0 if same else rows}, "
+              f"success {frame['success'].mean():.4f}")
+EOF
+       cat "$out/comparison.txt" ;;
+  esac
+done
+column -s, -t "$out/walls.csv"
