@@ -3,9 +3,10 @@
 # and on 2 processes of one GPU each joined by jax.distributed; whole commands timed (`time`), rows
 # compared across all of them (every column but run_id and chunk). MuJoCo goes along as wheels
 # (../shared/gpu/README.md). Runs write to /tmp/scaling; $OUT gets each run's config.json,
-# timings.csv and table1.md, the timings table and the comparison. Steps (in this order):
-#   a  1 GPU at 1,000 trials cold, then warm; 4 GPUs at 1,000 (compiles devices 1-3), then
-#      4 and 2 GPUs at 4,000 trials warm
+# timings.csv and table1.md (runs.tar.gz), the wall times and the comparison. Steps (in this order):
+#   a  1 GPU at 1,000 trials cold, then warm; 4 GPUs at 1,000 (compiles devices 1-3), then at
+#      4,000 trials warm
+#   a2 2 GPUs at 4,000 trials warm
 #   b  1 GPU at 4,000 trials warm; 2 processes x 1 GPU at 4,000 through jax.distributed;
 #      the rows of every run compared (4,000-trial runs together, 1,000-trial runs together)
 set -uo pipefail
@@ -21,8 +22,12 @@ timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall
   local code=$?
   echo "$name,$gpus,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$out/walls.csv"
   echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$out/walls.csv")"
-  mkdir -p "$out/$name"
-  cp "$runs/$name"/{config.json,timings.csv,table1.md} "$out/$name/" 2>/dev/null
+  keep "$name"
+}
+keep() {  # keep NAME: its config.json, timings.csv and table1.md into $OUT/runs.tar.gz
+  mkdir -p "$runs/kept/$1"
+  cp "$runs/$1"/{config.json,timings.csv,table1.md} "$runs/kept/$1/" 2>/dev/null
+  tar -C "$runs" -czf "$out/runs.tar.gz" kept
 }
 distributed() {  # distributed NAME TRIALS: 2 processes of 1 GPU each, one coordinator
   local name=$1 trials=$2 start
@@ -35,8 +40,7 @@ distributed() {  # distributed NAME TRIALS: 2 processes of 1 GPU each, one coord
   wait
   echo "$name,0+1,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),0" >> "$out/walls.csv"
   echo "== $name (2 processes): $(tail -n 1 "$out/walls.csv"); $(tail -n 1 "$runs/$name.1.log")"
-  mkdir -p "$out/$name"
-  cp "$runs/$name"/{config.json,timings.csv,table1.md} "$out/$name/" 2>/dev/null
+  keep "$name"
 }
 [ -f "$out/walls.csv" ] || echo "run,gpus,trials,wall_s,exit" > "$out/walls.csv"
 for step in "$@"; do
@@ -44,8 +48,8 @@ for step in "$@"; do
     a) timed cold_1gpu_1000 0 1000
        timed warm_1gpu_1000 0 1000
        timed warm_4gpu_1000 0,1,2,3 1000
-       timed warm_4gpu_4000 0,1,2,3 4000
-       timed warm_2gpu_4000 0,1 4000 ;;
+       timed warm_4gpu_4000 0,1,2,3 4000 ;;
+    a2) timed warm_2gpu_4000 0,1 4000 ;;
     b) timed warm_1gpu_4000 0 4000
        distributed two_processes_4000 4000
        python3 - "$runs" > "$out/comparison.txt" <<'EOF'
