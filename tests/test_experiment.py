@@ -110,7 +110,8 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
     first, second = timings.itertuples()
     assert second.compile_s == 0  # a group's compile time goes with its first chunk
     assert first.started_s >= first.compile_s  # the chunk waited for its program
-    assert second.started_s >= first.started_s + first.wall_s  # chunks run one after another
+    # one device: chunks run one after another (the times are rounded to the millisecond)
+    assert second.started_s >= first.started_s + first.wall_s - 0.002
     assert timings["peak_gib"].isna().all()  # the CPU keeps no count of its memory
     summary = pd.read_csv(tiny_run / "summary.csv")
     row = summary[summary.object == "a"].iloc[0]
