@@ -112,8 +112,8 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
     except OSError:
         raise InputError(f"--out {folder}: {probe} is not writable") from None
     only_locked = folder.is_dir() and [p.name for p in folder.iterdir()] == [LOCK]
-    if only_locked:  # a run has just taken the folder: its lock says whose (`writing`)
-        return folder
+    if only_locked or _held(folder / LOCK):  # a run writes the folder (maybe still setting it
+        return folder  # up) or has just taken it: its lock says whose (`writing`)
     if folder.is_dir() and any(folder.iterdir()) and not holds_graspjax_output(folder):
         files = _foreign(folder)
         shown = ", ".join(files[:3]) + (f" and {len(files) - 3} more" if len(files) > 3 else "")
@@ -124,6 +124,20 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
         raise InputError(f"--out {folder} already holds a run (use --resume to continue it, "
                          "--overwrite to replace it, or another folder)")
     return folder
+
+
+def _held(lock: Path) -> bool:
+    """Whether another process holds `lock` (`writing`'s OS lock) right now."""
+    import fcntl
+
+    try:
+        with open(lock) as handle:
+            fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)  # released when closed
+    except FileNotFoundError:
+        return False
+    except OSError:
+        return True
+    return False
 
 
 @contextlib.contextmanager
