@@ -300,7 +300,7 @@ def distributed(text: str | None, part: str | None):
 
 
 def report_folder(args):
-    """`graspjax report`'s checked folder (a Path) and --debug."""
+    """`graspjax report`'s checked folder (a Path); --debug checked too."""
     from pathlib import Path
 
     from graspjax.io import InputError

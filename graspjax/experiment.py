@@ -204,7 +204,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         barrier("played")  # every process's chunks are in the folder
         if part > 0:
             return RunResult(out, [], len(planned), len(planned), 0, float("nan"))
-    files = folder.finish(remove_parts=distributed or not folder.shared)
+    files = folder.finish(remove_parts=True if distributed else None)  # others are done
     if not files:
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
     from graspjax.report import write_report

@@ -27,9 +27,6 @@ def initialize(spec: str) -> None:
         address, count, index = spec
         jax.distributed.initialize(coordinator_address=address, num_processes=count,
                                    process_id=index)
-    # Arrays placed without a device (MJX's models) go to this process's first device, not to
-    # the first of the run's (another process's, which this one cannot reach).
-    jax.config.update("jax_default_device", jax.local_devices()[0])
 
 
 def process() -> tuple[int, int]:
