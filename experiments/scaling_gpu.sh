@@ -3,12 +3,17 @@
 # and on 2 processes of one GPU each joined by jax.distributed; whole commands timed (`time`), rows
 # compared across all of them (every column but run_id and chunk). MuJoCo goes along as wheels
 # (../shared/gpu/README.md). Runs write to /tmp/scaling; $OUT gets each run's config.json,
-# timings.csv and table1.md (runs.tar.gz), the wall times and the comparison. Steps (in this order):
+# timings.csv and table1.md (runs.tar.gz), the wall times and the comparison (kept in
+# /tmp/scaling across calls on one warm machine, copied to $OUT by each). Steps (in this order):
 #   a  1 GPU at 1,000 trials cold, then warm; 4 GPUs at 1,000 (compiles devices 1-3), then at
 #      4,000 trials warm
 #   a2 2 GPUs at 4,000 trials warm
 #   b  1 GPU at 4,000 trials warm; 2 processes x 1 GPU at 4,000 through jax.distributed;
 #      the rows of every run compared (4,000-trial runs together, 1,000-trial runs together)
+#   c  2 processes x 1 GPU again (their own topology's programs now cached: warm), then 4 GPUs
+#      again; the rows compared
+# Each run's "seconds:" line (where its time went: start, chunks, rows, report) goes to
+# $OUT/phases.txt; the last table gives every run's speed-up over the 1-GPU run of its size.
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 runs=/tmp/scaling
@@ -20,8 +25,9 @@ timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall
   CUDA_VISIBLE_DEVICES=$gpus python3 -m graspjax.cli run --table 1,2 --trials "$trials" \
     --seed 0 --quiet --overwrite --out "$runs/$name" "$@" > "$runs/$name.log" 2>&1
   local code=$?
-  echo "$name,$gpus,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$out/walls.csv"
-  echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$out/walls.csv")"
+  echo "$name,$gpus,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$runs/walls.csv"
+  echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$runs/walls.csv")"
+  echo "$name: $(grep '^seconds:' "$runs/$name.log")" >> "$runs/phases.txt"
   keep "$name"
 }
 keep() {  # keep NAME: its config.json, timings.csv and table1.md into $OUT/runs.tar.gz
@@ -34,25 +40,17 @@ distributed() {  # distributed NAME TRIALS: 2 processes of 1 GPU each, one coord
   start=$(date +%s.%N)
   for i in 0 1; do
     CUDA_VISIBLE_DEVICES=$i python3 -m graspjax.cli run --table 1,2 --trials "$trials" \
-      --seed 0 --quiet --out "$runs/$name" --distributed "localhost:29500,2,$i" \
+      --seed 0 --quiet --overwrite --out "$runs/$name" --distributed "localhost:29500,2,$i" \
       > "$runs/$name.$i.log" 2>&1 &
   done
   wait
-  echo "$name,0+1,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),0" >> "$out/walls.csv"
-  echo "== $name (2 processes): $(tail -n 1 "$out/walls.csv"); $(tail -n 1 "$runs/$name.1.log")"
+  echo "$name,0+1,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),0" >> "$runs/walls.csv"
+  echo "== $name (2 processes): $(tail -n 1 "$runs/walls.csv"); $(tail -n 1 "$runs/$name.1.log")"
+  echo "$name: $(grep '^seconds:' "$runs/$name.0.log")" >> "$runs/phases.txt"
   keep "$name"
 }
-[ -f "$out/walls.csv" ] || echo "run,gpus,trials,wall_s,exit" > "$out/walls.csv"
-for step in "$@"; do
-  case "$step" in
-    a) timed cold_1gpu_1000 0 1000
-       timed warm_1gpu_1000 0 1000
-       timed warm_4gpu_1000 0,1,2,3 1000
-       timed warm_4gpu_4000 0,1,2,3 4000 ;;
-    a2) timed warm_2gpu_4000 0,1 4000 ;;
-    b) timed warm_1gpu_4000 0 4000
-       distributed two_processes_4000 4000
-       python3 - "$runs" > "$out/comparison.txt" <<'EOF'
+compare() {  # the rows of every run compared: 4,000-trial runs together, 1,000-trial ones too
+  python3 - "$runs" > "$out/comparison.txt" <<'EOF'
 import sys
 from pathlib import Path
 
@@ -76,7 +74,34 @@ for trials in (1000, 4000):
         print(f"  {name}: identical={same}, rows differing={0 if same else rows}, "
               f"success {frame['success'].mean():.4f}")
 EOF
-       cat "$out/comparison.txt" ;;
+  cat "$out/comparison.txt"
+}
+[ -f "$runs/walls.csv" ] || echo "run,gpus,trials,wall_s,exit" > "$runs/walls.csv"
+for step in "$@"; do
+  case "$step" in
+    a) timed cold_1gpu_1000 0 1000
+       timed warm_1gpu_1000 0 1000
+       timed warm_4gpu_1000 0,1,2,3 1000
+       timed warm_4gpu_4000 0,1,2,3 4000 ;;
+    a2) timed warm_2gpu_4000 0,1 4000 ;;
+    b) timed warm_1gpu_4000 0 4000
+       distributed two_processes_4000 4000
+       compare ;;
+    c) distributed two_processes_warm_4000 4000
+       timed warm_4gpu_again_4000 0,1,2,3 4000
+       compare ;;
   esac
 done
-column -s, -t "$out/walls.csv"
+python3 - "$runs/walls.csv" <<'EOF'
+import sys
+
+import pandas as pd
+
+walls = pd.read_csv(sys.argv[1])
+base = {t: walls[(walls.run.str.startswith("warm_1gpu")) & (walls.trials == t)].wall_s.min()
+        for t in walls.trials.unique()}
+walls["speedup_over_1gpu"] = [round(base[t] / w, 2) for t, w in zip(walls.trials, walls.wall_s)]
+print(walls.to_string(index=False))
+EOF
+cp "$runs/walls.csv" "$runs/phases.txt" "$out/" 2>/dev/null
+cat "$runs/phases.txt"

@@ -66,7 +66,7 @@ def _run_experiment(args, grid_items=None) -> int:
     try:
         result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
                                 args.quiet, 1 if spec else players.count(args.processes),
-                                distributed=spec is not None)
+                                distributed=spec is not None, compile_first=args.compile_first)
         distributed.shutdown()
     except players.HelperFailed as exc:
         print(f"graspjax: error: {exc} (the finished chunks are kept: the same command with "
@@ -82,6 +82,8 @@ def _run_experiment(args, grid_items=None) -> int:
         return 0
     print(f"{result.attempts} attempts, success {result.success_rate:.1%}; wrote "
           + ", ".join(p.name for p in result.files) + f" to {result.folder}")
+    print("seconds: " + ", ".join(f"{phase} {s:.1f}" for phase, s in result.seconds.items())
+          + " (chunks: programs loaded or compiled, and played)")
     for name in ("table1.md", "table2.md"):
         if (result.folder / name).exists() and grid_items is None:
             print((result.folder / name).read_text())
@@ -186,6 +188,9 @@ def _add_experiment_arguments(p) -> None:
                    help="keep the images, detections and planes of these attempts (views/*.npz)")
     p.add_argument("--max-views", type=int, default=100,
                    help="keep views of at most this many attempts (default 100)")
+    p.add_argument("--compile-first", action="store_true",
+                   help="load or compile every program on every device before the first chunk "
+                        "(benchmarks: timings.csv then times play alone; the same rows)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 

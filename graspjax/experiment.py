@@ -93,11 +93,14 @@ class RunResult:
     chunks: int
     attempts: int  # rows of attempts.csv (0 while parts are missing)
     success_rate: float  # their mean success (nan while parts are missing)
+    seconds: dict[str, float] = dataclasses.field(default_factory=dict)  # where the run's time
+    # went: "start" (planning, the folder, until the chunks began), "chunks" (until the last
+    # was kept), "rows" (the sorted attempts, rounds, timings), "report" (tables, figures)
 
 
 def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite: bool = False,
         part: int = 0, parts: int = 1, quiet: bool = False, processes: int = 1,
-        distributed: bool = False) -> RunResult:
+        distributed: bool = False, compile_first: bool = False) -> RunResult:
     """Run an experiment into the folder `out` (`outputs.RunFolder`), chunk by chunk, then
     write its report. With `parts` > 1 this process runs every `parts`-th chunk from `part`
     into a folder shared with the other parts; the one that completes the last chunk writes
@@ -106,20 +109,24 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     0 sets the folder up, every process plays its chunks, and once all have, process 0 writes
     the results (the others return none). With `processes` > 1 (CPU) helper processes play
     some of its groups side by side with it (`plan.share`, `runtime.players`; not while views
-    are kept)."""
+    are kept). With `compile_first`, every program is ready on every device before this
+    process's first chunk (`batch.program.run_chunks` without overlap)."""
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
     if distributed:
         part, parts = process_of_run()
     if part == 0 or not distributed:  # distributed: process 0 alone checks (and overwrites)
         out = check_output_folder(out, resume or parts > 1 and not distributed, overwrite)
     with writing(Path(out), shared=parts > 1):  # one process writes a folder (parts: several)
-        return _run(experiment, Path(out), resume, part, parts, quiet, processes, distributed)
+        return _run(experiment, Path(out), resume, part, parts, quiet, processes, distributed,
+                    compile_first)
 
 
 def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int, quiet: bool,
-         processes: int, distributed: bool) -> RunResult:
+         processes: int, distributed: bool, compile_first: bool) -> RunResult:
     """`run`, with the folder checked and locked."""
     from graspjax.saved_views import ViewSaver
+
+    clock = [time.perf_counter()]  # the ends of the run's phases (`RunResult.seconds`)
 
     batch = experiment.batch or default_batch()
     configs, groups = _grouped(experiment)
@@ -167,6 +174,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         with lock:
             bar.update(attempts)
 
+    clock.append(time.perf_counter())
     with bar:
         helpers = []
         try:
@@ -188,6 +196,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                 _play(groups, configs, batch, skip, folder, columns, progress, log,
                       process=part if distributed else 0,
                       saver=saver, keep_views=experiment.save_views != "none",
+                      overlap=not compile_first,
                       after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
             while any(helper.running() for helper in helpers):  # stream the helpers' rows
                 folder.catch_up()
@@ -204,14 +213,20 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         barrier("played")  # every process's chunks are in the folder
         if part > 0:
             return RunResult(out, [], len(planned), len(planned), 0, float("nan"))
+    clock.append(time.perf_counter())
     files = folder.finish(remove_parts=True if distributed else None)  # others are done
     if not files:
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
+    clock.append(time.perf_counter())
     from graspjax.report import write_report
 
     files += write_report(out)[0]
-    success = pd.read_csv(out / "attempts.csv", usecols=["success"])["success"]
-    return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()))
+    clock.append(time.perf_counter())
+    success = pd.read_parquet(out / "attempts.parquet", columns=["success"])["success"]
+    lengths = [round(end - begin, 2) for begin, end in zip(clock[:-1], clock[1:], strict=True)]
+    seconds = dict(zip(("start", "chunks", "rows", "report"), lengths, strict=True))
+    return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()),
+                     seconds)
 
 
 def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:
@@ -223,12 +238,14 @@ def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:
 
 def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int],
           folder: RunFolder, columns: RunColumns, progress, log, process: int = 0,
-          saver=None, keep_views: bool = False, after_chunk=lambda: None) -> None:
+          saver=None, keep_views: bool = False, after_chunk=lambda: None,
+          overlap: bool = True) -> None:
     """Play every chunk not in `skip` into `folder`: its rows, layouts and timings, and its
     views (with `saver`, when kept); `after_chunk()` once each is kept (the run: a helper that
-    failed stops it). `process`: which of the run's processes plays them."""
+    failed stops it). `process`: which of the run's processes plays them; `overlap`: chunks
+    start while other programs still compile (`run_chunks`)."""
     for result in run_chunks(groups, configs, batch, skip, keep_views=keep_views,
-                             progress=progress, log=log, process=process):
+                             progress=progress, log=log, process=process, overlap=overlap):
         frame = attempt_rows(result, columns)
         folder.add(result.chunk.index, frame, round_rows(result, columns), result.timings)
         if result.views is not None:

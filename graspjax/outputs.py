@@ -4,9 +4,10 @@ While a run is going:
 
 - `config.json`: every setting, seed, batch, devices, versions, command,
   written before the first chunk;
-- `parts/timings-NNNNN.json`, `parts/rounds-NNNNN.parquet` and
+- `parts/timings-NNNNN.json`, `parts/rounds-NNNNN.parquet`,
+  `parts/attempts-NNNNN.csv` (its rows as CSV text, formatted once) and
   `parts/attempts-NNNNN.parquet`: one set per finished chunk, each written
-  atomically; a chunk is done when its attempts part exists;
+  atomically; a chunk is done when its attempts parquet exists;
 - `attempts.csv`: the rows of each finished chunk appended at once (in the
   order chunks finish), to watch a long run with any tool. Only the run's own
   process appends: the chunks of its helper processes (`runtime.players`) are
@@ -42,6 +43,7 @@ import socket
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from graspjax.io import InputError, write_atomic
@@ -54,7 +56,7 @@ OWN_FILES = ("config.json", LOCK, "attempts.csv", "attempts.parquet", "rounds.cs
              "timings.csv", "summary.csv", "rounds_summary.csv", "sweep_summary.csv",
              "table[12].md", "table[12].tex", "success_by_object.png", "outcomes.png",
              "comparison.md", "comparison.png", "sweep_*.png", "planes.csv.gz",
-             "planes_summary.csv", "parts/attempts-[0-9]*.parquet",
+             "planes_summary.csv", "parts/attempts-[0-9]*.parquet", "parts/attempts-[0-9]*.csv",
              "parts/rounds-[0-9]*.parquet", "parts/timings-[0-9]*.json",
              "views/p[0-9][0-9][0-9]_s[123]_r*.npz", "debug/p[0-9][0-9][0-9]_s[123]_r*.png")
 
@@ -196,6 +198,19 @@ def _csv(frame: pd.DataFrame, header: bool) -> bytes:
     return frame.to_csv(index=False, header=header, float_format="%.7g").encode()  # float32 precision
 
 
+def _sorted(frame: pd.DataFrame, lines: list[bytes] | None) -> tuple[pd.DataFrame, bytes]:
+    """`frame` (every chunk's rows, chunk by chunk) sorted (`sort_attempts`), and its
+    `attempts.csv`: `lines`, the same rows formatted chunk by chunk (one line each), put in the
+    sorted order, or, without them (or where a field held a line break), the sorted frame
+    formatted afresh. Both give the same bytes (a test compares); the first saves formatting
+    every row of a large run again at its end."""
+    ordered = sort_attempts(frame.assign(_line=np.arange(len(frame))))
+    rows = ordered.pop("_line").to_numpy()
+    if lines is None or len(lines) != len(frame):
+        return ordered, _csv(ordered, True)
+    return ordered, b"".join([_csv(ordered.iloc[:0], True), *(lines[i] for i in rows)])
+
+
 class RunFolder:
     """The files of one run (module docstring), written chunk by chunk.
 
@@ -236,29 +251,37 @@ class RunFolder:
             return set(range(self.chunks))
         return {int(p.stem.split("-")[1]) for p in self.parts.glob("attempts-*.parquet")}
 
-    def _part_frames(self) -> list[pd.DataFrame]:
-        return [pd.read_parquet(self.parts / f"attempts-{c:05d}.parquet") for c in sorted(self.done)]
-
     def _rewrite_csv(self) -> None:
         """attempts.csv = the rows of the chunks done (drops an append whose chunk is not done)."""
         done = self.done
-        frames = self._part_frames()
-        text = _csv(pd.concat(frames, ignore_index=True), True) if frames else b""
+        parts = [self._part(c) for c in sorted(done)]
+        text = _csv(parts[0][0].iloc[:0], True) + b"".join(t for _, t in parts) if parts else b""
         write_atomic(self.folder / "attempts.csv", text)
         self.appended = done
 
-    def _append(self, chunk: int, frame: pd.DataFrame) -> None:
+    def _append(self, chunk: int, frame: pd.DataFrame, text: bytes) -> None:
+        """Append one chunk's rows, `frame` formatted as `text` (the header first if the file
+        is empty)."""
         csv = self.folder / "attempts.csv"
         with open(csv, "ab") as handle:
-            handle.write(_csv(frame, header=csv.stat().st_size == 0))
+            if csv.stat().st_size == 0:
+                handle.write(_csv(frame.iloc[:0], True))
+            handle.write(text)
         self.appended.add(chunk)
+
+    def _part(self, chunk: int) -> tuple[pd.DataFrame, bytes]:
+        """A done chunk's rows and their CSV text (formatted here if its part lacks it: a
+        folder of an earlier version resumed)."""
+        frame = pd.read_parquet(self.parts / f"attempts-{chunk:05d}.parquet")
+        text = self.parts / f"attempts-{chunk:05d}.csv"
+        return frame, text.read_bytes() if text.is_file() else _csv(frame, False)
 
     def catch_up(self) -> None:
         """Append the rows of chunks done by other processes (the run's helpers) that
         attempts.csv does not hold yet."""
         if self.append and not self.finished:
             for chunk in sorted(self.done - self.appended):
-                self._append(chunk, pd.read_parquet(self.parts / f"attempts-{chunk:05d}.parquet"))
+                self._append(chunk, *self._part(chunk))
 
     def add(self, chunk: int, frame: pd.DataFrame, layouts: pd.DataFrame, timings: dict) -> None:
         """Keep one finished chunk: the CSV append, its timings and round rows, then its attempt
@@ -268,8 +291,10 @@ class RunFolder:
         frame.to_parquet(buffer, index=False)
         rounds = io.BytesIO()
         layouts.to_parquet(rounds, index=False)
+        text = _csv(frame, header=False)
         if self.append:
-            self._append(chunk, frame)
+            self._append(chunk, frame, text)
+        write_atomic(self.parts / f"attempts-{chunk:05d}.csv", text)
         write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
@@ -285,7 +310,11 @@ class RunFolder:
         if not self.finished:
             if len(self.done) < self.chunks:
                 return []
-            frame = sort_attempts(pd.concat(self._part_frames(), ignore_index=True))
+            parts = [self._part(c) for c in sorted(self.done)]
+            frame = pd.concat([f for f, _ in parts], ignore_index=True)
+            alike = all(f.dtypes.equals(parts[0][0].dtypes) for f, _ in parts)
+            lines = [line for _, text in parts for line in text.splitlines(keepends=True)]
+            frame, csv = _sorted(frame, lines if alike else None)  # alike: formatted alike
             timings = pd.DataFrame([json.loads((self.parts / f"timings-{c:05d}.json").read_text())
                                     for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
             parquet = io.BytesIO()
@@ -294,7 +323,7 @@ class RunFolder:
                                 for c in sorted(self.done)], ignore_index=True)
             rounds = rounds.sort_values(["point", "setup", "round"], kind="stable")
             write_atomic(self.folder / "attempts.parquet", parquet.getvalue())
-            write_atomic(self.folder / "attempts.csv", _csv(frame, True))
+            write_atomic(self.folder / "attempts.csv", csv)
             write_atomic(self.folder / "rounds.csv", _csv(rounds, True))
             write_atomic(self.folder / "timings.csv", timings.to_csv(index=False).encode())
             meta = {**self.meta, "finished": datetime.now(UTC).isoformat(timespec="seconds")}

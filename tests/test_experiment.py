@@ -66,14 +66,15 @@ def tiny_run(tmp_path_factory):
 def two_devices(tiny_run, tmp_path_factory):
     """The tiny run again in a second process with two CPU devices, a chunk of 3 each: started by
     the module's first test and left to compile (for both devices, about a minute) beside the
-    tests that follow; its test waits for it."""
+    tests that follow; its test waits for it. `--compile-first`: both devices' copies are ready
+    before either plays, so each takes a chunk (else the first ready may play both)."""
     assert any(exported.store().glob("*.jaxexport"))  # the tiny run's programs, to be loaded
     folder = tmp_path_factory.mktemp("two")
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2",
            "JAX_PLATFORMS": "cpu"}
     with open(folder / "stderr.txt", "w") as err:  # a file: a full pipe would stall it
         proc = subprocess.Popen([sys.executable, "-m", "graspjax.cli", "run", *TINY,
-                                 "--out", str(folder / "run")],
+                                 "--compile-first", "--out", str(folder / "run")],
                                 env=env, stdout=subprocess.DEVNULL, stderr=err)
     yield proc, folder
     if proc.poll() is None:

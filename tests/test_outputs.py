@@ -116,3 +116,38 @@ def test_a_folder_a_run_has_just_locked_is_left_to_the_lock(tmp_path):
         with pytest.raises(InputError, match="being written by process"):
             with writing(folder):
                 pass
+
+
+@pytest.mark.parametrize("reason", ["not attempted: a, b \"quoted\"", "a line\nbreak"])
+def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path, reason):
+    """The end of a run puts the lines its chunks formatted into the sorted order; the bytes
+    equal the whole sorted frame formatted at once (pandas, a reference that does not reorder
+    lines), with missing rounds, float32 values, quoted fields, and a field whose line break
+    makes the lines unusable (then it formats afresh)."""
+    import numpy as np
+    import pandas as pd
+
+    from graspjax.outputs import _csv
+    from graspjax.schema import TIMINGS_COLUMNS, sort_attempts
+
+    rng = np.random.default_rng(0)
+
+    def rows(setup, trials):
+        n = 3 * len(trials)
+        return pd.DataFrame({
+            "point": 0, "setup": setup, "object": np.tile(["c", "a", "b"], len(trials)),
+            "trial": np.repeat(trials, 3),
+            "round": pd.array(np.repeat(trials, 3) if setup > 1 else [None] * n, dtype="Int64"),
+            "attempt": rng.integers(-1, 3, n), "rise_m": rng.random(n).astype(np.float32) / 3,
+            "reason": reason})
+
+    chunks = [rows(2, [3, 1]), rows(1, [2, 0]), rows(3, [0]), rows(1, [1, 3])]
+    folder = RunFolder(tmp_path, _meta(), chunks=len(chunks), resume=False)
+    timings = dict.fromkeys(TIMINGS_COLUMNS, 0)
+    for index in (2, 0, 3, 1):  # chunks end out of order
+        folder.add(index, chunks[index], pd.DataFrame({"point": [], "setup": [], "round": []}),
+                   timings)
+    folder.finish()
+    whole = sort_attempts(pd.concat(chunks, ignore_index=True))
+    assert (tmp_path / "attempts.csv").read_bytes() == _csv(whole, True)
+    assert pd.read_parquet(tmp_path / "attempts.parquet").equals(whole)

@@ -153,7 +153,7 @@ class Program:
     @property
     def compile_s(self) -> float:
         """Seconds to lower the exported modules and compile them for one device (the slowest
-        of the devices); tracing apart (`trace_s`)."""
+        of the devices compiled so far); tracing apart (`trace_s`)."""
         return max(self._compile_s)
 
     def spec(self, worlds: tuple[WorldKey, ...], points: list[Config]) -> WorldSpec:
@@ -297,15 +297,17 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     """Play every chunk not in `done`; yield each as it finishes.
 
     Every local device plays whole chunks in a thread of its own: the first chunk in
-    `heaviest_first` order whose program is ready, then the next, so no device waits while
-    there is work. While the caller handles a yielded chunk the devices play on (unless views
-    are kept: then a device starts its next chunk only once the caller has handled its last,
-    whose views it holds); closing the generator early waits for the chunks playing to end.
+    `heaviest_first` order whose program's copy on that device is ready, then the next, so no
+    device waits while there is work (nor for another device's copy). While the caller
+    handles a yielded chunk the devices play on (unless views are kept: then a device starts
+    its next chunk only once the caller has handled its last, whose views it holds); closing
+    the generator early waits for the chunks playing to end.
 
     Programs compile in background threads (`runtime.compiles`); with `overlap`, a group's
-    chunks start as soon as its own program is ready, while other programs still compile (the
-    devices work while the host compiles). Without it, every program is compiled before the
-    first chunk (benchmarks: run time apart from compile time). A chunk's timings say where its
+    chunks start as soon as its own program is ready on their device, while other programs
+    (and other devices' copies) still compile: the devices work while the host compiles.
+    Without it, every program is compiled for every device before the first chunk
+    (benchmarks: run time apart from compile time). A chunk's timings say where its
     program came from (`program`: traced here, by a worker process, or loaded from the store),
     what tracing or loading and compiling took (`trace_s`, `compile_s`, on a group's first
     chunk), when it started (`started_s`, seconds since this call began: gaps are a device
@@ -326,9 +328,15 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             log(f"compiling {len(compiling)} program(s) ...")
         logged: set[int] = set()
 
-        def ready(prog: Program) -> None:
-            """Wait for every device's copy of `prog` (a failed compile raises here)."""
-            for future in compiling.get(id(prog), []):
+        def copy_of(prog: Program, device: int) -> list[concurrent.futures.Future]:
+            """What `device` waits for to play `prog`: its own copy's compile and the scene
+            (the last future); not the other devices' copies."""
+            futures = compiling.get(id(prog), [])
+            return [futures[device], futures[-1]] if futures else []
+
+        def ready(prog: Program, device: int) -> None:
+            """Wait for `device`'s copy of `prog` (a failed compile raises here)."""
+            for future in copy_of(prog, device):
                 future.result()
             with lock:
                 if id(prog) in compiling and id(prog) not in logged:
@@ -340,10 +348,8 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
 
         if not overlap:
             for prog in programs.values():
-                ready(prog)
-
-        def compiles(chunk: Chunk) -> list[concurrent.futures.Future]:
-            return compiling.get(id(programs[chunk.group]), [])
+                for device in range(len(devices)):
+                    ready(prog, device)
 
         def counted(attempts: int) -> None:
             with lock:
@@ -353,7 +359,7 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             """Play one chunk on `device` into its result; a failed compile of its program
             raises here."""
             prog = programs[chunk.group]
-            ready(prog)
+            ready(prog, device)
             start = time.perf_counter()
             drop, records, views = prog.play(chunk.worlds, points, device, counted)
             wall_s = time.perf_counter() - start
@@ -383,7 +389,8 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             while True:
                 if keep_views:
                     handled[device].acquire()
-                chunk = take_ready(waiting, compiles, lock, stop)
+                chunk = take_ready(waiting, lambda c: copy_of(programs[c.group], device),
+                                   lock, stop)
                 if chunk is None:
                     break
                 try:
