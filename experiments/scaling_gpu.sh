@@ -25,7 +25,7 @@ timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall
   CUDA_VISIBLE_DEVICES=$gpus python3 -m graspjax.cli run --table 1,2 --trials "$trials" \
     --seed 0 --quiet --overwrite --out "$runs/$name" "$@" > "$runs/$name.log" 2>&1
   local code=$?
-  echo "$name,$gpus,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$runs/walls.csv"
+  echo "$name,${gpus//,/+},$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$runs/walls.csv"
   echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$runs/walls.csv")"
   echo "$name: $(grep '^seconds:' "$runs/$name.log")" >> "$runs/phases.txt"
   keep "$name"
