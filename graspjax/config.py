@@ -580,8 +580,13 @@ class RealImageConfig:
     # 1.2 cm thick finger) gain nothing from finer pixels, and the support's block median
     # compiles in time that grows steeply with its block (minutes for 4000 x 3000 images)
     max_full_pixels: int = 1_310_720  # ... and to at most this many pixels (1280 x 1024)
-    detect_width: int = 640  # detection resolution: block median by the factor nearest width / this
-    downsample: int = 0  # block factor of the detection resolution (0: from detect_width)
+    detect_pixel: float = 0.0014  # detection resolution (`graspjax detect`): block median by
+    # the whole factor that brings a pixel nearest this (m) at the image's median depth, from its
+    # intrinsics (0: from `detect_width`); the PrimeSense table's 1.39 mm and the PhoXi bin's
+    # 1.45 mm pixels, where the detector was developed
+    detect_width: int = 640  # with `detect_pixel` 0 (and synthetic benchmarks): the factor
+    # nearest width / this
+    downsample: int = 0  # block factor of the detection resolution (0: from `detect_pixel`)
     working_width: int = 160  # support plane and targets: block median to about this width (the
     # simulated camera's default; the paper downsamples but gives no resolution)
     crop_px: int = 192  # side of the square detection window around each target (detection pixels)
@@ -612,6 +617,8 @@ class RealImageConfig:
     def __post_init__(self):
         _require(math.isfinite(self.full_pixel) and self.full_pixel >= 0,
                  f"RealImageConfig.full_pixel must be >= 0 (m), got {self.full_pixel!r}")
+        _require(math.isfinite(self.detect_pixel) and self.detect_pixel >= 0,
+                 f"RealImageConfig.detect_pixel must be >= 0 (m), got {self.detect_pixel!r}")
         _in_range(self, "max_full_pixels", 4096, 100_000_000)
         _in_range(self, "detect_width", 16, 4096)
         _in_range(self, "working_width", 16, 4096)

@@ -67,6 +67,22 @@ def test_jaws_beside_a_step_are_refused_and_beside_a_wall_are_not():
     assert float(plain.clearance) > 0.02  # the table, 46 mm below the top
 
 
+def test_a_ledge_under_part_of_a_pad_holds_that_jaw_up():
+    """A 4 x 6 x 4 cm part with a 2 x 1 cm ledge 6 mm below its top against its +x face, under
+    half of one pad (the pad spans y -1..+1 cm; the ledge y 0..+1 cm): the jaws across x are
+    refused, the fall beside the band at the worst lane is the ledge's 6 mm (under the 8 mm
+    shallowest grasp); without the ledge every lane falls to the table, 4 cm down."""
+    body = box((0.04, 0.06, 0.04), _at())
+    ledge = box((0.02, 0.01, 0.034), _at(x=0.03, y=0.005))
+    for config in (Config(), preset("realistic")):
+        held = _jaws([body, ledge], _at(z=0.04), X, 0.04, config)
+        assert held.reason == GraspReason.JAWS_BLOCKED
+        assert abs(float(held.landing) - 0.006) < 0.0015
+        free = _jaws([body], _at(z=0.04), X, 0.04, config)
+        assert free.reason == GraspReason.FOUND
+        assert float(free.landing) > 0.03  # the table (or a fall the camera does not see)
+
+
 def test_a_rounded_top_is_held_where_the_jaws_touch_it():
     """A cylinder (r = 2.5 cm) lying along x: its top band is 3 cm wide, the jaws close 2 cm
     below the top on its flanks, 2 sqrt(r^2 - (r - 2 cm)^2) = 4.9 cm apart, where the side is

@@ -56,6 +56,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
                   "position": r.position, "closing_axis": r.closing_axis,
                   "approach": r.approach, "width": g.width, "depth": g.depth,
                   "contact_width": ranked.contact_width[0], "clearance": ranked.clearance[0],
+                  "landing_fall": ranked.landing[0],
                   "score": ranked.score[0], "surface_depth": g.surface_depth,
                   "pixel": inputs.source_pixel(r.pixel),
                   "surface_pixels": int(g.surface_pixels),
@@ -75,14 +76,15 @@ def _candidate(ranked, k: int, inputs: Inputs) -> dict:
             "position": ranked.position[k], "closing_axis": ranked.closing_axis[k],
             "pixel": inputs.source_pixel(ranked.pixel[k]), "width": ranked.width[k],
             "contact_width": ranked.contact_width[k], "depth": ranked.depth[k],
-            "clearance": ranked.clearance[k], "no_depth_fraction": ranked.unknown[k],
+            "clearance": ranked.clearance[k], "landing_fall": ranked.landing[k],
+            "no_depth_fraction": ranked.unknown[k],
             "centre_distance": ranked.centre_distance[k]}
 
 
 CSV_COLUMNS = [
     "image", "found", "reason", "rank", "score", "target", "x", "y", "z", "axis_x", "axis_y",
     "axis_z", "approach_x", "approach_y", "approach_z", "width", "contact_width", "grasp_depth",
-    "clearance", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
+    "clearance", "landing_fall", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
     "support", "support_nx", "support_ny", "support_nz", "support_distance", "support_tilt_deg",
     "support_inlier_fraction", "alignment", "align_nx", "align_ny", "align_nz", "load_ms",
     "compute_ms",
@@ -100,8 +102,8 @@ def csv_rows(rec: dict) -> list[list]:
     approach = rec["grasp"]["approach"]
     rows = [image + [c["rank"], c["score"], c["target"], *c["position"], *c["closing_axis"],
                      *approach, c["width"], c["contact_width"], c["depth"], c["clearance"],
-                     *c["pixel"]] + rest for c in rec["candidates"]]
-    return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 4 + [None, None] + rest]
+                     c["landing_fall"], *c["pixel"]] + rest for c in rec["candidates"]]
+    return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 5 + [None, None] + rest]
 
 
 def csv_bytes(records: Sequence[dict]) -> bytes:

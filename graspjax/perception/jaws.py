@@ -12,7 +12,8 @@ answer, sample by sample along each jaw's path:
   gripped band has sides: within friction x the shallowest grasp depth of
   its edge the part falls at least that depth, on average steeper than the
   pads' friction cone (else the jaws land on the object's own top or on a
-  shoulder of it, not beside it). Closing at the
+  shoulder of it, not beside it), in every lane across the pad's width (a
+  ledge under part of a pad holds that jaw up as well). Closing at the
   tips' level, each jaw touches the part where it first stands higher than
   the tips, so the jaws may hold a part wider below its top, as a rounded
   one; between the band and the contact there is no gap (a gap means the
@@ -50,6 +51,8 @@ class JawCheck:
     reason: jax.Array  # () int32 GraspReason: FOUND, TOO_NARROW, JAWS_BLOCKED or NO_WALL
     depth: jax.Array  # () finger-tip depth below the grasp centre the jaws can reach
     clearance: jax.Array  # () free height below the finger tips in the checked path (inf: all free)
+    landing: jax.Array  # () how far the part falls beside the band, at the worst of both jaws'
+    # lanes across the pad's width (inf: a lane's fall unseen); kept if >= min_grasp_depth
     contact_width: jax.Array  # () distance between the jaws where they touch the part
     unknown: jax.Array  # () share of the path's samples without depth
 
@@ -105,12 +108,14 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # its sample). A sample near the edge that is not seen counts as a drop: no depth, or hidden
     # by the part's own top (its ray met the band, not the side: the far side of a tall part
     # seen by a tilted camera).
+    # Every lane across the pad's width must fall: one lane on a ledge holds the jaw up.
     reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
-    dropped = (out <= reach_out) & (height >= detect.min_grasp_depth)
     near = across[None, :, None]
     hidden = seen & (out <= width / 2 + step) & (near > width / 2 + step)
     lost = (near <= reach_out) & (~seen | hidden)
-    sides = jnp.all(jnp.any(dropped | lost, (1, 2)))
+    fall = jnp.where(lost, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf))  # (2, A, L)
+    landing = jnp.min(jnp.max(fall, 1))  # the worst lane's deepest fall near the edge
+    sides = landing >= detect.min_grasp_depth
     # Closing at the tips' level: each jaw touches the part where it first stands higher than
     # the tips, with no gap between the band and the contact (else it closes on something else).
     above = top < reach  # (2, A)
@@ -135,5 +140,5 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     reason = jnp.select([width < image.min_width, blocked, no_wall],
                         [GraspReason.TOO_NARROW, GraspReason.JAWS_BLOCKED, GraspReason.NO_WALL],
                         GraspReason.FOUND).astype(jnp.int32)
-    return JawCheck(reason=reason, depth=reach, clearance=free - reach,
+    return JawCheck(reason=reason, depth=reach, clearance=free - reach, landing=landing,
                     contact_width=contact_width, unknown=jnp.mean(~seen))

@@ -88,6 +88,7 @@ class RankedGrasps:
     contact_width: jax.Array  # (K,) distance between the jaws where they touch the part (m)
     depth: jax.Array  # (K,) finger-tip depth below G the jaws reach (m)
     clearance: jax.Array  # (K,) free height below the finger tips in the jaws' paths (m; inf: all)
+    landing: jax.Array  # (K,) the part's fall beside the band at the jaws' worst lane (m; inf: unseen)
     unknown: jax.Array  # (K,) share of the jaws' path samples without depth
     centre_distance: jax.Array  # (K,) distance of G from the part's centre across the view (m)
 
@@ -355,7 +356,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         position=position, closing_axis=ranked(pool["axis"], jnp.nan),
         pixel=camera.project(position), width=ranked(pool["width"], jnp.nan),
         contact_width=ranked(jaws.contact_width, jnp.nan), depth=ranked(jaws.depth, jnp.nan),
-        clearance=ranked(jaws.clearance, jnp.nan), unknown=ranked(jaws.unknown, jnp.nan),
+        clearance=ranked(jaws.clearance, jnp.nan), landing=ranked(jaws.landing, jnp.nan),
+        unknown=ranked(jaws.unknown, jnp.nan),
         centre_distance=ranked(pool["distance"], jnp.nan))
     grasp = _as_chosen(best_grasp, top, pool["reasons"][best])
 
