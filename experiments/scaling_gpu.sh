@@ -10,8 +10,11 @@
 #   a2 2 GPUs at 4,000 trials warm
 #   b  1 GPU at 4,000 trials warm; 2 processes x 1 GPU at 4,000 through jax.distributed;
 #      the rows of every run compared (4,000-trial runs together, 1,000-trial runs together)
-#   c  2 processes x 1 GPU again (their own topology's programs now cached: warm), then 4 GPUs
-#      again; the rows compared
+#   c  2 processes x 1 GPU again (their own topology's programs now cached: warm); the rows
+#      compared
+#   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
+#      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
+#      4,000 warm, and 2 processes cold (then c: warm)
 # Each run's "seconds:" line (where its time went: start, chunks, rows, report) goes to
 # $OUT/phases.txt; the last table gives every run's speed-up over the 1-GPU run of its size.
 set -uo pipefail
@@ -88,8 +91,13 @@ for step in "$@"; do
        distributed two_processes_4000 4000
        compare ;;
     c) distributed two_processes_warm_4000 4000
-       timed warm_4gpu_again_4000 0,1,2,3 4000
        compare ;;
+    one) timed cold_1gpu_1000 0 1000  # a 2-GPU host: 1 GPU, then 2 (own compiles), processes
+         timed warm_1gpu_1000 0 1000
+         timed warm_1gpu_4000 0 4000 ;;
+    two) timed first_2gpu_1000 0,1 1000
+         timed warm_2gpu_4000 0,1 4000
+         distributed two_processes_4000 4000 ;;
   esac
 done
 python3 - "$runs/walls.csv" <<'EOF'
