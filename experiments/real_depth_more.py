@@ -31,7 +31,8 @@ def main() -> int:
     parser.add_argument("--images", default=str(Path(tempfile.gettempdir()) / "graspjax_more"),
                         help="where the captures are written as .npy (outside the repository)")
     parser.add_argument("--more", default=str(MORE), help="the folder of cases.json, more.npz")
-    parser.add_argument("extra", nargs="*", help="more graspjax detect arguments (after --)")
+    parser.add_argument("extra", nargs=argparse.REMAINDER,
+                        help="more graspjax detect arguments (after --)")
     args = parser.parse_args()
     more = Path(args.more)
     if not (more / "cases.json").is_file():
@@ -50,10 +51,10 @@ def main() -> int:
                        "--cx", str(case["cx"]), "--cy", str(case["cy"]),
                        "--roi", ",".join(str(v) for v in case["roi"]), "--top", "2",
                        "--preset", args.preset, "--quiet", "--out", str(out / case["name"]),
-                       *args.extra]
+                       *[a for a in args.extra if a != "--"]]
             done = subprocess.run(command, capture_output=True, text=True)
-            print(done.stdout.strip() or done.stderr.strip().splitlines()[-1])
             if done.returncode:
+                print(done.stderr.strip(), file=sys.stderr)
                 return done.returncode
     judge = Path(__file__).with_name("judge_real_depth.py")
     verdict = subprocess.run([sys.executable, str(judge),

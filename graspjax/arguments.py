@@ -78,9 +78,10 @@ def intrinsics(args):
     return IntrinsicsRequest()
 
 
-def detect_settings(preset_name: str | None, top: int | None, sets: list[str] | None
-                     ) -> list[str]:
-    """`--set` items of a detect command: its preset's, then --top, then the user's own."""
+def detect_settings(preset_name: str | None, top: int | None, sets: list[str] | None,
+                    method: str | None = None) -> list[str]:
+    """`--set` items of a detect command: its preset's, then --top and --method, then the
+    user's own."""
     from graspjax.config import PRESETS, parse_assignments
 
     if top is not None and top < 1:
@@ -88,6 +89,7 @@ def detect_settings(preset_name: str | None, top: int | None, sets: list[str] | 
     parse_assignments(sets or [])  # the user's own: malformed or twice is an error
     items = [f"{k}={v}" for k, v in PRESETS[preset_name or "paper"].items()]
     items += [f"image.top_k={top}"] if top is not None else []
+    items += [f"method={method}"] if method is not None else []
     return items + (sets or [])
 
 
@@ -228,7 +230,7 @@ def detect_request(args):
     inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=intrinsics(args),
                      roi=roi(args.roi), mask=args.mask, depth_range=depth_range(args.range),
                      downsample=args.downsample,
-                     overrides=detect_settings(args.preset, args.top, args.set))
+                     overrides=detect_settings(args.preset, args.top, args.set, args.method))
     return inputs, outputs, args.batch or 16, many
 
 

@@ -230,6 +230,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
                    help="the detector's checks: the paper's, or with the wall check where the "
                         "jaws touch (realistic)")
+    p.add_argument("--method", choices=list(METHODS),
+                   help="grasp method on each target's window: paper (the double T-beam, "
+                        "default), highest-pca or antipodal (docs/baselines.md); the same jaw "
+                        "checks and ranking follow")
     p.add_argument("--top", type=int, metavar="K",
                    help="return the K best distinct grasps, ranked (default 1)")
     p.add_argument("--out", help="results table: FILE.csv, or a directory for results.csv and "

@@ -238,3 +238,31 @@ def test_common_sensors_formats_sizes_and_tilts(tmp_path, name):
     side = int(np.argmax(cosines))
     assert cosines[side] > np.cos(np.deg2rad(5.0))
     assert abs(rec["grasp"]["width"] - size[side]) < 3 * pixel
+
+
+@pytest.mark.parametrize("method", ["highest-pca", "antipodal"])
+def test_the_baselines_on_a_real_looking_image(table, method):
+    """`graspjax detect --method`: a baseline proposes the placements in each target's window,
+    the same jaw checks and ranking follow. On the tilted table's 4 x 7 cm box, highest-pca
+    closes across the box's minor axis (its 4 cm side) at the top's centre; antipodal closes
+    across a pair of parallel faces (4 or 7 cm apart), on the top."""
+    from graspjax.config import override
+
+    config = override(Config(), [f"method={method}"])
+    result = detect_batch(table.depth[None], table.workspace, stack_cameras([table.camera]),
+                          config, RealImageConfig())
+    r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+    assert bool(r.found), GraspReason(int(r.grasp.reason)).name
+    top = table.to_camera(table.top)
+    sides = [table.direction([np.cos(table.yaw), np.sin(table.yaw), 0.0]),
+             table.direction([-np.sin(table.yaw), np.cos(table.yaw), 0.0])]
+    angles = [_angle_deg(r.closing_axis, s) for s in sides]
+    side = int(np.argmin(angles))
+    assert angles[side] < 4.0
+    assert abs(float(r.grasp.width) - table.size[side]) < 2 * PIXEL
+    distance = np.linalg.norm(r.position - top)
+    if method == "highest-pca":
+        assert side == 0 and distance < 2 * PIXEL  # across the 4 cm side, at the centre
+    else:
+        assert abs(float(np.dot(r.position - top, table.up))) < 2 * PIXEL  # on the top face
+        assert distance < max(table.size) / 2

@@ -26,6 +26,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
     fine, coarse = block_factors(inputs.width, inputs.image)
     return jsonable({
         "image": str(d.path),
+        "method": inputs.config.method,
         "found": bool(r.found),
         "reason": reason,
         "size": list(inputs.source_size),
@@ -87,7 +88,7 @@ CSV_COLUMNS = [
     "clearance", "landing_fall", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
     "support", "support_nx", "support_ny", "support_nz", "support_distance", "support_tilt_deg",
     "support_inlier_fraction", "alignment", "align_nx", "align_ny", "align_nz", "load_ms",
-    "compute_ms",
+    "compute_ms", "method",
 ]
 
 
@@ -98,7 +99,7 @@ def csv_rows(rec: dict) -> list[list]:
     image = [rec["image"], rec["found"], rec["reason"]]
     rest = [*t["pixel"], t["height"], t["attempts"], rec["view"], s["reason"], *s["normal"],
             s["distance"], s["tilt_deg"], s["inlier_fraction"], a["reason"], *a["normal"],
-            rec["timing"]["load_ms"], rec["timing"]["compute_ms"]]
+            rec["timing"]["load_ms"], rec["timing"]["compute_ms"], rec["method"]]
     approach = rec["grasp"]["approach"]
     rows = [image + [c["rank"], c["score"], c["target"], *c["position"], *c["closing_axis"],
                      *approach, c["width"], c["contact_width"], c["depth"], c["clearance"],

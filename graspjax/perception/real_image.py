@@ -15,7 +15,8 @@
    pixel highest above the support that is neither a speck nor on a
    surface too steep to face the view (the nearest one when there is no
    support plane).
-5. Detect (`detect_grasp`) at the detection resolution, in a `crop_px`
+5. Detect (`detect_grasp`, or the baseline `config.method` names:
+   `baselines.grasp_method`) at the detection resolution, in a `crop_px`
    square window of the virtual view centred on the target (the same camera
    with a shifted principal point, so nothing else changes), with the
    target's depth-connected surface in the window as `seed_mask`, found
@@ -48,8 +49,8 @@ from graspjax.camera import Camera
 from graspjax.codes import GraspReason, SupportReason
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
+from graspjax.perception.baselines import grasp_method
 from graspjax.perception.cluster import target_surface, valid_mask
-from graspjax.perception.grasp import detect_grasp
 from graspjax.perception.jaws import JawCheck, check_jaws
 from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import furthest_reason
@@ -247,8 +248,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     tolerance = config.detect.surface_tolerance
     fine_view = view_camera(fine_camera, rotation)
     # The window's own checks; the wall is judged at full resolution where the jaws touch.
-    window_detect = replace_unchecked(config.detect, tbeam_positions=image.tbeam_positions,
-                                      wall_check=jnp.zeros((), bool))
+    window_config = replace_unchecked(config, detect=replace_unchecked(
+        config.detect, tbeam_positions=image.tbeam_positions, wall_check=jnp.zeros((), bool)))
     full = jnp.where(workspace & valid_mask(depth) & (depth >= image.min_depth)
                      & (depth <= image.max_depth), jnp.asarray(depth, jnp.float32), 0.0)
     approach = rotation[:, 2]  # the view's optical axis, camera frame
@@ -269,8 +270,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         window, window_camera = _window(fine, fine_camera, fine_view, rotation, point,
                                         image.crop_px)
         seed = _followed(window, window_camera, point, prep.support, rotation, config)
-        grasp = detect_grasp(window, window_camera, window_detect, config.gripper,
-                             seed_mask=seed & has_target)
+        grasp = grasp_method(config.method)(window, window_camera, window_config,
+                                            seed & has_target)
         surface, _ = target_surface(view_depth, valid & has_target, target,
                                     view_depth[target[1], target[0]], tolerance)
         centre = jnp.sum(points * surface[..., None], (0, 1)) / jnp.maximum(jnp.sum(surface), 1)
@@ -278,8 +279,10 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         # Its most central valid placements, checked at full resolution.
         cands = grasp.candidates
         offset = jnp.linalg.norm(cands.center[:, :2] - centre[:2], axis=-1)
-        _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), per)
-        placed = cands.valid[index] & has_target & grasp.found
+        count = min(per, cands.valid.shape[0])  # a baseline may propose fewer placements
+        _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
+        index = jnp.pad(index, (0, per - count))
+        placed = cands.valid[index] & has_target & grasp.found & (jnp.arange(per) < count)
         position = cands.center[index] @ rotation.T
         axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
         jaws = check(full, camera, position, axis, approach, cands.width[index], config.detect,
