@@ -229,7 +229,7 @@ def detect_request(args):
         check_writable(path, what, directory=folder)
     inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=intrinsics(args),
                      roi=roi(args.roi), mask=args.mask, depth_range=depth_range(args.range),
-                     downsample=args.downsample,
+                     downsample=args.downsample, bin=args.bin,
                      overrides=detect_settings(args.preset, args.top, args.set, args.method))
     return inputs, outputs, args.batch or 16, many
 

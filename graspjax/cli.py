@@ -224,6 +224,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="columns X0 <= u < X1 and rows Y0 <= v < Y1, full-resolution pixels")
     g.add_argument("--mask", metavar="FILE", help="PNG or .npy of the image's size, nonzero = workspace")
     g.add_argument("--range", metavar="MIN,MAX", help="depth range in metres (default 0,10)")
+    g.add_argument("--bin", action="store_true",
+                   help="a bin or tote: the workspace is its interior found from depth (the "
+                        "floor's convex hull, in the first image) within --roi/--mask, and the "
+                        "jaws see its walls; give a --roi around the whole bin, or none")
     p.add_argument("--downsample", type=int,
                    help="block factor of the detection resolution (default: the one that brings "
                         "a pixel nearest 1.4 mm at the image's median depth, from the intrinsics)")

@@ -215,6 +215,18 @@ def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, 
             ax.add_patch(Polygon(np.asarray(camera.project(corners @ result.rotation.T)),
                                  closed=True, fill=True, fc="tab:red", ec="white", alpha=0.8))
         ax.plot(*result.pixel, "wx", ms=10, mew=2)
+    ranked = result.ranked  # the others of the `top_k` ranked grasps: outlined, numbered
+    for k in range(1, len(ranked.valid)):
+        if not bool(ranked.valid[k]):
+            continue
+        centre = result.rotation.T @ ranked.position[k]  # view frame
+        axis = (result.rotation.T @ ranked.closing_axis[k])[:2]
+        for offsets in _finger_offsets(axis / np.linalg.norm(axis), config):
+            corners = np.concatenate([centre[:2] + offsets, np.full((4, 1), centre[2])], -1)
+            ax.add_patch(Polygon(np.asarray(camera.project(corners @ result.rotation.T)),
+                                 closed=True, fill=False, ec="tab:orange", lw=1.5))
+        ax.annotate(str(k + 1), ranked.pixel[k], color="tab:orange", fontsize=10,
+                    ha="center", va="center", weight="bold")
     reason = (GraspReason(int(result.grasp.reason)).name
               if result.target_reason == TargetReason.FOUND
               else TargetReason(int(result.target_reason)).name)

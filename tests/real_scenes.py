@@ -95,10 +95,11 @@ def with_holes_and_specks(scene: RealScene, seed: int = 0) -> RealScene:
     return dataclasses.replace(scene, depth=depth.astype(np.float32))
 
 
-def bin_scene() -> RealScene:
+def bin_scene(whole: bool = False) -> RealScene:
     """A 36 x 26 x 12 cm bin (1 cm walls) seen 8 degrees off vertical from 0.8 m, holding
     three boxes; the 6 cm tall one is the highest object. The workspace is the rectangle
-    inside the projected inner rim, so it holds parts of the walls' inner faces."""
+    inside the projected inner rim, so it holds parts of the walls' inner faces; with `whole`,
+    a box around the whole bin, walls and rims included."""
     camera = Camera(WIDTH, HEIGHT, 552.5, 552.5, 319.5, 239.5)
     rotation, eye = tilted_pose(0.8, 8.0, about="y")
     axis = rotation @ np.array([0.0, 0.0, 1.0])
@@ -116,6 +117,8 @@ def bin_scene() -> RealScene:
                     for sx in (-1, 1) for sy in (-1, 1)])  # (-,-), (-,+), (+,-), (+,+)
     roi = (int(np.ceil(rim[:2, 0].max())) + 2, int(np.ceil(rim[[1, 3], 1].max())) + 2,
            int(rim[2:, 0].min()) - 2, int(rim[[0, 2], 1].min()) - 2)
+    if whole:
+        roi = (10, 10, WIDTH - 10, HEIGHT - 10)
     return RealScene(depth, camera, rotation, eye, _roi_mask(roi), roi,
                      np.array([*centre, 0.06]), size, yaw)
 

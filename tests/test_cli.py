@@ -50,10 +50,11 @@ def real_folder(tmp_path_factory):
 @pytest.mark.parametrize("name", ["scene.npy", "scene.png"])
 def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     out_json, out_png = tmp_path / "r.json", tmp_path / "r.png"
-    assert main(["detect", str(kinect_scene / name), "--json", str(out_json),
-                 "--figure", str(out_png)]) == 0
+    assert main(["detect", str(kinect_scene / name), "--json", str(out_json), "--top", "2",
+                 "--figure", str(out_png)]) == 0  # the second grasp outlined in the figure
     printed = json.loads(capsys.readouterr().out)
     assert printed == json.loads(out_json.read_text())
+    assert printed["method"] == "paper" and len(printed["candidates"]) == 2
     grasp = printed["grasp"]
     assert printed["found"] and grasp["found"] and printed["reason"] == "FOUND"
     assert abs(grasp["width"] - 0.05) < 0.005
@@ -95,6 +96,7 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     np.testing.assert_allclose(table[["x", "y", "z"]].to_numpy(), np.tile(top, (3, 1)), atol=0.004)
     np.testing.assert_allclose(table["support_tilt_deg"], 13.0, atol=0.1)
     assert (table["compute_ms"] > 0).all() and table["width"].between(0.035, 0.045).all()
+    assert (table["method"] == "paper").all() and (table["landing_fall"] >= 0.008).all()
     records = json.loads((out / "results.json").read_text())
     assert [r["image"] for r in records] == images
     assert records[0]["workspace"]["roi"] == list(scene.roi)

@@ -266,3 +266,73 @@ def test_the_baselines_on_a_real_looking_image(table, method):
     else:
         assert abs(float(np.dot(r.position - top, table.up))) < 2 * PIXEL  # on the top face
         assert distance < max(table.size) / 2
+
+
+def _tote_with_a_part_near_a_wall():
+    """The bin of `bin_scene` (36 x 26 x 12 cm, 1 cm walls, 8 degrees, 0.8 m) holding a
+    5 x 3 x 4 cm part 2 cm from its +y wall: depth (H, W), camera, rotation."""
+    from real_scenes import HEIGHT, WIDTH, tilted_pose
+
+    from graspjax import Camera
+    from graspjax.synthetic import analytic_depth, box
+
+    camera = Camera(WIDTH, HEIGHT, 552.5, 552.5, 319.5, 239.5)
+    rotation, eye = tilted_pose(0.8, 8.0, about="y")
+    axis = rotation @ np.array([0.0, 0.0, 1.0])
+    cx, cy = (eye + axis * eye[2] / -axis[2])[:2]
+    length, width, height, t = 0.36, 0.26, 0.12, 0.01
+    walls = [box((length + 2 * t, t, height), (cx, cy + s * (width + t) / 2, 0.0)) for s in (-1, 1)]
+    walls += [box((t, width, height), (cx + s * (length + t) / 2, cy, 0.0)) for s in (-1, 1)]
+    part = box((0.05, 0.03, 0.04), (cx, cy + width / 2 - 0.02 - 0.015, 0.0))
+    return analytic_depth(camera, rotation, eye, walls + [part]), camera, rotation
+
+
+def test_a_tote_whose_walls_lie_in_the_box(tmp_path):
+    """`--bin` with a box around the whole bin: without it the best grasp is on a wall's 1 cm
+    top edge (12 cm up, the highest surface); with it the workspace is the floor's hull, which
+    holds no wall pixel, and the grasp is on the 6 cm box's top."""
+    from graspjax.imagefiles.batches import detect_files
+    from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
+    from graspjax.imagefiles.records import record
+
+    scene = bin_scene(whole=True)
+    np.save(tmp_path / "tote.npy", scene.depth)
+    focal = IntrinsicsRequest(focal=(scene.camera.fx, scene.camera.fy))
+    plain = prepare([tmp_path / "tote.npy"], intrinsics=focal, roi=scene.roi)
+    rec = record(next(iter(detect_files(plain))), plain)
+    assert rec["found"] and rec["target"]["height"] == pytest.approx(0.12, abs=1e-3)
+    assert rec["grasp"]["width"] < 0.015  # a wall's top edge
+    inputs = prepare([tmp_path / "tote.npy"], intrinsics=focal, roi=scene.roi, bin=True)
+    points = scene.rotation @ scene.camera.unproject(scene.camera.pixel_grid(),
+                                                      scene.depth)[..., None]
+    heights = np.asarray(points[..., 2, 0]) + scene.eye[2]
+    floor = bin_scene().workspace & (heights < 1e-3)  # inside the inner rim's box, on the floor
+    assert (inputs.workspace & floor).sum() > 0.95 * floor.sum()
+    assert not (inputs.workspace & (heights > 0.065)).any()  # no wall pixel
+    rec = record(next(iter(detect_files(inputs))), inputs)
+    assert rec["found"] and rec["workspace"]["bin"]
+    top = scene.to_camera(scene.top)
+    assert np.linalg.norm(np.asarray(rec["grasp"]["position"]) - top) < 3 * PIXEL
+    assert min(abs(rec["grasp"]["width"] - w) for w in scene.size) < 3 * PIXEL
+
+
+def test_the_jaws_see_a_bins_walls_outside_its_workspace():
+    """A part 2 cm from a wall, the workspace the bin's interior (the wall outside it): with
+    `image.bin` the jaws' checks see the wall, and the grasp closes along it (a jaw across it
+    would open into the wall); without, the wall is not seen and the narrower grasp across,
+    toward the wall, wins."""
+    from graspjax.imagefiles.bins import bin_interior
+
+    depth, camera, rotation = _tote_with_a_part_near_a_wall()
+    box_ws = np.zeros(depth.shape, bool)
+    box_ws[10:-10, 10:-10] = True
+    interior = bin_interior(depth, camera, box_ws, RealImageConfig())
+    axes = {}
+    for bin_ in (False, True):
+        result = detect_batch(depth[None], interior, stack_cameras([camera]), Config(),
+                              RealImageConfig(bin=bin_))
+        r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+        assert bool(r.found)
+        axes[bin_] = rotation @ r.closing_axis  # world
+    assert abs(axes[True][0]) > np.cos(np.deg2rad(5.0))  # along the wall (world x)
+    assert abs(axes[False][1]) > np.cos(np.deg2rad(5.0))  # toward it (world y)

@@ -122,8 +122,9 @@ class Inputs:
         intrinsics come from."""
         depth, file_k = read_depth(path, self.depth_scale)
         camera = self.intrinsics.camera(*self.source_size, file_k)
-        if self.reduction > 1:  # pixels outside the workspace or the range take no part
-            kept = (self.source_workspace & (depth >= self.image.min_depth)
+        if self.reduction > 1:  # pixels outside the workspace (a bin's: the image) or the
+            kept = ((self.source_workspace | self.image.bin)  # range take no part
+                    & (depth >= self.image.min_depth)
                     & (depth <= self.image.max_depth))
             depth = block_median(np.where(kept, depth, 0.0), self.reduction)
         return depth, reduced(camera, self.reduction), self.intrinsics.describe(file_k)
@@ -262,9 +263,11 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             intrinsics: IntrinsicsRequest = IntrinsicsRequest(),
             roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
             depth_range: tuple[float, float] | None = None, downsample: int | None = None,
-            overrides: Sequence[str] = ()) -> Inputs:
-    """Read and check every input; nothing is computed yet. Every image is read once here, to
-    check it (its size, its intrinsics, its depth range)."""
+            overrides: Sequence[str] = (), bin: bool = False) -> Inputs:
+    """Read and check every input; nothing is computed yet but, with `bin`, the bin's interior
+    in the first image (`bins.bin_interior`), which narrows the workspace of every image (one
+    camera over one bin). Every image is read once here, to check it (its size, its
+    intrinsics, its depth range)."""
     paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
@@ -312,7 +315,14 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                              "the intrinsics for all images")
         if i:  # the first was checked above
             _check_range(depth, path, image, depth_scale)
-    return Inputs(paths=paths, source_size=(width, height), reduction=reduction, width=small_w,
-                  height=small_h, depth_scale=depth_scale, intrinsics=source,
-                  workspace=workspace, source_workspace=source_workspace, roi=roi, mask=mask,
-                  config=config, image=image)
+    inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
+                    width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
+                    workspace=workspace, source_workspace=source_workspace, roi=roi, mask=mask,
+                    config=config, image=dataclasses.replace(image, bin=image.bin or bin))
+    if inputs.image.bin:
+        from graspjax.imagefiles.bins import bin_interior
+
+        depth, camera, _ = inputs.read(paths[0])
+        inputs = dataclasses.replace(inputs, workspace=bin_interior(depth, camera, workspace,
+                                                                    inputs.image))
+    return inputs

@@ -39,6 +39,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
                    "source": d.source},  # at full resolution; pixels below are the file's
         "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
+                      "bin": inputs.image.bin,
                       "range": [inputs.image.min_depth, inputs.image.max_depth],
                       "pixels": int(inputs.workspace.sum())},
         "support_plane": {"found": bool(s.found), "reason": SupportReason(int(s.reason)).name,

@@ -250,7 +250,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     # The window's own checks; the wall is judged at full resolution where the jaws touch.
     window_config = replace_unchecked(config, detect=replace_unchecked(
         config.detect, tbeam_positions=image.tbeam_positions, wall_check=jnp.zeros((), bool)))
-    full = jnp.where(workspace & valid_mask(depth) & (depth >= image.min_depth)
+    full = jnp.where((workspace | image.bin) & valid_mask(depth) & (depth >= image.min_depth)
                      & (depth <= image.max_depth), jnp.asarray(depth, jnp.float32), 0.0)
     approach = rotation[:, 2]  # the view's optical axis, camera frame
     n, per = image.max_targets, image.candidates_per_target
