@@ -31,6 +31,9 @@ def main() -> int:
     parser.add_argument("--images", default=str(Path(tempfile.gettempdir()) / "graspjax_more"),
                         help="where the captures are written as .npy (outside the repository)")
     parser.add_argument("--more", default=str(MORE), help="the folder of cases.json, more.npz")
+    parser.add_argument("--only", default="", help="only the cases whose name starts so (sdm)")
+    parser.add_argument("--no-roi", action="store_true",
+                        help="leave the cases' workspace boxes out (with -- --bin: the whole image)")
     parser.add_argument("extra", nargs=argparse.REMAINDER,
                         help="more graspjax detect arguments (after --)")
     args = parser.parse_args()
@@ -44,12 +47,15 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     with np.load(more / "more.npz") as archive:
         for case in cases:
+            if not case["name"].startswith(args.only):
+                continue
             path = images / f"{case['name']}.npy"
             np.save(path, archive[case["key"]].astype(np.float32))
             command = [sys.executable, "-m", "graspjax.cli", "detect", str(path),
                        "--fx", str(case["fx"]), "--fy", str(case["fy"]),
                        "--cx", str(case["cx"]), "--cy", str(case["cy"]),
-                       "--roi", ",".join(str(v) for v in case["roi"]), "--top", "2",
+                       *([] if args.no_roi else ["--roi", ",".join(str(v) for v in case["roi"])]),
+                       "--top", "2",
                        "--preset", args.preset, "--quiet", "--out", str(out / case["name"]),
                        *[a for a in args.extra if a != "--"]]
             done = subprocess.run(command, capture_output=True, text=True)
