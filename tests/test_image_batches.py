@@ -326,7 +326,11 @@ def test_the_jaws_see_a_bins_walls_outside_its_workspace():
     depth, camera, rotation = _tote_with_a_part_near_a_wall()
     box_ws = np.zeros(depth.shape, bool)
     box_ws[10:-10, 10:-10] = True
-    interior = bin_interior(depth, camera, box_ws, RealImageConfig())
+    from graspjax.imagefiles.inputs import block_median, reduced
+
+    factor = round(depth.shape[1] / RealImageConfig().working_width)
+    coarse = block_median(np.where(box_ws, depth, 0.0), factor), reduced(camera, factor)
+    interior = bin_interior(depth, camera, box_ws, RealImageConfig(), coarse)
     axes = {}
     for bin_ in (False, True):
         result = detect_batch(depth[None], interior, stack_cameras([camera]), Config(),

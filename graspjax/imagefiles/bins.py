@@ -21,23 +21,22 @@ from graspjax.io import InputError
 
 
 def bin_interior(depth: np.ndarray, camera: Camera, workspace: np.ndarray,
-                 image: RealImageConfig) -> np.ndarray:
+                 image: RealImageConfig, coarse: tuple[np.ndarray, Camera]) -> np.ndarray:
     """The interior of the bin the image shows (H, W) bool: the convex hull of the largest
     4-connected part of the floor (the support plane's pixels within `plane_threshold`) among
     the `workspace`'s pixels, off the workspace's border where one is. depth: metric depth
-    (H, W) of `camera`, 0 or non-finite = none. An `InputError` when no floor is found."""
+    (H, W) of `camera`, 0 or non-finite = none; coarse: the workspace's pixels of it at the
+    support resolution and their camera, where the plane is fitted. An `InputError` when no
+    floor is found."""
     import jax
     from scipy import ndimage
     from scipy.spatial import ConvexHull, QhullError
 
-    from graspjax.imagefiles.inputs import block_median, reduced
     from graspjax.perception.support import plane_height, support_plane
 
     height, width = depth.shape
     kept = workspace & np.isfinite(depth) & (depth >= image.min_depth) & (depth <= image.max_depth)
-    factor = max(1, round(width / image.working_width))
-    small = block_median(np.where(kept, depth, 0.0), factor)
-    plane = jax.tree.map(np.asarray, jax.jit(support_plane)(small, reduced(camera, factor), image))
+    plane = jax.tree.map(np.asarray, jax.jit(support_plane)(*coarse, image))
     if not bool(plane.found):
         raise InputError("--bin: no floor found (no support plane in the workspace); give the "
                          "bin's interior with --roi or --mask instead")

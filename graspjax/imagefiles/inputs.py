@@ -19,6 +19,7 @@ import numpy as np
 
 from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
 from graspjax.config import Config, RealImageConfig, override
+from graspjax.imagefiles.bins import bin_interior
 from graspjax.io import InputError, load_intrinsics, load_mask, read_depth
 from graspjax.perception.workspace import block_factors
 
@@ -320,9 +321,11 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                     workspace=workspace, source_workspace=source_workspace, roi=roi, mask=mask,
                     config=config, image=dataclasses.replace(image, bin=image.bin or bin))
     if inputs.image.bin:
-        from graspjax.imagefiles.bins import bin_interior
-
         depth, camera, _ = inputs.read(paths[0])
+        factor = max(1, round(inputs.width / image.working_width))  # the support resolution
+        kept = (workspace & np.isfinite(depth) & (depth >= image.min_depth)
+                & (depth <= image.max_depth))
+        coarse = block_median(np.where(kept, depth, 0.0), factor), reduced(camera, factor)
         inputs = dataclasses.replace(inputs, workspace=bin_interior(depth, camera, workspace,
-                                                                    inputs.image))
+                                                                    inputs.image, coarse))
     return inputs
