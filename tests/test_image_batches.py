@@ -329,8 +329,9 @@ def test_the_jaws_see_a_bins_walls_outside_its_workspace():
     from graspjax.imagefiles.inputs import block_median, reduced
 
     factor = round(depth.shape[1] / RealImageConfig().working_width)
-    coarse = block_median(np.where(box_ws, depth, 0.0), factor), reduced(camera, factor)
-    interior = bin_interior(depth, camera, box_ws, RealImageConfig(), coarse)
+    seen = np.where(box_ws, depth, 0.0)
+    coarse = block_median(seen, factor), reduced(camera, factor)
+    interior = bin_interior(seen, camera, box_ws, RealImageConfig(), coarse)
     axes = {}
     for bin_ in (False, True):
         result = detect_batch(depth[None], interior, stack_cameras([camera]), Config(),

@@ -25,9 +25,9 @@ def bin_interior(depth: np.ndarray, camera: Camera, workspace: np.ndarray,
     """The interior of the bin the image shows (H, W) bool: the convex hull of the largest
     4-connected part of the floor (the support plane's pixels within `plane_threshold`) among
     the `workspace`'s pixels, off the workspace's border where one is. depth: metric depth
-    (H, W) of `camera`, 0 or non-finite = none; coarse: the workspace's pixels of it at the
-    support resolution and their camera, where the plane is fitted. An `InputError` when no
-    floor is found."""
+    (H, W) of `camera`, 0 where none or outside the workspace or the depth range; coarse: it
+    at the support resolution and its camera, where the plane is fitted. An `InputError` when
+    no floor is found."""
     import jax
     from scipy import ndimage
     from scipy.spatial import ConvexHull, QhullError
@@ -35,12 +35,12 @@ def bin_interior(depth: np.ndarray, camera: Camera, workspace: np.ndarray,
     from graspjax.perception.support import plane_height, support_plane
 
     height, width = depth.shape
-    kept = workspace & np.isfinite(depth) & (depth >= image.min_depth) & (depth <= image.max_depth)
+    kept = depth > 0
     plane = jax.tree.map(np.asarray, jax.jit(support_plane)(*coarse, image))
     if not bool(plane.found):
         raise InputError("--bin: no floor found (no support plane in the workspace); give the "
                          "bin's interior with --roi or --mask instead")
-    points = np.asarray(camera.unproject(camera.pixel_grid(), np.where(kept, depth, 0.0)))
+    points = np.asarray(camera.unproject(camera.pixel_grid(), depth))
     above = np.asarray(plane_height(points, plane.normal, plane.distance))
     floor = kept & (np.abs(above) < image.plane_threshold)
     parts, count = ndimage.label(floor)

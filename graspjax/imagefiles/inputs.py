@@ -323,9 +323,9 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     if inputs.image.bin:
         depth, camera, _ = inputs.read(paths[0])
         factor = max(1, round(inputs.width / image.working_width))  # the support resolution
-        kept = (workspace & np.isfinite(depth) & (depth >= image.min_depth)
-                & (depth <= image.max_depth))
-        coarse = block_median(np.where(kept, depth, 0.0), factor), reduced(camera, factor)
-        inputs = dataclasses.replace(inputs, workspace=bin_interior(depth, camera, workspace,
+        seen = np.where(workspace & np.isfinite(depth) & (depth >= image.min_depth)
+                        & (depth <= image.max_depth), depth, 0.0)
+        coarse = block_median(seen, factor), reduced(camera, factor)
+        inputs = dataclasses.replace(inputs, workspace=bin_interior(seen, camera, workspace,
                                                                     inputs.image, coarse))
     return inputs
