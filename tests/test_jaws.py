@@ -131,3 +131,31 @@ def test_ranked_grasps_are_distinct_and_best_first(top_k):
         for j in range(i):
             same = (np.linalg.norm(pos[i] - pos[j]) <= 0.01) and abs(axes[i] @ axes[j]) > 0.94
             assert not same
+
+
+def test_a_blocked_bar_in_a_pile_is_grasped_where_its_contour_is_free():
+    """A 4 x 14 x 5 cm bar between two 4.6 cm high neighbours 1 cm off its long sides, which
+    end 4 cm past its centre: every T-beam placement across the bar (at -4, 0 and +4 cm along
+    it; along it the bar is too wide) has a jaw over a neighbour, 4 mm below the bar's top, so
+    the paper's placements leave no room. The contour search finds the free end: closing
+    across the bar, both fingers (2 cm wide) past the neighbours' ends, the bar 4 cm wide."""
+    bar = box((0.04, 0.14, 0.05), _at())
+    neighbours = [box((0.03, 0.11, 0.046), _at(x=side * 0.045, y=-0.015)) for side in (-1, 1)]
+    depth, camera, workspace, rotation, eye = table_with([bar, *neighbours])
+
+    def detect(image):
+        result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(), image)
+        return jax.tree.map(lambda x: np.asarray(x)[0], result)
+
+    tbeam_only = detect(RealImageConfig(contour_search=False))
+    assert not bool(tbeam_only.found)
+    assert tbeam_only.attempt_reasons[0] == GraspReason.NO_ROOM  # the bar, highest, first
+    r = detect(RealImageConfig())
+    assert bool(r.found) and bool(r.ranked.contour[0])
+    assert r.attempt_reasons[0] == GraspReason.FOUND and int(r.ranked.attempt[0]) == 0
+    centre = rotation @ r.position + eye - [*CENTRE, 0.0]  # world, from the bar's centre
+    axis = rotation @ r.closing_axis
+    assert abs(axis[0]) > 0.97  # across the bar
+    assert abs(centre[0]) < 0.005 and abs(centre[2] - 0.05) < 0.003
+    assert 0.04 + 0.01 <= centre[1] <= 0.07  # the finger's near side past the neighbours' end
+    assert abs(float(r.ranked.width[0]) - 0.04) < 0.004

@@ -80,7 +80,8 @@ def _candidate(ranked, k: int, inputs: Inputs) -> dict:
             "contact_width": ranked.contact_width[k], "depth": ranked.depth[k],
             "clearance": ranked.clearance[k], "landing_fall": ranked.landing[k],
             "no_depth_fraction": ranked.unknown[k],
-            "centre_distance": ranked.centre_distance[k]}
+            "centre_distance": ranked.centre_distance[k],
+            "placed_by": "contour" if bool(ranked.contour[k]) else inputs.config.method}
 
 
 CSV_COLUMNS = [
@@ -89,7 +90,7 @@ CSV_COLUMNS = [
     "clearance", "landing_fall", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
     "support", "support_nx", "support_ny", "support_nz", "support_distance", "support_tilt_deg",
     "support_inlier_fraction", "alignment", "align_nx", "align_ny", "align_nz", "load_ms",
-    "compute_ms", "method",
+    "compute_ms", "method", "placed_by",
 ]
 
 
@@ -104,8 +105,10 @@ def csv_rows(rec: dict) -> list[list]:
     approach = rec["grasp"]["approach"]
     rows = [image + [c["rank"], c["score"], c["target"], *c["position"], *c["closing_axis"],
                      *approach, c["width"], c["contact_width"], c["depth"], c["clearance"],
-                     c["landing_fall"], *c["pixel"]] + rest for c in rec["candidates"]]
-    return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 5 + [None, None] + rest]
+                     c["landing_fall"], *c["pixel"]] + rest + [c["placed_by"]]
+            for c in rec["candidates"]]
+    return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 5 + [None, None] + rest
+                    + [None]]
 
 
 def csv_bytes(records: Sequence[dict]) -> bytes:

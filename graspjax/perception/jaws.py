@@ -27,7 +27,7 @@ A sample is a point at the finger tips' level; the camera ray through it
 meets the surface at the pixel it projects to, and the sample's height is
 that surface point's distance below the grasp centre along the approach.
 Pixels without depth count as free (a real sensor loses edges; the record
-says how many there were).
+says how many there were). `grasp_score` ranks the grasps that pass.
 """
 
 from __future__ import annotations
@@ -142,3 +142,14 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
                         GraspReason.FOUND).astype(jnp.int32)
     return JawCheck(reason=reason, depth=reach, clearance=free - reach, landing=landing,
                     contact_width=contact_width, unknown=jnp.mean(~seen))
+
+
+def grasp_score(check: JawCheck, width, centre_distance, detect, gripper, image) -> jax.Array:
+    """A passing grasp's rank, each term in [0, 1]: free height below the tips (capped at 1 cm),
+    width margin to the narrowest and widest allowed (capped at a quarter of the opening), less
+    the distance from the part's centre in half-openings (a central grasp pushes it least)."""
+    clear = jnp.minimum(check.clearance, 0.01) / 0.01
+    margin = jnp.minimum(width - image.min_width,
+                         gripper.opening - 2 * detect.clearance - check.contact_width)
+    quarter = gripper.opening / 4
+    return clear + jnp.clip(margin, 0.0, quarter) / quarter - centre_distance / (gripper.opening / 2)

@@ -24,12 +24,15 @@
    view (`target.follow_target`), and `tbeam_positions` T-beams per
    edge. Its `candidates_per_target` most central placements are checked on
    the full-resolution image (`jaws.py`: width, the jaws' paths, the wall
-   where the jaws touch), scored (`_score`) and pooled. The next target is
+   where the jaws touch), scored (`jaws.grasp_score`) and pooled. The next target is
    the highest candidate outside the surfaces already tried, until `top_k`
    distinct grasps passed or `max_targets` were tried (the paper tries one:
-   its nearest object). The best `top_k` are returned, best first. Align
-   (`align_tool`) in the window of the best grasp's target (the last target
-   when none passed).
+   its nearest object). When none of a target's T-beam placements passes,
+   with `image.contour_search` its contour's antipodal pairs
+   (`baselines.antipodal_grasp`) are checked the same way before it is
+   given up (clutter: a neighbour under a jaw at every T-beam position).
+   The best `top_k` are returned, best first. Align (`align_tool`) in the
+   window of the best grasp's target (the last target when none passed).
 
 The results are mapped back into the camera frame and the full-resolution
 image. Written for ONE image; `jax.vmap` it over a batch (the camera may be
@@ -49,9 +52,9 @@ from graspjax.camera import Camera
 from graspjax.codes import GraspReason, SupportReason
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
-from graspjax.perception.baselines import grasp_method
+from graspjax.perception.baselines import antipodal_grasp, grasp_method
 from graspjax.perception.cluster import target_surface, valid_mask
-from graspjax.perception.jaws import JawCheck, check_jaws
+from graspjax.perception.jaws import check_jaws, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import furthest_reason
 from graspjax.perception.support import SupportPlane, support_plane
@@ -79,9 +82,10 @@ class RankedGrasps:
     """The best `top_k` grasps of one image that passed every check, best first (camera frame)."""
 
     valid: jax.Array  # (K,) bool: a grasp in this rank
-    score: jax.Array  # (K,) clearance + width margin - distance from the part's centre (`_score`)
+    score: jax.Array  # (K,) clearance + width margin - distance from the centre (`grasp_score`)
     attempt: jax.Array  # (K,) int32 the target it stands on (its attempt), -1 if none
     index: jax.Array  # (K,) int32 its placement in that target's `Grasp.candidates`, -1 if none
+    contour: jax.Array  # (K,) bool: placed by the contour search (the method's were all blocked)
     position: jax.Array  # (K, 3) grasp centre G on the top surface (nan if none)
     closing_axis: jax.Array  # (K, 3) unit closing axis
     pixel: jax.Array  # (K, 2) G in the full-resolution image (u, v)
@@ -204,17 +208,6 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
                     view_depth, points, height, candidate, score, reason)
 
 
-def _score(check: JawCheck, width, centre_distance, detect, gripper, image) -> jax.Array:
-    """A passing grasp's rank, each term in [0, 1]: free height below the tips (capped at 1 cm),
-    width margin to the narrowest and widest allowed (capped at a quarter of the opening), less
-    the distance from the part's centre in half-openings (a central grasp pushes it least)."""
-    clear = jnp.minimum(check.clearance, 0.01) / 0.01
-    margin = jnp.minimum(width - image.min_width,
-                         gripper.opening - 2 * detect.clearance - check.contact_width)
-    quarter = gripper.opening / 4
-    return clear + jnp.clip(margin, 0.0, quarter) / quarter - centre_distance / (gripper.opening / 2)
-
-
 def _select(passed, score, position, axis, count: int, distance: float) -> tuple[jax.Array, jax.Array]:
     """The `count` best distinct grasps among N: indices (count,) int32 and validity (count,).
     A grasp within `distance` of a better one with its axis within 20 deg (either sign) is the
@@ -261,6 +254,29 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     # checked on the full-resolution image, until `top_k` distinct grasps pass.
     valid = valid_mask(view_depth)
 
+    contour_search = image.contour_search and config.method == "paper"
+
+    def checked(cands, found, centre, k, first):
+        """The `per` placements of `cands` (a `TBeams`) nearest the part's `centre` (3,) that
+        are valid, checked at full resolution: the pool's entries of target k (their index in
+        the target's candidates counted from `first`, the contour search's after the method's)."""
+        offset = jnp.linalg.norm(cands.center[:, :2] - centre[:2], axis=-1)
+        count = min(per, cands.valid.shape[0])  # a baseline may propose fewer placements
+        _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
+        index = jnp.pad(index, (0, per - count))
+        placed = cands.valid[index] & found & (jnp.arange(per) < count)
+        position = cands.center[index] @ rotation.T
+        axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
+        jaws = check(full, camera, position, axis, approach, cands.width[index], config.detect,
+                     config.gripper, image)
+        passed = placed & (jaws.reason == GraspReason.FOUND)
+        rank = jnp.where(passed, grasp_score(jaws, cands.width[index], offset[index],
+                                             config.detect, config.gripper, image), -jnp.inf)
+        return dict(passed=passed, placed=placed, score=rank,
+                    attempt=jnp.full(per, k, jnp.int32), index=(index + first).astype(jnp.int32),
+                    contour=jnp.full(per, first > 0), position=position, axis=axis,
+                    width=cands.width[index], distance=offset[index], jaws=jaws)
+
     def examine(k, tried):
         """Target k: the surfaces tried after it, its checked placements (`per` each), its own
         results and its detector result."""
@@ -276,26 +292,36 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                                     view_depth[target[1], target[0]], tolerance)
         centre = jnp.sum(points * surface[..., None], (0, 1)) / jnp.maximum(jnp.sum(surface), 1)
 
-        # Its most central valid placements, checked at full resolution.
-        cands = grasp.candidates
-        offset = jnp.linalg.norm(cands.center[:, :2] - centre[:2], axis=-1)
-        count = min(per, cands.valid.shape[0])  # a baseline may propose fewer placements
-        _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
-        index = jnp.pad(index, (0, per - count))
-        placed = cands.valid[index] & has_target & grasp.found & (jnp.arange(per) < count)
-        position = cands.center[index] @ rotation.T
-        axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
-        jaws = check(full, camera, position, axis, approach, cands.width[index], config.detect,
-                     config.gripper, image)
-        passed = placed & (jaws.reason == GraspReason.FOUND)
-        rank = jnp.where(passed, _score(jaws, cands.width[index], offset[index], config.detect,
-                                        config.gripper, image), -jnp.inf)
-        reason = jnp.where(jnp.any(passed), GraspReason.FOUND,
-                           jnp.where(jnp.any(placed), furthest_reason(jaws.reason, placed),
-                                     grasp.reason))
-        placements = dict(passed=passed, score=rank, attempt=jnp.full(per, k, jnp.int32),
-                          index=index.astype(jnp.int32), position=position, axis=axis,
-                          width=cands.width[index], distance=offset[index], jaws=jaws)
+        # Its most central valid placements, checked at full resolution; when none passes
+        # and `image.contour_search` is on, the contour's antipodal pairs are checked too.
+        placements = checked(grasp.candidates, grasp.found & has_target, centre, k, 0)
+        reason = jnp.where(jnp.any(placements["passed"]), GraspReason.FOUND,
+                           jnp.where(jnp.any(placements["placed"]),
+                                     furthest_reason(placements["jaws"].reason,
+                                                     placements["placed"]), grasp.reason))
+        if contour_search:
+            first = grasp.candidates.valid.shape[0]
+
+            def search():
+                found = antipodal_grasp(window, window_camera, window_config.detect,
+                                        config.gripper, config.baseline,
+                                        seed_mask=seed & has_target)
+                return found.candidates, checked(found.candidates, found.found & has_target,
+                                                 centre, k, first)
+
+            blocked = ~jnp.any(placements["passed"]) & has_target
+            shapes = jax.eval_shape(search)
+            contour, more = lax.cond(blocked, search, lambda: jax.tree.map(
+                lambda x: jnp.zeros(x.shape, x.dtype), shapes))
+            more = {**more, "passed": more["passed"] & blocked,
+                    "score": jnp.where(more["passed"] & blocked, more["score"], -jnp.inf)}
+            rescued = jnp.any(more["passed"])
+            placements = jax.tree.map(lambda a, b: jnp.where(rescued, b, a), placements, more)
+            reason = jnp.where(rescued, GraspReason.FOUND, reason)
+            contour = dataclasses.replace(contour, valid=contour.valid & blocked)
+            grasp = dataclasses.replace(grasp, candidates=jax.tree.map(
+                lambda a, b: jnp.concatenate([a, b]), grasp.candidates, contour))
+        placements.pop("placed")
         own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
         return tried | surface | chosen, placements, own, grasp
 
@@ -356,6 +382,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     top = RankedGrasps(
         valid=ranked_ok, score=ranked(pool["score"], jnp.nan),
         attempt=ranked(pool["attempt"], -1), index=ranked(pool["index"], -1),
+        contour=ranked(pool["contour"], False),
         position=position, closing_axis=ranked(pool["axis"], jnp.nan),
         pixel=camera.project(position), width=ranked(pool["width"], jnp.nan),
         contact_width=ranked(jaws.contact_width, jnp.nan), depth=ranked(jaws.depth, jnp.nan),
