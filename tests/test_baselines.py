@@ -127,3 +127,20 @@ def test_method_choice_is_a_static_value_with_a_one_line_error():
     with pytest.raises(ValueError, match="tbeam_positions"):
         DetectorConfig(tbeam_positions=0)
     assert GripperConfig().opening == 0.08  # the baselines share the paper's gripper
+
+
+@pytest.mark.parametrize("density", [0.0, 0.002, 0.05, 1.0])
+def test_antipodal_contacts_are_spread_evenly_through_the_boundary(density):
+    """The first contacts are the boundary's pixels at even steps of its raster order, as
+    numpy's list of a mask's pixels gives them; fewer pixels than contacts repeat, none
+    are marked unreal."""
+    from graspjax.perception.baselines import _spread
+
+    mask = np.random.default_rng(1).random((40, 60)) < density
+    for count in (1, 7, 128):
+        pixels, real = jax.jit(_spread, static_argnums=1)(mask, count)
+        where = np.flatnonzero(mask)
+        if where.size:
+            index = where[(np.arange(count) * where.size) // count]
+            assert np.array_equal(np.asarray(pixels), np.stack([index % 60, index // 60], -1))
+        assert np.array_equal(np.asarray(real), np.arange(count) < where.size)

@@ -120,10 +120,10 @@ def _spread(mask: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
     """Up to `count` pixels of `mask` (H, W), spread evenly through its raster order: their
     (u, v) `(count, 2)` int32 and which are real `(count,)` bool."""
     height, width = mask.shape
-    flat = mask.reshape(-1)
-    n = jnp.sum(flat)
-    (where,) = jnp.nonzero(flat, size=flat.shape[0], fill_value=0)
-    pick = where[(jnp.arange(count) * n) // count]
+    running = jnp.cumsum(mask.reshape(-1).astype(jnp.int32))  # True pixels up to each one
+    n = running[-1]
+    wanted = (jnp.arange(count) * n) // count  # the m-th True pixel (0-based), m < n
+    pick = jnp.where(n > 0, jnp.searchsorted(running, wanted + 1, side="left"), 0)
     real = jnp.arange(count) < n
     return jnp.stack([pick % width, pick // width], -1).astype(jnp.int32), real
 
