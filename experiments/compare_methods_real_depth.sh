@@ -3,30 +3,39 @@
 # presets, judged by experiments/judge_real_depth.py (issue 54): the 15 gqcnn captures of
 # ../shared/real_depth/ with the workspace boxes its README suggests, and the 8 captures of
 # ../shared/real_depth/more/ (experiments/real_depth_more.py). Run from the repository root:
-#   bash experiments/compare_methods_real_depth.sh results/real_depth/methods
-# Writes OUT/METHOD/PRESET/<set>/results.{csv,json}, each set's judgement.txt, and
+#   bash experiments/compare_methods_real_depth.sh results/real_depth/methods [VARIANT ...]
+# Variants (all four when none is given): paper (with its contour search), paper-tbeam (the
+# T-beam's placements alone: --set image.contour_search=false), highest-pca, antipodal.
+# Writes OUT/VARIANT/PRESET/<set>/results.{csv,json}, each set's judgement.txt, and
 # OUT/summary.csv (per method, preset and set: images, best grasps found, best grasps that
 # straddle, questionable ones). The captures stay outside the repository.
 set -euo pipefail
 out=${1:?give the output folder}
+shift
+variants=${*:-paper paper-tbeam highest-pca antipodal}
 R=../shared/real_depth
-for method in paper highest-pca antipodal; do
+for variant in $variants; do
+  case $variant in
+    paper-tbeam) method=paper; extra=(--set image.contour_search=false) ;;
+    paper|highest-pca|antipodal) method=$variant; extra=() ;;
+    *) echo "unknown variant $variant" >&2; exit 2 ;;
+  esac
   for preset in paper realistic; do
-    dir=$out/$method/$preset
+    dir=$out/$variant/$preset
     mkdir -p "$dir"
     graspjax detect $R/primesense_single/depth_*.npy --intrinsics $R/primesense.intr \
-      --roi 60,20,600,350 --top 2 --preset $preset --method $method --quiet \
+      --roi 60,20,600,350 --top 2 --preset $preset --method $method "${extra[@]}" --quiet \
       --out "$dir/primesense_single" > /dev/null
     graspjax detect $R/primesense_clutter/depth_*.npy --intrinsics $R/primesense.intr \
-      --roi 60,20,600,350 --top 2 --preset $preset --method $method --quiet \
+      --roi 60,20,600,350 --top 2 --preset $preset --method $method "${extra[@]}" --quiet \
       --out "$dir/primesense_clutter" > /dev/null
     graspjax detect $R/phoxi_clutter/depth_*.npy --intrinsics $R/phoxi.intr \
-      --roi 70,50,470,320 --top 2 --preset $preset --method $method --quiet \
+      --roi 70,50,470,320 --top 2 --preset $preset --method $method "${extra[@]}" --quiet \
       --out "$dir/phoxi_clutter" > /dev/null
     python experiments/judge_real_depth.py "$dir"/*/results.json > "$dir/judgement.txt"
     python experiments/real_depth_more.py --out "$dir/more" --preset $preset -- \
-      --method $method > /dev/null
-    echo "== $method, $preset"; grep "best grasps straddle" "$dir/judgement.txt" "$dir/more/judgement.txt"
+      --method $method "${extra[@]}" > /dev/null
+    echo "== $variant, $preset"; grep "best grasps straddle" "$dir/judgement.txt" "$dir/more/judgement.txt"
   done
 done
 python3 - "$out" <<'PY'
@@ -35,7 +44,7 @@ import sys
 from pathlib import Path
 
 out = Path(sys.argv[1])
-rows = ["method,preset,set,images,found,straddle,questionable"]
+rows = ["variant,preset,set,images,found,straddle,questionable"]
 for judgement in sorted(out.glob("*/*/judgement.txt")) + sorted(out.glob("*/*/more/judgement.txt")):
     parts = judgement.relative_to(out).parts
     method, preset = parts[0], parts[1]
