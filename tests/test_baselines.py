@@ -132,15 +132,16 @@ def test_method_choice_is_a_static_value_with_a_one_line_error():
 @pytest.mark.parametrize("density", [0.0, 0.002, 0.05, 1.0])
 def test_antipodal_contacts_are_spread_evenly_through_the_boundary(density):
     """The first contacts are the boundary's pixels at even steps of its raster order, as
-    numpy's list of a mask's pixels gives them; fewer pixels than contacts repeat, none
-    are marked unreal."""
+    numpy's list of a mask's pixels gives them; a boundary of fewer pixels than contacts has
+    every pixel once, in the first slots, and the rest marked not real."""
     from graspjax.perception.baselines import _spread
 
     mask = np.random.default_rng(1).random((40, 60)) < density
+    where = np.flatnonzero(mask)
     for count in (1, 7, 128):
         pixels, real = jax.jit(_spread, static_argnums=1)(mask, count)
-        where = np.flatnonzero(mask)
-        if where.size:
-            index = where[(np.arange(count) * where.size) // count]
-            assert np.array_equal(np.asarray(pixels), np.stack([index % 60, index // 60], -1))
+        n = min(count, where.size)
+        index = (where[(np.arange(count) * where.size) // count] if where.size >= count
+                 else where)[:n]
+        assert np.array_equal(np.asarray(pixels)[:n], np.stack([index % 60, index // 60], -1))
         assert np.array_equal(np.asarray(real), np.arange(count) < where.size)

@@ -116,16 +116,23 @@ def _outward_normals(cluster: jax.Array, camera: Camera, z_s: jax.Array) -> jax.
     return jnp.where(norm > 0, -gradient / jnp.maximum(norm, 1e-12), 0.0)
 
 
-def _spread(mask: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
-    """Up to `count` pixels of `mask` (H, W), spread evenly through its raster order: their
-    (u, v) `(count, 2)` int32 and which are real `(count,)` bool."""
-    height, width = mask.shape
-    running = jnp.cumsum(mask.reshape(-1).astype(jnp.int32))  # True pixels up to each one
+def evenly_spread(flags: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
+    """`count` of the True entries of `flags` (M,) bool, spread evenly through it (every one,
+    in order, when there are fewer): their indices `(count,)` int32 and which are real
+    `(count,)` bool (the slots past the number of True entries are not)."""
+    running = jnp.cumsum(flags.astype(jnp.int32))  # True entries up to each one
     n = running[-1]
-    wanted = (jnp.arange(count) * n) // count  # the m-th True pixel (0-based), m < n
-    pick = jnp.where(n > 0, jnp.searchsorted(running, wanted + 1, side="left"), 0)
-    real = jnp.arange(count) < n
-    return jnp.stack([pick % width, pick // width], -1).astype(jnp.int32), real
+    slot = jnp.arange(count)
+    wanted = jnp.where(n >= count, (slot * n) // count, jnp.minimum(slot, jnp.maximum(n - 1, 0)))
+    index = jnp.where(n > 0, jnp.searchsorted(running, wanted + 1, side="left"), 0)
+    return index.astype(jnp.int32), slot < n
+
+
+def _spread(mask: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
+    """Up to `count` pixels of `mask` (H, W), spread evenly through its raster order
+    (`evenly_spread`): their (u, v) `(count, 2)` int32 and which are real `(count,)` bool."""
+    pick, real = evenly_spread(mask.reshape(-1), count)
+    return jnp.stack([pick % mask.shape[1], pick // mask.shape[1]], -1).astype(jnp.int32), real
 
 
 def antipodal_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
