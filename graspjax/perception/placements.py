@@ -52,7 +52,8 @@ class Grasp:
     surface_pixels: jax.Array  # () int32 pixels in the surface cluster
     contour_closed: jax.Array  # () bool, False if the contour hit `max_contour`
     edges: Edges  # the straight edges (K)
-    candidates: TBeams  # every T-beam placement (K*K)
+    candidates: TBeams  # every placement proposed: the T-beam's K*K (a baseline's own; in
+    # `detect_real_image`, with the contour search, its antipodal pairs after them)
 
 
 def sample_nearest(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array]:

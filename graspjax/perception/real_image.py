@@ -27,10 +27,9 @@
    where the jaws touch), scored (`jaws.grasp_score`) and pooled. The next target is
    the highest candidate outside the surfaces already tried, until `top_k`
    distinct grasps passed or `max_targets` were tried (the paper tries one:
-   its nearest object). When none of a target's T-beam placements passes,
-   with `image.contour_search` its contour's antipodal pairs
-   (`baselines.antipodal_grasp`) are checked the same way before it is
-   given up (clutter: a neighbour under a jaw at every T-beam position).
+   its nearest object). When none of a target's T-beam placements passes, with
+   `image.contour_search` `per` of its contour's antipodal pairs (`antipodal_grasp`),
+   spread along it, are checked the same way before it is given up (clutter).
    The best `top_k` are returned, best first. Align (`align_tool`) in the
    window of the best grasp's target (the last target when none passed).
 
@@ -52,11 +51,11 @@ from graspjax.camera import Camera
 from graspjax.codes import GraspReason, SupportReason
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
-from graspjax.perception.baselines import antipodal_grasp, grasp_method
+from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_method
 from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.jaws import check_jaws, grasp_score
 from graspjax.perception.placements import Grasp
-from graspjax.perception.reasons import furthest_reason
+from graspjax.perception.reasons import further_reason, furthest_reason
 from graspjax.perception.support import SupportPlane, support_plane
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
@@ -256,15 +255,18 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
 
     contour_search = image.contour_search and config.method == "paper"
 
-    def checked(cands, found, centre, k, first):
-        """The `per` placements of `cands` (a `TBeams`) nearest the part's `centre` (3,) that
-        are valid, checked at full resolution: the pool's entries of target k (their index in
-        the target's candidates counted from `first`, the contour search's after the method's)."""
+    def checked(cands, found, centre, k, first, by_contour):
+        """`per` valid placements of `cands` (a `TBeams`) checked at full resolution (the method's
+        nearest the part's `centre` (3,), the contour search's spread along the contour): target
+        k's pool entries, each (per, ...), indexed in its candidates from `first`."""
         offset = jnp.linalg.norm(cands.center[:, :2] - centre[:2], axis=-1)
-        count = min(per, cands.valid.shape[0])  # a baseline may propose fewer placements
-        _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
-        index = jnp.pad(index, (0, per - count))
-        placed = cands.valid[index] & found & (jnp.arange(per) < count)
+        if by_contour:
+            index, real = evenly_spread(cands.valid, per)
+        else:
+            count = min(per, cands.valid.shape[0])  # a baseline may propose fewer placements
+            _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
+            index, real = jnp.pad(index, (0, per - count)), jnp.arange(per) < count
+        placed = cands.valid[index] & found & real
         position = cands.center[index] @ rotation.T
         axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
         jaws = check(full, camera, position, axis, approach, cands.width[index], config.detect,
@@ -274,8 +276,15 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                                              config.detect, config.gripper, image), -jnp.inf)
         return dict(passed=passed, placed=placed, score=rank,
                     attempt=jnp.full(per, k, jnp.int32), index=(index + first).astype(jnp.int32),
-                    contour=jnp.full(per, first > 0), position=position, axis=axis,
+                    contour=jnp.full(per, by_contour), position=position, axis=axis,
                     width=cands.width[index], distance=offset[index], jaws=jaws)
+
+    def outcome(placements, window_reason):
+        """A target's `GraspReason` from its checked placements: FOUND if one passed, else the
+        furthest stage the placed ones reached at full resolution, else the window's reason."""
+        placed, jaws = placements["placed"], placements["jaws"]
+        failed = jnp.where(jnp.any(placed), furthest_reason(jaws.reason, placed), window_reason)
+        return jnp.where(jnp.any(placements["passed"]), GraspReason.FOUND, failed).astype(jnp.int32)
 
     def examine(k, tried):
         """Target k: the surfaces tried after it, its checked placements (`per` each), its own
@@ -292,35 +301,32 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                                     view_depth[target[1], target[0]], tolerance)
         centre = jnp.sum(points * surface[..., None], (0, 1)) / jnp.maximum(jnp.sum(surface), 1)
 
-        # Its most central valid placements, checked at full resolution; when none passes
-        # and `image.contour_search` is on, the contour's antipodal pairs are checked too.
-        placements = checked(grasp.candidates, grasp.found & has_target, centre, k, 0)
-        reason = jnp.where(jnp.any(placements["passed"]), GraspReason.FOUND,
-                           jnp.where(jnp.any(placements["placed"]),
-                                     furthest_reason(placements["jaws"].reason,
-                                                     placements["placed"]), grasp.reason))
+        # Its most central valid placements checked at full resolution; if none passes, with
+        # `image.contour_search` its contour's antipodal pairs too (the further reason wins).
+        placements = checked(grasp.candidates, grasp.found & has_target, centre, k, 0, False)
+        reason = outcome(placements, grasp.reason)
         if contour_search:
-            first = grasp.candidates.valid.shape[0]
-
             def search():
-                found = antipodal_grasp(window, window_camera, window_config.detect,
-                                        config.gripper, config.baseline,
-                                        seed_mask=seed & has_target)
-                return found.candidates, checked(found.candidates, found.found & has_target,
-                                                 centre, k, first)
+                pairs = antipodal_grasp(window, window_camera, window_config.detect,
+                                        config.gripper, config.baseline, seed & has_target)
+                searched = checked(pairs.candidates, pairs.found & has_target, centre, k,
+                                   grasp.candidates.valid.shape[0], True)
+                return pairs.candidates, searched, outcome(searched, pairs.reason)
 
-            blocked = ~jnp.any(placements["passed"]) & has_target
-            shapes = jax.eval_shape(search)
-            contour, more = lax.cond(blocked, search, lambda: jax.tree.map(
-                lambda x: jnp.zeros(x.shape, x.dtype), shapes))
-            more = {**more, "passed": more["passed"] & blocked,
-                    "score": jnp.where(more["passed"] & blocked, more["score"], -jnp.inf)}
-            rescued = jnp.any(more["passed"])
-            placements = jax.tree.map(lambda a, b: jnp.where(rescued, b, a), placements, more)
-            reason = jnp.where(rescued, GraspReason.FOUND, reason)
-            contour = dataclasses.replace(contour, valid=contour.valid & blocked)
+            def skipped():  # no placement, every one refused
+                pairs, searched, _ = jax.tree.map(jnp.zeros_like, jax.eval_shape(search))
+                no = jnp.int32(GraspReason.NO_ANTIPODAL)
+                return (dataclasses.replace(pairs, reason=jnp.full_like(pairs.reason, no)),
+                        {**searched, "score": jnp.full(per, -jnp.inf)}, no)
+
+            pairs, searched, searched_reason = lax.cond(
+                ~jnp.any(placements["passed"]) & has_target, search, skipped)
+            rescued = jnp.any(searched["passed"])
+            placements = jax.tree.map(lambda a, b: jnp.where(rescued, b, a), placements,
+                                      searched)
+            reason = further_reason(reason, searched_reason)  # skipped: NO_ANTIPODAL
             grasp = dataclasses.replace(grasp, candidates=jax.tree.map(
-                lambda a, b: jnp.concatenate([a, b]), grasp.candidates, contour))
+                lambda a, b: jnp.concatenate([a, b]), grasp.candidates, pairs))
         placements.pop("placed")
         own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
         return tried | surface | chosen, placements, own, grasp

@@ -33,6 +33,8 @@ def furthest_reason(reasons, among=None):
     return jnp.asarray(BY_STAGE)[jnp.max(stage)]
 
 
-
-
-
+def further_reason(first, second):
+    """Of two `GraspReason`s, the one whose candidate stage is further (the first on a tie; an
+    image-level reason has stage 0)."""
+    stage = jnp.asarray(STAGE)
+    return jnp.where(stage[second] > stage[first], second, first)
