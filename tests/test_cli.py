@@ -97,6 +97,7 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     np.testing.assert_allclose(table["support_tilt_deg"], 13.0, atol=0.1)
     assert (table["compute_ms"] > 0).all() and table["width"].between(0.035, 0.045).all()
     assert (table["method"] == "paper").all() and (table["landing_fall"] >= 0.008).all()
+    assert (table["placed_by"] == "paper").all()  # a lone box: the T-beam's own grasp
     records = json.loads((out / "results.json").read_text())
     assert [r["image"] for r in records] == images
     assert records[0]["workspace"]["roi"] == list(scene.roi)
