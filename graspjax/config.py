@@ -611,8 +611,9 @@ class RealImageConfig:
     tbeam_positions: int = 3  # T-beams per edge on real images (replaces detect.tbeam_positions)
     candidates_per_target: int = 16  # the most central grasps of each target checked at full resolution
     contour_search: bool = True  # ours, paper method: when none of a target's checked T-beam
-    # placements passes, its contour's antipodal pairs (`baseline.antipodal_*`) are checked the
-    # same way before the target is given up (clutter: a closing direction the T-beam lacks)
+    # placements passes, `candidates_per_target` of its contour's antipodal pairs
+    # (`baseline.antipodal_*`), spread along it, are checked the same way before the target is
+    # given up (clutter: a place or closing direction the T-beam lacks)
     top_k: int = 1  # grasps returned, best first (`--top K`); targets are tried until this many pass
     min_width: float = 0.01  # narrower gripped parts are refused, TOO_NARROW (m)
     jaw_samples: int = 32  # samples along each jaw's path, band edge to outer jaw face
