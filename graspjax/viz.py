@@ -207,24 +207,25 @@ def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, 
     ax.imshow(overlay, interpolation="nearest")
     if result.target_reason == TargetReason.FOUND:
         ax.plot(*result.target_pixel, "r+", ms=14, mew=2, label="target")
-    if bool(result.found):
-        g = result.grasp
-        for offsets in _finger_offsets(g.closing_axis[:2], config):
-            corners = np.concatenate([g.position[:2] + offsets,
-                                      np.full((4, 1), g.position[2])], -1)
+    def fingers(centre, axis, **style):
+        """Both open fingers of a grasp at `centre` (3,) closing along `axis` (2,), both in the
+        detection view's frame, drawn in the camera image."""
+        for offsets in _finger_offsets(axis / np.linalg.norm(axis), config):
+            corners = np.concatenate([centre[:2] + offsets, np.full((4, 1), centre[2])], -1)
             ax.add_patch(Polygon(np.asarray(camera.project(corners @ result.rotation.T)),
-                                 closed=True, fill=True, fc="tab:red", ec="white", alpha=0.8))
+                                 closed=True, **style))
+
+    if bool(result.found):
+        fingers(result.grasp.position, result.grasp.closing_axis[:2], fill=True, fc="tab:red",
+                ec="white", alpha=0.8)
         ax.plot(*result.pixel, "wx", ms=10, mew=2)
     ranked = result.ranked  # the others of the `top_k` ranked grasps: outlined, numbered
     for k in range(1, len(ranked.valid)):
         if not bool(ranked.valid[k]):
             continue
-        centre = result.rotation.T @ ranked.position[k]  # view frame
-        axis = (result.rotation.T @ ranked.closing_axis[k])[:2]
-        for offsets in _finger_offsets(axis / np.linalg.norm(axis), config):
-            corners = np.concatenate([centre[:2] + offsets, np.full((4, 1), centre[2])], -1)
-            ax.add_patch(Polygon(np.asarray(camera.project(corners @ result.rotation.T)),
-                                 closed=True, fill=False, ec="tab:orange", lw=1.5))
+        fingers(result.rotation.T @ ranked.position[k],
+                (result.rotation.T @ ranked.closing_axis[k])[:2], fill=False, ec="tab:orange",
+                lw=1.5)
         ax.annotate(str(k + 1), ranked.pixel[k], color="tab:orange", fontsize=10,
                     ha="center", va="center", weight="bold")
     reason = (GraspReason(int(result.grasp.reason)).name

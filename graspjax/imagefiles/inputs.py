@@ -322,7 +322,7 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                     config=config, image=dataclasses.replace(image, bin=image.bin or bin))
     if inputs.image.bin:
         depth, camera, _ = inputs.read(paths[0])
-        factor = max(1, round(inputs.width / image.working_width))  # the support resolution
+        factor = block_factors(inputs.width, inputs.image)[1]  # the support resolution
         seen = np.where(workspace & np.isfinite(depth) & (depth >= image.min_depth)
                         & (depth <= image.max_depth), depth, 0.0)
         coarse = block_median(seen, factor), reduced(camera, factor)
