@@ -1,6 +1,6 @@
 """The grid points of one paired sweep against a reference point, per table column: success,
-first view and rescued for each point, and the paired change in success (points) with
-McNemar's z over the objects' outcomes (each object of a trial or round, as the tables count
+first view and rescued for each point, and the paired change in success (points), the objects
+gained and lost, and McNemar's z over the objects' outcomes (each object of a trial or round, as the tables count
 it: `report.object_outcomes`). |z| > 1.96: a change beyond chance at the 5 % level.
 
 Columns: Setup 1 a-f, Setup 2, Setup 3, Setup 1 g-l (Tables 1+2), those the sweep played.
@@ -51,8 +51,9 @@ def main(folder: str, reference: int = 0) -> None:
             rescued = 100 * (mine.success & mine.rescued).mean()
             cell = f"{rate:.1f} % ({rate - rescued:.1f} + {rescued:.1f})"
             if point != reference:
-                _, _, z = changes(base.success, mine.success)
-                cell += f"; {rate - 100 * base.success.mean():+.1f}, z {z:+.1f}"
+                gained, lost, z = changes(base.success, mine.success)
+                cell += (f"; {rate - 100 * base.success.mean():+.1f} "
+                         f"({gained} gained / {lost} lost), z {z:+.1f}")
             cells.append(cell)
         print(f"| {name} | " + " | ".join(cells) + " |")
 
