@@ -325,7 +325,7 @@ def detect_images(inputs, outputs: DetectOutputs, batch: int = 16, quiet: bool =
         for found in detect_files(inputs, batch, bar.update, log):
             records.append(rec.record(found, inputs))
             if outputs.figure or outputs.figures:
-                png = real_image_figure(found.depth, inputs.workspace, found.camera, found.result,
+                png = real_image_figure(found.depth, found.workspace, found.camera, found.result,
                                         inputs.config, inputs.image, title=str(found.path))
                 if outputs.figures:
                     write_atomic(Path(outputs.figures) / names[found.index], png)

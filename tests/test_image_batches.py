@@ -11,7 +11,7 @@ import jax
 import numpy as np
 import pytest
 from conftest import assert_trees_close
-from real_scenes import bin_scene, table_scene, with_holes_and_specks
+from real_scenes import HEIGHT, WIDTH, bin_scene, table_scene, with_holes_and_specks
 
 from graspjax.codes import SupportReason, TargetReason
 from graspjax.config import Config, RealImageConfig
@@ -307,13 +307,42 @@ def test_a_tote_whose_walls_lie_in_the_box(tmp_path):
                                                       scene.depth)[..., None]
     heights = np.asarray(points[..., 2, 0]) + scene.eye[2]
     floor = bin_scene().workspace & (heights < 1e-3)  # inside the inner rim's box, on the floor
-    assert (inputs.workspace & floor).sum() > 0.95 * floor.sum()
-    assert not (inputs.workspace & (heights > 0.065)).any()  # no wall pixel
+    interior = inputs.workspace_of(0)
+    assert (interior & floor).sum() > 0.95 * floor.sum()
+    assert not (interior & (heights > 0.065)).any()  # no wall pixel
     rec = record(next(iter(detect_files(inputs))), inputs)
     assert rec["found"] and rec["workspace"]["bin"]
     top = scene.to_camera(scene.top)
     assert np.linalg.norm(np.asarray(rec["grasp"]["position"]) - top) < 3 * PIXEL
     assert min(abs(rec["grasp"]["width"] - w) for w in scene.size) < 3 * PIXEL
+
+
+def test_every_image_gets_its_own_bin(tmp_path):
+    """`--bin` over two images of the tote, the second with the bin 40 columns further right
+    (the scene's planes stay planes when the image is shifted): each image's workspace is its
+    own bin's interior, and each grasp is on its own image's 6 cm box (the first image's bin
+    would cut the second's box off at the right and keep the left wall in)."""
+    from graspjax.imagefiles.batches import detect_files
+    from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
+    from graspjax.imagefiles.records import record
+
+    scene, shift = bin_scene(whole=True), 40
+    np.save(tmp_path / "a.npy", scene.depth)
+    np.save(tmp_path / "b.npy", np.roll(scene.depth, shift, axis=1))
+    focal = IntrinsicsRequest(focal=(scene.camera.fx, scene.camera.fy))
+    inputs = prepare([tmp_path / "a.npy", tmp_path / "b.npy"], intrinsics=focal,
+                     roi=(50, 10, WIDTH - 10, HEIGHT - 10), bin=True)
+    first, second = inputs.workspace_of(0), inputs.workspace_of(1)
+    moved = np.roll(first, shift, axis=1)
+    assert (second & moved).sum() > 0.97 * max(second.sum(), moved.sum())
+    assert (second != first).sum() > 0.05 * first.sum()
+    records = [record(d, inputs) for d in detect_files(inputs, batch=2)]
+    pixels = [np.asarray(r["grasp"]["pixel"]) for r in records]
+    assert all(r["found"] and r["workspace"]["bin"] for r in records)
+    assert records[1]["workspace"]["pixels"] == int(second.sum())
+    top = scene.camera.project(scene.to_camera(scene.top))
+    assert np.linalg.norm(pixels[0] - top) < 3
+    assert np.linalg.norm(pixels[1] - (top + np.array([shift, 0.0]))) < 3
 
 
 def test_the_jaws_see_a_bins_walls_outside_its_workspace():

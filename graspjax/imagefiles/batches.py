@@ -23,6 +23,8 @@ from graspjax.perception.real_image import RealImageDetection, detect_real_image
 #: cx, cy are (B,) arrays (`stack_cameras`), `Config`, `RealImageConfig`. One compile per batch
 #: size, image size and configuration.
 detect_batch = jax.jit(jax.vmap(detect_real_image, in_axes=(0, None, 0, None, None)))
+#: The same with a workspace (B, H, W) of each image's own (`graspjax detect --bin`).
+detect_batch_own_workspaces = jax.jit(jax.vmap(detect_real_image, in_axes=(0, 0, 0, None, None)))
 
 
 def stack_cameras(cameras: Sequence[Camera]) -> Camera:
@@ -39,6 +41,7 @@ class Detection:
     index: int  # position among the inputs
     path: Path
     depth: np.ndarray  # (H, W) metric depth at full resolution
+    workspace: np.ndarray  # (H, W) bool: where the search looked (`Inputs.workspace_of`)
     camera: Camera  # its full-resolution intrinsics
     source: str  # where the intrinsics came from
     result: RealImageDetection  # numpy, single image (with its views)
@@ -53,32 +56,36 @@ def detect_files(inputs: Inputs, batch: int = 16, progress: Callable[[int], None
     progress(n): n more images done; log: a line about the first call's compile.
     """
     batch = max(1, min(batch, len(inputs.paths)))
-    args = (inputs.workspace,)
+    own = inputs.bins is not None
+    detect = detect_batch_own_workspaces if own else detect_batch
     settings = (inputs.config, inputs.image)
     compiled = False
     for start in range(0, len(inputs.paths), batch):
         chunk = inputs.paths[start:start + batch]
-        depths, cameras, sources, loads = [], [], [], []
-        for path in chunk:
+        depths, workspaces, cameras, sources, loads = [], [], [], [], []
+        for i, path in enumerate(chunk):
             t0 = time.perf_counter()
             depth, camera, source = inputs.read(path)
             depths.append(depth)
+            workspaces.append(inputs.workspace_of(start + i))
             cameras.append(camera)
             sources.append(source)
             loads.append(time.perf_counter() - t0)
         pad = batch - len(chunk)  # one compiled size: repeat the last image
         stacked = np.stack(depths + [depths[-1]] * pad)
+        args = (np.stack(workspaces + [workspaces[-1]] * pad) if own else inputs.workspace,)
         camera = stack_cameras(cameras + [cameras[-1]] * pad)
         if not compiled:
             t0 = time.perf_counter()
-            jax.block_until_ready(detect_batch(stacked, *args, camera, *settings))
+            jax.block_until_ready(detect(stacked, *args, camera, *settings))
             log(f"compiled and ran the first {batch} image(s) in {time.perf_counter() - t0:.1f} s")
             compiled = True
         t0 = time.perf_counter()
-        result = jax.tree.map(np.asarray, detect_batch(stacked, *args, camera, *settings))
+        result = jax.tree.map(np.asarray, detect(stacked, *args, camera, *settings))
         per_image = (time.perf_counter() - t0) / batch
         for i, path in enumerate(chunk):
-            yield Detection(index=start + i, path=path, depth=depths[i], camera=cameras[i],
+            yield Detection(index=start + i, path=path, depth=depths[i],
+                            workspace=workspaces[i], camera=cameras[i],
                             source=sources[i], result=jax.tree.map(lambda x, i=i: x[i], result),
                             load_s=loads[i], compute_s=per_image)
         progress(len(chunk))

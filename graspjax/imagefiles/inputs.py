@@ -113,6 +113,8 @@ class Inputs:
     intrinsics: Intrinsics  # of the files
     workspace: np.ndarray  # (H, W) bool at full resolution, True where the search may look
     source_workspace: np.ndarray  # the same in the files' pixels (before the reduction)
+    bins: np.ndarray | None  # with --bin: every image's bin interior within `workspace`
+    # (`bins.bin_interior`), bits packed along rows (N, H, ceil(W / 8)) uint8; else None
     roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
     config: Config
@@ -129,6 +131,13 @@ class Inputs:
                     & (depth <= self.image.max_depth))
             depth = block_median(np.where(kept, depth, 0.0), self.reduction)
         return depth, reduced(camera, self.reduction), self.intrinsics.describe(file_k)
+
+    def workspace_of(self, index: int) -> np.ndarray:
+        """Where the search may look in image `index` (H, W) bool: its bin's interior with
+        --bin, else the one `workspace` of every image."""
+        if self.bins is None:
+            return self.workspace
+        return np.unpackbits(self.bins[index], axis=-1, count=self.width).astype(bool)
 
     def source_pixel(self, pixel) -> np.ndarray:
         """Full-resolution pixel coordinates (..., 2) (u, v) in the files' own pixels."""
@@ -265,10 +274,11 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
             depth_range: tuple[float, float] | None = None, downsample: int | None = None,
             overrides: Sequence[str] = (), bin: bool = False) -> Inputs:
-    """Read and check every input; nothing is computed yet but, with `bin`, the bin's interior
-    in the first image (`bins.bin_interior`), which narrows the workspace of every image (one
-    camera over one bin). Every image is read once here, to check it (its size, its
-    intrinsics, its depth range)."""
+    """Read and check every input; nothing is computed yet but, with `bin`, each image's bin
+    interior (`bins.bin_interior`), which narrows that image's workspace: a bin found in every
+    image, so that images of several bins (or of one bin that moved) each get their own, and
+    an image without one stops the run before anything is written. Every image is read here
+    to check it (its size, its intrinsics, its depth range), and once more with `bin`."""
     paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
@@ -318,14 +328,25 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             _check_range(depth, path, image, depth_scale)
     inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
                     width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
-                    workspace=workspace, source_workspace=source_workspace, roi=roi, mask=mask,
-                    config=config, image=dataclasses.replace(image, bin=image.bin or bin))
+                    workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,
+                    mask=mask, config=config,
+                    image=dataclasses.replace(image, bin=image.bin or bin))
     if inputs.image.bin:
-        depth, camera, _ = inputs.read(paths[0])
-        factor = block_factors(inputs.width, inputs.image)[1]  # the support resolution
-        seen = np.where(workspace & np.isfinite(depth) & (depth >= image.min_depth)
-                        & (depth <= image.max_depth), depth, 0.0)
-        coarse = block_median(seen, factor), reduced(camera, factor)
-        inputs = dataclasses.replace(inputs, workspace=bin_interior(seen, camera, workspace,
-                                                                    inputs.image, coarse))
+        interiors = [np.packbits(_bin_of(inputs, path), axis=-1) for path in paths]
+        inputs = dataclasses.replace(inputs, bins=np.stack(interiors))
     return inputs
+
+
+def _bin_of(inputs: Inputs, path: Path) -> np.ndarray:
+    """The bin's interior (H, W) bool in the image at `path`, within the workspace; an
+    `InputError` naming the image when it shows no bin floor."""
+    depth, camera, _ = inputs.read(path)
+    image = inputs.image
+    factor = block_factors(inputs.width, image)[1]  # the support resolution
+    seen = np.where(inputs.workspace & np.isfinite(depth) & (depth >= image.min_depth)
+                    & (depth <= image.max_depth), depth, 0.0)
+    coarse = block_median(seen, factor), reduced(camera, factor)
+    try:
+        return bin_interior(seen, camera, inputs.workspace, image, coarse)
+    except InputError as error:
+        raise InputError(f"{path}: {error}") from None

@@ -41,7 +41,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
                       "bin": inputs.image.bin,
                       "range": [inputs.image.min_depth, inputs.image.max_depth],
-                      "pixels": int(inputs.workspace.sum())},
+                      "pixels": int(d.workspace.sum())},
         "support_plane": {"found": bool(s.found), "reason": SupportReason(int(s.reason)).name,
                           "normal": s.normal, "distance": s.distance,
                           "tilt_deg": np.rad2deg(s.tilt), "inliers": int(s.inliers),
