@@ -50,6 +50,39 @@ def test_flood_fill_matches_connected_component_labelling():
             np.testing.assert_array_equal(got, expected)
 
 
+def test_a_step_spreads_along_a_words_runs_of_links():
+    """`_along_runs` against a pixel-by-pixel walk: from every region pixel along the links,
+    up and down inside its 32-pixel word, as far as they go (the flood's speed rests on it; a
+    flood that spread less would still end right, only later)."""
+    from graspjax.perception.cluster import _along_runs
+
+    rng = np.random.default_rng(1)
+    east = rng.random((200, 32)) < 0.8  # pixel b joins b + 1
+    east[:, 31] = False  # the last bit's link leaves the word
+    west = np.zeros_like(east)
+    west[:, 1:] = east[:, :-1]  # pixel b joins b - 1
+    region = rng.random((200, 32)) < 0.06
+    expected = region.copy()
+    for row in range(200):
+        for b in np.flatnonzero(region[row]):
+            up = b
+            while east[row, up]:
+                up += 1
+                expected[row, up] = True
+            down = b
+            while west[row, down]:
+                down -= 1
+                expected[row, down] = True
+
+    def words(bits):
+        return jnp.asarray(np.sum(bits.astype(np.uint64) << np.arange(32, dtype=np.uint64), 1)
+                           .astype(np.uint32))
+
+    got = np.asarray(_along_runs(words(region), words(east), words(west)))
+    got_bits = ((got[:, None] >> np.arange(32, dtype=np.uint32)) & 1).astype(bool)
+    np.testing.assert_array_equal(got_bits, expected)
+
+
 def test_flood_fill_follows_a_serpentine_across_word_boundaries():
     # A one-pixel path that snakes through every row, crossing the 32-pixel words both ways;
     # a strip two columns away (not 4-connected to it) stays out.

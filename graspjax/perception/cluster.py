@@ -61,16 +61,40 @@ def _grow4_packed(rows: jax.Array) -> jax.Array:
     return rows | right | left | down | up
 
 
-def _flood(start: jax.Array, allowed_rows: jax.Array, grow, width: int,
-           steps_per_iteration: int) -> jax.Array:
+def _reverse_bits(words: jax.Array) -> jax.Array:
+    """Each uint32 word's 32 bits in reverse order."""
+    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF)):
+        words = ((words >> shift) & jnp.uint32(mask)) | ((words & jnp.uint32(mask)) << shift)
+    return (words >> 16) | (words << 16)
+
+
+def _along_runs(rows: jax.Array, east: jax.Array, west: jax.Array) -> jax.Array:
+    """Packed rows spread along their runs inside each word: to higher bits through `east`
+    (bit b set: pixel b joins pixel b + 1) and to lower bits through `west` (pixel b joins
+    b - 1). A binary addition carries a set bit through a run of ones in one step: east +
+    (rows & east) clears each run of `east` from its lowest region pixel up and sets the bit
+    past it, so its XOR with `east` is the run's pixels from there on; the other way is the
+    same on bit-reversed words. Words still meet through the shifts of `_grow4_packed`."""
+    up = (east + (rows & east)) ^ east
+    back_rows, back_west = _reverse_bits(rows), _reverse_bits(west)
+    down = _reverse_bits((back_west + (back_rows & back_west)) ^ back_west)
+    return rows | up | down
+
+
+def _flood(start: jax.Array, allowed_rows: jax.Array, grow, east: jax.Array, west: jax.Array,
+           width: int, steps_per_iteration: int) -> jax.Array:
     """The region `(H, W)` bool reached from the packed `start` by repeated `grow` steps inside
-    the packed `allowed_rows`, until nothing changes (tested every `steps_per_iteration`
+    the packed `allowed_rows`, each followed by a spread along the runs of `east` and `west`
+    inside each word (`_along_runs`: up to 32 pixels along a row in one step, so that a step
+    is bound by rows, not pixels), until nothing changes (tested every `steps_per_iteration`
     steps, each its own inner loop step: unrolled steps fuse into one kernel that recomputes
     its inputs)."""
+    def one_step(rows):
+        return _along_runs(grow(rows) & allowed_rows, east, west)
+
     def step(state):
         region, _ = state
-        new = lax.fori_loop(0, steps_per_iteration, lambda _, rows: grow(rows) & allowed_rows,
-                            region)
+        new = lax.fori_loop(0, steps_per_iteration, lambda _, rows: one_step(rows), region)
         return new, jnp.any(new != region)
 
     region, _ = lax.while_loop(lambda s: s[1], step, (start, jnp.array(True)))
@@ -93,8 +117,9 @@ def surface_cluster(depth: jax.Array, valid: jax.Array, seed: jax.Array, low, hi
     to a word (a 192-pixel row is 6 words).
     """
     allowed = valid & (depth >= low) & (depth <= high)
-    return _flood(_seed_rows(allowed, seed), _pack_rows(allowed), _grow4_packed, depth.shape[1],
-                  steps_per_iteration)
+    rows = _pack_rows(allowed)
+    return _flood(_seed_rows(allowed, seed), rows, _grow4_packed, rows & (rows >> 1),
+                  rows & (rows << 1), depth.shape[1], steps_per_iteration)
 
 
 def connected_surface(depth: jax.Array, allowed: jax.Array, seed: jax.Array, max_step,
@@ -126,8 +151,8 @@ def connected_surface(depth: jax.Array, allowed: jax.Array, seed: jax.Array, max
         _, _, _, up = _shifts(rows & links[3])
         return rows | right | left | down | up
 
-    return _flood(_seed_rows(allowed, seed), _pack_rows(allowed), grow, depth.shape[1],
-                  steps_per_iteration)
+    return _flood(_seed_rows(allowed, seed), _pack_rows(allowed), grow, links[0], links[1],
+                  depth.shape[1], steps_per_iteration)
 
 
 def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
