@@ -1,7 +1,8 @@
 """The grid points of one paired sweep against a reference point, per table column: success,
-first view and rescued for each point, and the paired change in success (points), the objects
-gained and lost, and McNemar's z over the objects' outcomes (each object of a trial or round, as the tables count
-it: `report.object_outcomes`). |z| > 1.96: a change beyond chance at the 5 % level.
+first view and rescued for each point, and the paired change in success (points), the
+objects gained and lost, and McNemar's z over the objects' outcomes (each object of a trial
+or round, as the tables count it: `report.object_outcomes`). |z| > 1.96: a change beyond
+chance at the 5 % level.
 
 Columns: Setup 1 a-f, Setup 2, Setup 3, Setup 1 g-l (Tables 1+2), those the sweep played.
 

@@ -57,20 +57,20 @@ def test_a_step_spreads_along_a_words_runs_of_links():
     from graspjax.perception.cluster import _along_runs
 
     rng = np.random.default_rng(1)
-    east = rng.random((200, 32)) < 0.8  # pixel b joins b + 1
-    east[:, 31] = False  # the last bit's link leaves the word
+    east = rng.random((200, 32)) < 0.8  # pixel b joins b + 1 (bit 31: the next word's bit 0)
     west = np.zeros_like(east)
-    west[:, 1:] = east[:, :-1]  # pixel b joins b - 1
+    west[:, 1:] = east[:, :-1]  # pixel b joins b - 1 (bit 0: the previous word's bit 31)
+    west[:, 0] = rng.random(200) < 0.8
     region = rng.random((200, 32)) < 0.06
     expected = region.copy()
     for row in range(200):
         for b in np.flatnonzero(region[row]):
             up = b
-            while east[row, up]:
+            while up < 31 and east[row, up]:  # a link out of the word is the shifts' to follow
                 up += 1
                 expected[row, up] = True
             down = b
-            while west[row, down]:
+            while down > 0 and west[row, down]:
                 down -= 1
                 expected[row, down] = True
 

@@ -345,6 +345,33 @@ def test_every_image_gets_its_own_bin(tmp_path):
     assert np.linalg.norm(pixels[1] - (top + np.array([shift, 0.0]))) < 3
 
 
+def test_bin_on_an_image_without_a_floor_names_it(tmp_path):
+    """`--bin` over a tote and an image of noise: the run stops in `prepare`, before anything
+    is computed or written, with one line naming the image; and a third image padded into a
+    batch of two keeps its own bin."""
+    from graspjax.imagefiles.batches import detect_files
+    from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
+    from graspjax.io import InputError
+
+    scene = bin_scene(whole=True)
+    np.save(tmp_path / "a.npy", scene.depth)
+    np.save(tmp_path / "b.npy", np.roll(scene.depth, 40, axis=1))
+    noise = np.random.default_rng(0).uniform(0.5, 0.9, scene.depth.shape).astype(np.float32)
+    np.save(tmp_path / "noise.npy", noise)
+    focal = IntrinsicsRequest(focal=(scene.camera.fx, scene.camera.fy))
+    box = (50, 10, WIDTH - 10, HEIGHT - 10)
+    with pytest.raises(InputError, match=r"noise\.npy: --bin: no floor") as error:
+        prepare([tmp_path / "a.npy", tmp_path / "noise.npy"], intrinsics=focal, roi=box, bin=True)
+    assert "\n" not in str(error.value)
+    inputs = prepare([tmp_path / "a.npy", tmp_path / "a.npy", tmp_path / "b.npy"],
+                     intrinsics=focal, roi=box, bin=True)
+    last = list(detect_files(inputs, batch=2))[-1]  # alone in its chunk, padded to two
+    np.testing.assert_array_equal(last.workspace, inputs.workspace_of(2))
+    assert not np.array_equal(last.workspace, inputs.workspace_of(0))
+    top = scene.camera.project(scene.to_camera(scene.top)) + np.array([40.0, 0.0])
+    assert bool(last.result.found) and np.linalg.norm(last.result.pixel - top) < 3
+
+
 def test_the_jaws_see_a_bins_walls_outside_its_workspace():
     """A part 2 cm from a wall, the workspace the bin's interior (the wall outside it): with
     `image.bin` the jaws' checks see the wall, and the grasp closes along it (a jaw across it

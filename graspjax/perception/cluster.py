@@ -86,7 +86,7 @@ def _flood(start: jax.Array, allowed_rows: jax.Array, grow, east: jax.Array, wes
     """The region `(H, W)` bool reached from the packed `start` by repeated `grow` steps inside
     the packed `allowed_rows`, each followed by a spread along the runs of `east` and `west`
     inside each word (`_along_runs`: up to 32 pixels along a row in one step, so that a step
-    is bound by rows, not pixels), until nothing changes (tested every `steps_per_iteration`
+    is bound by rows and words, not pixels), until nothing changes (tested every `steps_per_iteration`
     steps, each its own inner loop step: unrolled steps fuse into one kernel that recomputes
     its inputs)."""
     def one_step(rows):
