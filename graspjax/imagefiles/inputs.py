@@ -123,7 +123,10 @@ class Inputs:
     def read(self, path: Path) -> tuple[np.ndarray, Camera, str]:
         """One image at full resolution: its depth (H, W), its camera and where its
         intrinsics come from."""
-        depth, file_k = read_depth(path, self.depth_scale)
+        return self.at_full_resolution(*read_depth(path, self.depth_scale))
+
+    def at_full_resolution(self, depth: np.ndarray, file_k) -> tuple[np.ndarray, Camera, str]:
+        """`read` of an image already read from its file (`read_depth`: depth, its K or None)."""
         camera = self.intrinsics.camera(*self.source_size, file_k)
         if self.reduction > 1:  # pixels outside the workspace (a bin's: the image) or the
             kept = ((self.source_workspace | self.image.bin)  # range take no part
@@ -278,7 +281,7 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     interior (`bins.bin_interior`), which narrows that image's workspace: a bin found in every
     image, so that images of several bins (or of one bin that moved) each get their own, and
     an image without one stops the run before anything is written. Every image is read here
-    to check it (its size, its intrinsics, its depth range), and once more with `bin`."""
+    once, to check it (its size, its intrinsics, its depth range) and find its bin."""
     paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
@@ -315,6 +318,12 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             raise InputError(f"the workspace is too small for the {small_w}x{small_h} "
                              f"resolution the {width}x{height} images are taken at (block "
                              f"{reduction}): give a larger --roi or mask")
+    inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
+                    width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
+                    workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,
+                    mask=mask, config=config,
+                    image=dataclasses.replace(image, bin=image.bin or bin))
+    interiors = []
     for i, path in enumerate(paths):
         depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
         if depth.shape != (height, width):
@@ -326,21 +335,16 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                              "the intrinsics for all images")
         if i:  # the first was checked above
             _check_range(depth, path, image, depth_scale)
-    inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
-                    width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
-                    workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,
-                    mask=mask, config=config,
-                    image=dataclasses.replace(image, bin=image.bin or bin))
-    if inputs.image.bin:
-        interiors = [np.packbits(_bin_of(inputs, path), axis=-1) for path in paths]
-        inputs = dataclasses.replace(inputs, bins=np.stack(interiors))
-    return inputs
+        if inputs.image.bin:
+            interiors.append(np.packbits(_bin_of(inputs, path, depth, k), axis=-1))
+    return dataclasses.replace(inputs, bins=np.stack(interiors)) if interiors else inputs
 
 
-def _bin_of(inputs: Inputs, path: Path) -> np.ndarray:
-    """The bin's interior (H, W) bool in the image at `path`, within the workspace; an
-    `InputError` naming the image when it shows no bin floor."""
-    depth, camera, _ = inputs.read(path)
+def _bin_of(inputs: Inputs, path: Path, source_depth: np.ndarray, file_k) -> np.ndarray:
+    """The bin's interior (H, W) bool in the image at `path` (read: `source_depth` in the
+    file's pixels, its K or None), within the workspace; an `InputError` naming the image when
+    it shows no bin floor."""
+    depth, camera, _ = inputs.at_full_resolution(source_depth, file_k)
     image = inputs.image
     factor = block_factors(inputs.width, image)[1]  # the support resolution
     seen = np.where(inputs.workspace & np.isfinite(depth) & (depth >= image.min_depth)
