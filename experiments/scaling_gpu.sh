@@ -12,6 +12,13 @@
 #      the rows of every run compared (4,000-trial runs together, 1,000-trial runs together)
 #   c  2 processes x 1 GPU again (their own topology's programs now cached: warm); the rows
 #      compared
+#   d  (stop 63) 4 GPUs at 4,000 trials cold (their first run), then warm three times: under
+#      experiments/timeline.py (calls, with RunFolder.finish and the report profiled), with
+#      CUDA_MODULE_LOADING=EAGER (kernels loaded with their program, not at first launch), and
+#      as is
+#   e  (stop 63, a 2-GPU host) 2 GPUs at 1,000 trials (their first run), then at 4,000 warm
+#      twice, under experiments/timeline.py as in d, and as is
+#   f  1 GPU at 1,000 trials cold, then at 4,000 warm; the rows compared
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
 #      4,000 warm, and 2 processes cold (then c: warm)
@@ -21,16 +28,23 @@ set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 runs=/tmp/scaling
 mkdir -p "$runs"
-timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall time kept
+timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall time kept;
+  # RUN_ENV: assignments for its environment (e.g. CUDA_MODULE_LOADING=EAGER); with TIMELINE
+  # set, it runs under experiments/timeline.py (its lines, and the profiles TIMELINE_PROFILE
+  # names, in $OUT/timeline_NAME.txt)
   local name=$1 gpus=$2 trials=$3 start
   shift 3
   start=$(date +%s.%N)
-  CUDA_VISIBLE_DEVICES=$gpus python3 -m graspjax.cli run --table 1,2 --trials "$trials" \
+  local runner=(-m graspjax.cli)
+  [ -n "${TIMELINE:-}" ] && runner=(experiments/timeline.py)
+  env ${RUN_ENV:-} START="$start" CUDA_VISIBLE_DEVICES=$gpus python3 "${runner[@]}" run \
+    --table 1,2 --trials "$trials" \
     --seed 0 --quiet --overwrite --out "$runs/$name" "$@" > "$runs/$name.log" 2>&1
   local code=$?
   echo "$name,${gpus//,/+},$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$runs/walls.csv"
   echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$runs/walls.csv")"
   echo "$name: $(grep '^seconds:' "$runs/$name.log")" >> "$runs/phases.txt"
+  [ -n "${TIMELINE:-}" ] && grep -v '^[|#]' "$runs/$name.log" > "$out/timeline_$name.txt"
   keep "$name"
 }
 keep() {  # keep NAME: its config.json, timings.csv and table1.md into $OUT/runs.tar.gz
@@ -85,12 +99,29 @@ for step in "$@"; do
     a) timed cold_1gpu_1000 0 1000
        timed warm_1gpu_1000 0 1000
        timed warm_4gpu_1000 0,1,2,3 1000
-       timed warm_4gpu_4000 0,1,2,3 4000 ;;
+       timed warm_4gpu_4000 0,1,2,3 4000
+       compare ;;
     a2) timed warm_2gpu_4000 0,1 4000 ;;
     b) timed warm_1gpu_4000 0 4000
        distributed two_processes_4000 4000
        compare ;;
     c) distributed two_processes_warm_4000 4000
+       compare ;;
+    d) timed cold_4gpu_4000 0,1,2,3 4000
+       TIMELINE=1 TIMELINE_CALLS=jax:block_until_ready,jax:device_put \
+         TIMELINE_PROFILE=graspjax.outputs:RunFolder.finish,graspjax.report:write_report \
+         timed warm_4gpu_timeline_4000 0,1,2,3 4000
+       RUN_ENV=CUDA_MODULE_LOADING=EAGER timed warm_4gpu_eager_4000 0,1,2,3 4000
+       timed warm_4gpu_4000 0,1,2,3 4000
+       compare ;;
+    e) timed first_2gpu_1000 0,1 1000
+       TIMELINE=1 TIMELINE_CALLS=jax:block_until_ready,jax:device_put \
+         TIMELINE_PROFILE=graspjax.outputs:RunFolder.finish,graspjax.report:write_report \
+         timed warm_2gpu_timeline_4000 0,1 4000
+       timed warm_2gpu_4000 0,1 4000
+       compare ;;
+    f) timed cold_1gpu_1000 0 1000
+       timed warm_1gpu_4000 0 4000
        compare ;;
     one) timed cold_1gpu_1000 0 1000  # a 2-GPU host: 1 GPU, then 2 (own compiles), processes
          timed warm_1gpu_1000 0 1000

@@ -8,22 +8,30 @@ The arguments are `graspjax`'s. Every call of the functions in CALLS is timed (s
 START, the shell's clock when it launched Python: the interpreter's own start counts); calls
 of 0.05 s or more are printed to stderr at exit as `TL begin end seconds thread name`, then
 `TL_LAST_ATEXIT` when the last exit handler runs (the rest of the wall time is the
-interpreter's teardown). The graspjax modules are imported before the command runs, so the
-imports are timed apart (`graspjax run` itself starts the devices beside them). With
-TIMELINE_EXIT=1 the process ends at that point without the teardown. Results:
-results/benchmarks/history/physics_step.md (stop 40).
+interpreter's teardown). TIMELINE_CALLS adds targets (`module:Qualified.name`, comma-separated,
+e.g. `jax:block_until_ready`); TIMELINE_PROFILE names targets among them whose calls are also
+profiled (cProfile, in the calling thread), printed at exit, 30 lines each by cumulative
+time. The graspjax modules are imported before the command runs, so the imports are timed
+apart (`graspjax run` itself starts the devices beside them). With TIMELINE_EXIT=1 the
+process ends at that point without the teardown. Results:
+results/benchmarks/history/physics_step.md (stop 40), scaling_h200x2_stop63/ (stop 63).
 """
 
 import atexit
+import cProfile
 import functools
 import importlib
+import io
 import os
+import pstats
 import sys
 import threading
 import time
 
 START = float(os.environ.get("START", time.time()))
 EVENTS: list[tuple[str, float, float, str]] = []
+PROFILED = [t for t in os.environ.get("TIMELINE_PROFILE", "").split(",") if t]
+PROFILES: dict[str, list[cProfile.Profile]] = {}
 CALLS = [
     "graspjax.experiment:run",
     "graspjax.batch.program:Program.portable",
@@ -62,6 +70,10 @@ def timed(name: str, fn):
     def wrapper(*args, **kwargs):
         begin = since_start()
         try:
+            if name in {t.partition(":")[2] for t in PROFILED}:
+                profile = cProfile.Profile()
+                PROFILES.setdefault(name, []).append(profile)
+                return profile.runcall(fn, *args, **kwargs)
             return fn(*args, **kwargs)
         finally:
             EVENTS.append((name, begin, since_start(), threading.current_thread().name))
@@ -99,13 +111,18 @@ def _show() -> None:
         if end - begin >= 0.05:
             print(f"TL {begin:8.2f} {end:8.2f} {end - begin:7.2f}  {thread[:24]:24s} {name}",
                   file=sys.stderr)
+    for name, profiles in PROFILES.items():
+        text = io.StringIO()
+        pstats.Stats(*profiles, stream=text).sort_stats("cumulative").print_stats(30)
+        print(f"PROFILE {name} ({len(profiles)} call(s))\n{text.getvalue()}", file=sys.stderr)
     print(f"TL {since_start():8.2f} exit", file=sys.stderr)
 
 
 if __name__ == "__main__":
     for module in ("jax", "graspjax.cli", "graspjax.experiment", "graspjax.report"):
         imported(module)
-    for target in CALLS:
+    extra = [t for t in os.environ.get("TIMELINE_CALLS", "").split(",") if t]
+    for target in dict.fromkeys(CALLS + extra + PROFILED):
         wrap(target)
     # names the modules imported before they were wrapped
     experiment = sys.modules["graspjax.experiment"]
