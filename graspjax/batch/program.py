@@ -52,6 +52,7 @@ class Program:
         self._start: list = [None] * len(self.devices)
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
+        self._placed: list = [None] * len(self.devices)  # `arrays` on each device (`compile`)
         self._settle = None
         self.worker_s: float | None = None  # a trace helper's seconds, if one traced it (`compiles`)
         self._scene: tuple[Scene, tuple[mjx.Model, mjx.Data]] | None = None  # `_built`
@@ -210,22 +211,28 @@ class Program:
     def compile(self, device: int, lowered: tuple[jax.stages.Lowered, jax.stages.Lowered],
                 lower_s: float) -> None:
         """Compile the lowered functions for one device (XLA releases the GIL: devices, groups
-        and the two functions compile in parallel threads). `lower_s`: seconds the lowering
+        and the two functions compile in parallel threads), and put the scene's arrays there
+        (building the scene first if no other thread has). `lower_s`: seconds the lowering
         took (tracing apart: `trace_s`)."""
         start = time.perf_counter()
         with concurrent.futures.ThreadPoolExecutor(max_workers=1) as other:
             start_fn = other.submit(lowered[0].compile)
             attempt_fn = lowered[1].compile()
-            self._start[device] = start_fn.result()
-            self._attempt[device] = attempt_fn  # last: `compiled` looks at it
         self._compile_s[device] = lower_s + time.perf_counter() - start
+        # The scene's arrays go to each device once, here, from the host: copied from the first
+        # device with every chunk, the first such copy to another GPU took 2 s (set-up between
+        # the two; results/benchmarks), in that device's first chunk.
+        self._placed[device] = self.arrays if device == 0 else jax.block_until_ready(
+            jax.device_put(jax.device_get(self.arrays), self.devices[device]))
+        self._start[device] = start_fn.result()
+        self._attempt[device] = attempt_fn  # last: `compiled` looks at it
 
     def play(self, worlds: tuple[WorldKey, ...], points: list[Config], device: int,
              progress: Callable[[int], None]) -> tuple[Record, list[Record], ChunkViews | None]:
         """One chunk's round on `device`: the drop, then each attempt; the drop's record and the
         attempts' records on the host, and the views (left on the device) if kept."""
         on = functools.partial(jax.device_put, device=self.devices[device])  # numpy in: one copy
-        spec, arrays = on(self.spec(worlds, points)), on(self.arrays)
+        spec, arrays = on(self.spec(worlds, points)), self._placed[device]
         state = self._start[device](arrays, spec)
         state, drop, _ = self._attempt[device](arrays[0], state, spec, on(np.int32(-1)))
         records, views = [], []

@@ -80,18 +80,29 @@ def set_xla_flags(deterministic: bool) -> str | None:
 
 
 def start_devices() -> None:
-    """Start JAX's devices in a thread of their own: on a GPU the driver, the client and the
-    first allocation take about a second, which then passes while the simulation's modules
-    import (seconds: MJX and its mesh libraries). A failure is left to the run's own first use
-    of the devices, which raises it again."""
+    """Start JAX's devices in threads of their own: on a GPU the driver and the client take
+    about a second, and each device's first allocation (its memory pool) about two more
+    (results/benchmarks), which then pass while the simulation's modules import (seconds: MJX
+    and its mesh libraries), for every local device at once; else a device's first chunk
+    waits for it. A failure is left to the run's own first use of the devices, which raises
+    it again."""
     import threading
 
     import jax  # here, not in the thread: the main thread's imports import it too
 
     def start() -> None:
         try:
-            jax.device_put(0.0).block_until_ready()
+            devices = jax.local_devices()
         except Exception:  # the run's own first use of the devices raises it again
+            return
+        for device in devices:
+            threading.Thread(target=first_allocation, args=(device,),
+                             name=f"start-device-{device.id}").start()
+
+    def first_allocation(device) -> None:
+        try:
+            jax.device_put(0.0, device).block_until_ready()
+        except Exception:  # likewise
             pass
 
     threading.Thread(target=start, name="start-devices").start()
