@@ -238,6 +238,9 @@ class RunFolder:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
         self.appended: set[int] = set()  # chunks whose rows attempts.csv holds
+        # The chunks this process added: their rows and CSV text, and their rounds, as their
+        # parts read back (`add`), so that `finish` reads only other processes' parts.
+        self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame]] = {}
         if not self.finished:
             self.parts.mkdir(exist_ok=True)
             write_atomic(config, (json.dumps(meta, indent=2, default=str) + "\n").encode())
@@ -272,6 +275,8 @@ class RunFolder:
     def _part(self, chunk: int) -> tuple[pd.DataFrame, bytes]:
         """A done chunk's rows and their CSV text (formatted here if its part lacks it: a
         folder of an earlier version resumed)."""
+        if chunk in self._kept:
+            return self._kept[chunk][:2]
         frame = pd.read_parquet(self.parts / f"attempts-{chunk:05d}.parquet")
         text = self.parts / f"attempts-{chunk:05d}.csv"
         return frame, text.read_bytes() if text.is_file() else _csv(frame, False)
@@ -298,6 +303,9 @@ class RunFolder:
         write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
+        # Read back now, beside the devices' next chunks, rather than at the run's end: the
+        # frames then have the dtypes of any part read from disk.
+        self._kept[chunk] = pd.read_parquet(buffer), text, pd.read_parquet(rounds)
 
     def finish(self, remove_parts: bool | None = None) -> list[Path]:
         """Rebuild the attempts and rounds from the parts, sorted, and write the timings; the
@@ -319,7 +327,8 @@ class RunFolder:
                                     for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
             parquet = io.BytesIO()
             frame.to_parquet(parquet, index=False)
-            rounds = pd.concat([pd.read_parquet(self.parts / f"rounds-{c:05d}.parquet")
+            rounds = pd.concat([self._kept[c][2] if c in self._kept
+                                else pd.read_parquet(self.parts / f"rounds-{c:05d}.parquet")
                                 for c in sorted(self.done)], ignore_index=True)
             rounds = rounds.sort_values(["point", "setup", "round"], kind="stable")
             write_atomic(self.folder / "attempts.parquet", parquet.getvalue())

@@ -64,6 +64,19 @@ def test_rows_credit_the_object_the_target_point_lay_on():
         (1, "c"): "not attempted: never a target point"}
 
 
+def test_a_chunks_dtypes_do_not_depend_on_its_unattempted_rows():
+    """Two worlds attempting all three objects, and the same with the last attempt cut (so each
+    world has an unattempted row): every column keeps its dtype, so that the run folder can join
+    the chunks' CSV lines as they are."""
+    worlds = (WorldKey(0, 0, 2, 0, LETTERS), WorldKey(0, 0, 2, 1, LETTERS))
+    records = [_record([i, i], [True, True], [Outcome.SUCCESS] * 2, lifted=(i, i), under=(i, i))
+               for i in range(len(LETTERS))]
+    every = _record_rows(LETTERS, worlds, records)
+    cut = _record_rows(LETTERS, worlds, records[:-1])
+    assert (every["attempt"] >= 0).all() and (cut["attempt"] < 0).sum() == 2
+    assert cut.dtypes.to_dict() == every.dtypes.to_dict()
+
+
 def _state(removed, attempted, failures=0):
     return RoundState(data=None, attempted=np.array(attempted), failures=np.int32(failures),
                       removed=np.array(removed), key=None)

@@ -78,8 +78,11 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[WorldKey, ...], records
         frame["success"] = (reason == Outcome.SUCCESS).astype(int)
         frame["outcome"] = [Outcome(o).name for o in r.outcome[keep]]
         frame["reason"] = REASON_LABELS[reason]
-        frame["reason_code"] = reason
-        frame["reorientations"] = r.reorientations[keep]
+        # 64-bit like the unattempted rows' codes: a chunk's dtypes then never depend on
+        # whether it has such rows, and the run folder joins its rows' CSV lines as they are
+        # (`outputs._sorted`) instead of formatting the whole run again (results/benchmarks).
+        frame["reason_code"] = reason.astype(np.int64)
+        frame["reorientations"] = r.reorientations[keep].astype(np.int64)
         frame["grasp_found"] = r.grasp_found[keep].astype(int)
         frame["first_view_grasp"] = (r.grasp_found[keep] & (r.reorientations[keep] == 0)).astype(int)
         frame["rescued"] = ((reason == Outcome.SUCCESS) & (r.reorientations[keep] > 0)).astype(int)
