@@ -19,6 +19,7 @@
 #   e  (stop 63, a 2-GPU host) 2 GPUs at 1,000 trials (their first run), then at 4,000 warm
 #      twice, under experiments/timeline.py as in d, and as is
 #   f  1 GPU at 1,000 trials cold, then at 4,000 warm; the rows compared
+#   g  2 GPUs at 1,000 trials (their first run), then at 4,000 warm; the rows compared
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
 #      4,000 warm, and 2 processes cold (then c: warm)
@@ -118,6 +119,9 @@ for step in "$@"; do
        TIMELINE=1 TIMELINE_CALLS=jax:block_until_ready,jax:device_put \
          TIMELINE_PROFILE=graspjax.outputs:RunFolder.finish,graspjax.report:write_report \
          timed warm_2gpu_timeline_4000 0,1 4000
+       timed warm_2gpu_4000 0,1 4000
+       compare ;;
+    g) timed first_2gpu_1000 0,1 1000
        timed warm_2gpu_4000 0,1 4000
        compare ;;
     f) timed cold_1gpu_1000 0 1000
