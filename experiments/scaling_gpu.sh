@@ -19,7 +19,9 @@
 #   e  (stop 63, a 2-GPU host) 2 GPUs at 1,000 trials (their first run), then at 4,000 warm
 #      twice, under experiments/timeline.py as in d, and as is
 #   f  1 GPU at 1,000 trials cold, then at 4,000 warm; the rows compared
-#   g  2 GPUs at 1,000 trials (their first run), then at 4,000 warm; the rows compared
+#   g  2 GPUs at 1,000 trials (their first run, or not if e ran on the machine), then at 4,000
+#      warm, as fixed_2gpu_*; the rows compared
+# Every run's rows get a digest (attempts.csv but run_id and chunk) in $OUT/digests.txt.
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
 #      4,000 warm, and 2 processes cold (then c: warm)
@@ -46,7 +48,22 @@ timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall
   echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$runs/walls.csv")"
   echo "$name: $(grep '^seconds:' "$runs/$name.log")" >> "$runs/phases.txt"
   [ -n "${TIMELINE:-}" ] && grep -v '^[|#]' "$runs/$name.log" > "$out/timeline_$name.txt"
+  digest "$name"
   keep "$name"
+}
+digest() {  # digest NAME: a digest of its attempts.csv but run_id and chunk, to compare runs of
+  # other calls and hosts (digests.txt)
+  python3 - "$runs/$1/attempts.csv" "$1" >> "$runs/digests.txt" <<'EOF'
+import hashlib
+import sys
+
+import pandas as pd
+
+rows = pd.read_csv(sys.argv[1]).drop(columns=["run_id", "chunk"])
+text = rows.to_csv(index=False).encode()
+print(f"{sys.argv[2]}: {len(rows)} rows, sha256 {hashlib.sha256(text).hexdigest()[:16]}")
+EOF
+  cp "$runs/digests.txt" "$out/"
 }
 keep() {  # keep NAME: its config.json, timings.csv and table1.md into $OUT/runs.tar.gz
   mkdir -p "$runs/kept/$1"
@@ -65,6 +82,7 @@ distributed() {  # distributed NAME TRIALS: 2 processes of 1 GPU each, one coord
   echo "$name,0+1,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),0" >> "$runs/walls.csv"
   echo "== $name (2 processes): $(tail -n 1 "$runs/walls.csv"); $(tail -n 1 "$runs/$name.1.log")"
   echo "$name: $(grep '^seconds:' "$runs/$name.0.log")" >> "$runs/phases.txt"
+  digest "$name"
   keep "$name"
 }
 compare() {  # the rows of every run compared: 4,000-trial runs together, 1,000-trial ones too
@@ -121,11 +139,11 @@ for step in "$@"; do
          timed warm_2gpu_timeline_4000 0,1 4000
        timed warm_2gpu_4000 0,1 4000
        compare ;;
-    g) timed first_2gpu_1000 0,1 1000
-       timed warm_2gpu_4000 0,1 4000
-       compare ;;
     f) timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000
+       compare ;;
+    g) timed fixed_2gpu_1000 0,1 1000  # names of their own: e's runs on the machine stay
+       timed fixed_2gpu_4000 0,1 4000
        compare ;;
     one) timed cold_1gpu_1000 0 1000  # a 2-GPU host: 1 GPU, then 2 (own compiles), processes
          timed warm_1gpu_1000 0 1000

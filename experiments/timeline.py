@@ -10,8 +10,9 @@ of 0.05 s or more are printed to stderr at exit as `TL begin end seconds thread 
 `TL_LAST_ATEXIT` when the last exit handler runs (the rest of the wall time is the
 interpreter's teardown). TIMELINE_CALLS adds targets (`module:Qualified.name`, comma-separated,
 e.g. `jax:block_until_ready`); TIMELINE_PROFILE names targets among them whose calls are also
-profiled (cProfile, in the calling thread), printed at exit, 30 lines each by cumulative
-time. The graspjax modules are imported before the command runs, so the imports are timed
+profiled (cProfile), printed at exit, 30 lines each by cumulative time: one profile at a
+time (Python 3.12's profiler is per process), a call that starts while another is profiled is
+only timed. The graspjax modules are imported before the command runs, so the imports are timed
 apart (`graspjax run` itself starts the devices beside them). With TIMELINE_EXIT=1 the
 process ends at that point without the teardown. Results:
 results/benchmarks/history/physics_step.md (stop 40), scaling_h200x2_stop63/ (stop 63).
@@ -32,6 +33,7 @@ START = float(os.environ.get("START", time.time()))
 EVENTS: list[tuple[str, float, float, str]] = []
 PROFILED = [t for t in os.environ.get("TIMELINE_PROFILE", "").split(",") if t]
 PROFILES: dict[str, list[cProfile.Profile]] = {}
+PROFILING = threading.Lock()  # held while a call is profiled
 CALLS = [
     "graspjax.experiment:run",
     "graspjax.batch.program:Program.portable",
@@ -64,16 +66,20 @@ def _last_handler() -> None:
         os._exit(0)
 
 
-def timed(name: str, fn):
-    """`fn`, noting each call's begin and end in EVENTS."""
+def timed(name: str, fn, profiled: bool = False):
+    """`fn`, noting each call's begin and end in EVENTS (and profiling it, with `profiled`,
+    unless another call is being profiled)."""
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         begin = since_start()
         try:
-            if name in {t.partition(":")[2] for t in PROFILED}:
-                profile = cProfile.Profile()
-                PROFILES.setdefault(name, []).append(profile)
-                return profile.runcall(fn, *args, **kwargs)
+            if profiled and PROFILING.acquire(blocking=False):
+                try:
+                    profile = cProfile.Profile()
+                    PROFILES.setdefault(name, []).append(profile)
+                    return profile.runcall(fn, *args, **kwargs)
+                finally:
+                    PROFILING.release()
             return fn(*args, **kwargs)
         finally:
             EVENTS.append((name, begin, since_start(), threading.current_thread().name))
@@ -88,14 +94,15 @@ def wrap(target: str) -> None:
     for part in path:
         owner = getattr(owner, part)
     inner = owner.__dict__[name]
+    profiled = target in PROFILED
     if isinstance(inner, property):
-        setattr(owner, name, property(timed(qualified, inner.fget)))
+        setattr(owner, name, property(timed(qualified, inner.fget, profiled)))
     elif isinstance(inner, functools.cached_property):
-        cached = functools.cached_property(timed(qualified, inner.func))
+        cached = functools.cached_property(timed(qualified, inner.func, profiled))
         cached.__set_name__(owner, name)
         setattr(owner, name, cached)
     else:
-        setattr(owner, name, timed(qualified, inner))
+        setattr(owner, name, timed(qualified, inner, profiled))
 
 
 def imported(module: str):

@@ -146,7 +146,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     if distributed and part > 0:
         barrier("folder")  # process 0 has set the folder up
     folder = RunFolder(out, meta, len(planned), resume or distributed and part > 0,
-                       shared=parts > 1)
+                       shared=parts > 1, keep=not (distributed and part > 0))
     if distributed and part == 0:
         barrier("folder")
     work: dict[int, float] = {}  # per group, the device work of its chunks still to play
@@ -262,7 +262,7 @@ def play_helper_share(job: Assignment, progress) -> None:
     configs, groups = _grouped(experiment)
     planned = chunks(groups, job.meta["batch"])
     columns = RunColumns(job.meta["run_id"], configs, experiment.keys, experiment.base)
-    folder = RunFolder(job.out, job.meta, len(planned), resume=True, shared=True)
+    folder = RunFolder(job.out, job.meta, len(planned), resume=True, shared=True, keep=False)
     skip = {c.index for c in planned} - set(job.chunks)
     _play(groups, configs, job.meta["batch"], skip, folder, columns, progress, lambda m: None,
           process=job.process)

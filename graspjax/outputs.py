@@ -223,7 +223,7 @@ class RunFolder:
     """
 
     def __init__(self, folder: str | Path, meta: dict, chunks: int, resume: bool,
-                 shared: bool = False):
+                 shared: bool = False, keep: bool = True):
         self.folder = Path(folder)
         self.parts = self.folder / "parts"
         self.chunks, self.meta, self.shared = chunks, meta, shared
@@ -239,7 +239,10 @@ class RunFolder:
         self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
         self.appended: set[int] = set()  # chunks whose rows attempts.csv holds
         # The chunks this process added: their rows and CSV text, and their rounds, as their
-        # parts read back (`add`), so that `finish` reads only other processes' parts.
+        # parts read back (`add`), so that `finish` reads only other processes' parts. Not
+        # kept (`keep` False) by a process that never finishes the folder: a run's helper, or
+        # a process of a distributed run other than the first.
+        self.keep = keep
         self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame]] = {}
         if not self.finished:
             self.parts.mkdir(exist_ok=True)
@@ -303,9 +306,9 @@ class RunFolder:
         write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
-        # Read back now, beside the devices' next chunks, rather than at the run's end: the
-        # frames then have the dtypes of any part read from disk.
-        self._kept[chunk] = pd.read_parquet(buffer), text, pd.read_parquet(rounds)
+        if self.keep:  # read back now, beside the devices' next chunks, rather than at the
+            # run's end: the frames then have the dtypes of any part read from disk
+            self._kept[chunk] = pd.read_parquet(buffer), text, pd.read_parquet(rounds)
 
     def finish(self, remove_parts: bool | None = None) -> list[Path]:
         """Rebuild the attempts and rounds from the parts, sorted, and write the timings; the
@@ -341,5 +344,6 @@ class RunFolder:
             if not self.shared if remove_parts is None else remove_parts:
                 shutil.rmtree(self.parts)
             self.finished = True
+            self._kept.clear()  # the report reads the files
         data_files = ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "config.json")
         return [self.folder / name for name in data_files]

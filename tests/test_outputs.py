@@ -123,7 +123,8 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
     """The end of a run puts the lines its chunks formatted into the sorted order; the bytes
     equal the whole sorted frame formatted at once (pandas, a reference that does not reorder
     lines), with missing rounds, float32 values, quoted fields, and a field whose line break
-    makes the lines unusable (then it formats afresh)."""
+    makes the lines unusable (then it formats afresh); one chunk comes from another process's
+    part file, the others from what the run kept."""
     import numpy as np
     import pandas as pd
 
@@ -143,10 +144,13 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
 
     chunks = [rows(2, [3, 1]), rows(1, [2, 0]), rows(3, [0]), rows(1, [1, 3])]
     folder = RunFolder(tmp_path, _meta(), chunks=len(chunks), resume=False)
+    # A helper process's folder object: its chunks reach the run's only as files.
+    helper = RunFolder(tmp_path, _meta(), chunks=len(chunks), resume=True, shared=True, keep=False)
     timings = dict.fromkeys(TIMINGS_COLUMNS, 0)
     for index in (2, 0, 3, 1):  # chunks end out of order
-        folder.add(index, chunks[index], pd.DataFrame({"point": [], "setup": [], "round": []}),
-                   timings)
+        (helper if index == 3 else folder).add(
+            index, chunks[index], pd.DataFrame({"point": [], "setup": [], "round": []}), timings)
+    assert set(folder._kept) == {0, 1, 2} and not helper._kept
     folder.finish()
     whole = sort_attempts(pd.concat(chunks, ignore_index=True))
     assert (tmp_path / "attempts.csv").read_bytes() == _csv(whole, True)

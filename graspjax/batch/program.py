@@ -219,9 +219,10 @@ class Program:
             start_fn = other.submit(lowered[0].compile)
             attempt_fn = lowered[1].compile()
         self._compile_s[device] = lower_s + time.perf_counter() - start
-        # The scene's arrays go to each device once, here, from the host: copied from the first
-        # device with every chunk, the first such copy to another GPU took 2 s (set-up between
-        # the two; results/benchmarks), in that device's first chunk.
+        # The scene's arrays go to each device once, here, from the host, not from the first
+        # device with every chunk: a first copy from device 0 to device 1 took 2 s on two H200s
+        # (probably device 1's first allocation, now made at start: `xla.start_devices`;
+        # results/benchmarks), and it fell into that device's first chunk.
         self._placed[device] = self.arrays if device == 0 else jax.block_until_ready(
             jax.device_put(jax.device_get(self.arrays), self.devices[device]))
         self._start[device] = start_fn.result()

@@ -81,11 +81,10 @@ def set_xla_flags(deterministic: bool) -> str | None:
 
 def start_devices() -> None:
     """Start JAX's devices in threads of their own: on a GPU the driver and the client take
-    about a second, and each device's first allocation (its memory pool) about two more
+    about a second, and a device's first allocation (its memory pool, we think) up to two more
     (results/benchmarks), which then pass while the simulation's modules import (seconds: MJX
-    and its mesh libraries), for every local device at once; else a device's first chunk
-    waits for it. A failure is left to the run's own first use of the devices, which raises
-    it again."""
+    and its mesh libraries), for every local device at once, not in a device's first chunk.
+    A failure is left to the run's own first use of the devices, which raises it again."""
     import threading
 
     import jax  # here, not in the thread: the main thread's imports import it too
