@@ -21,6 +21,8 @@
 #   f  1 GPU at 1,000 trials cold, then at 4,000 warm; the rows compared
 #   g  2 GPUs at 1,000 trials (their first run, or not if e ran on the machine), then at 4,000
 #      warm, as fixed_2gpu_*; the rows compared
+#   h  (stop 63, a 4-GPU host) 4 GPUs at 1,000 trials (their first run), then at 4,000 warm;
+#      1 GPU at 1,000 trials (compiled for one device), then at 4,000 warm; the rows compared
 # Every run's rows get a digest (attempts.csv but run_id and chunk) in $OUT/digests.txt.
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
@@ -140,6 +142,11 @@ for step in "$@"; do
        timed warm_2gpu_4000 0,1 4000
        compare ;;
     f) timed cold_1gpu_1000 0 1000
+       timed warm_1gpu_4000 0 4000
+       compare ;;
+    h) timed first_4gpu_1000 0,1,2,3 1000
+       timed warm_4gpu_4000 0,1,2,3 4000
+       timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000
        compare ;;
     g) timed fixed_2gpu_1000 0,1 1000  # names of their own: e's runs on the machine stay
