@@ -23,10 +23,10 @@
 #      warm, as fixed_2gpu_*; the rows compared
 #   h  (stop 63, a 4-GPU host) 4 GPUs at 1,000 trials (their first run), then at 4,000 warm;
 #      1 GPU at 1,000 trials (compiled for one device), then at 4,000 warm; the rows compared
-# Every run's rows get a digest (attempts.csv but run_id and chunk) in $OUT/digests.txt.
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
 #      4,000 warm, and 2 processes cold (then c: warm)
+# Every run's rows get a digest (attempts.csv but run_id and chunk) in $OUT/digests.txt.
 # Each run's "seconds:" line (where its time went: start, chunks, rows, report) goes to
 # $OUT/phases.txt; the last table gives every run's speed-up over the 1-GPU run of its size.
 set -uo pipefail
@@ -52,6 +52,11 @@ timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall
   [ -n "${TIMELINE:-}" ] && grep -v '^[|#]' "$runs/$name.log" > "$out/timeline_$name.txt"
   digest "$name"
   keep "$name"
+}
+timelined() {  # timelined NAME GPUS TRIALS: `timed` under experiments/timeline.py, with the
+  # device calls timed and the rows phase and the report profiled
+  TIMELINE=1 TIMELINE_CALLS=jax:block_until_ready,jax:device_put \
+    TIMELINE_PROFILE=graspjax.outputs:RunFolder.finish,graspjax.report:write_report timed "$@"
 }
 digest() {  # digest NAME: a digest of its attempts.csv but run_id and chunk, to compare runs of
   # other calls and hosts (digests.txt)
@@ -129,28 +134,24 @@ for step in "$@"; do
     c) distributed two_processes_warm_4000 4000
        compare ;;
     d) timed cold_4gpu_4000 0,1,2,3 4000
-       TIMELINE=1 TIMELINE_CALLS=jax:block_until_ready,jax:device_put \
-         TIMELINE_PROFILE=graspjax.outputs:RunFolder.finish,graspjax.report:write_report \
-         timed warm_4gpu_timeline_4000 0,1,2,3 4000
+       timelined warm_4gpu_timeline_4000 0,1,2,3 4000
        RUN_ENV=CUDA_MODULE_LOADING=EAGER timed warm_4gpu_eager_4000 0,1,2,3 4000
        timed warm_4gpu_4000 0,1,2,3 4000
        compare ;;
     e) timed first_2gpu_1000 0,1 1000
-       TIMELINE=1 TIMELINE_CALLS=jax:block_until_ready,jax:device_put \
-         TIMELINE_PROFILE=graspjax.outputs:RunFolder.finish,graspjax.report:write_report \
-         timed warm_2gpu_timeline_4000 0,1 4000
+       timelined warm_2gpu_timeline_4000 0,1 4000
        timed warm_2gpu_4000 0,1 4000
        compare ;;
     f) timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000
        compare ;;
+    g) timed fixed_2gpu_1000 0,1 1000  # names of their own: e's runs on the machine stay
+       timed fixed_2gpu_4000 0,1 4000
+       compare ;;
     h) timed first_4gpu_1000 0,1,2,3 1000
        timed warm_4gpu_4000 0,1,2,3 4000
        timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000
-       compare ;;
-    g) timed fixed_2gpu_1000 0,1 1000  # names of their own: e's runs on the machine stay
-       timed fixed_2gpu_4000 0,1 4000
        compare ;;
     one) timed cold_1gpu_1000 0 1000  # a 2-GPU host: 1 GPU, then 2 (own compiles), processes
          timed warm_1gpu_1000 0 1000
