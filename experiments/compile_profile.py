@@ -24,11 +24,12 @@ def profile(group: plan.Group, batch: int) -> None:
     """Lower one group's program (both functions) and compile each, timed apart."""
     p = program.program(group, batch, False)
     t0 = time.perf_counter()
-    start, attempt = p.lower(0)
+    start, attempt = p.lower()
+    here = (p.devices[0],)
     t1 = time.perf_counter()
-    start.compile()
+    start.compile(device_assignment=here)
     t2 = time.perf_counter()
-    attempt.compile()
+    attempt.compile(device_assignment=here)
     t3 = time.perf_counter()
     print(f"{''.join(group.letters)} collide={group.collide} attempts={group.attempts} "
           f"batch={p.batch}: lower {t1 - t0:.1f} s; compile start {t2 - t1:.1f} s, attempt "

@@ -53,10 +53,11 @@ def main(batch: int) -> None:
         t0 = time.perf_counter()
         _ = p.portable
         t1 = time.perf_counter()
-        start, attempt = p.lower(0)
+        start, attempt = p.lower()
+        here = (p.devices[0],)
         t2 = time.perf_counter()
-        start.compile()
-        compiled = attempt.compile()
+        start.compile(device_assignment=here)
+        compiled = attempt.compile(device_assignment=here)
         t3 = time.perf_counter()
         print(f"{''.join(group.letters)} collide={group.collide}: read {t1 - t0:.2f} s, lower "
               f"{t2 - t1:.2f} s, compile {t3 - t2:.2f} s ({p.origin}); "

@@ -93,7 +93,7 @@ class _LoggedProgram:
     def prepare(self):
         self.reached.append(f"{self.name} scene")
 
-    def lower(self, device):
+    def lower(self):
         return None
 
     def compile(self, device, lowered, lower_s):

@@ -185,12 +185,11 @@ class Program:
         spec = jax.device_put(self.spec(worlds, points), self.devices[0])
         return self._settle(spec), spec
 
-    def lower(self, device: int) -> tuple[jax.stages.Lowered, jax.stages.Lowered]:
-        """Lower both functions for one device (Python: it holds the GIL): every device lowers
-        the same exported modules (`portable`, traced or loaded first)."""
-        sharding = jax.sharding.SingleDeviceSharding(self.devices[device])
+    def lower(self) -> tuple[jax.stages.Lowered, jax.stages.Lowered]:
+        """Lower both functions once for every device (Python: it holds the GIL); `compile`
+        then compiles them for each device (`Portable.lower`)."""
         start, attempt_ = self.portable
-        return start.lower(sharding), attempt_.lower(sharding, donate_argnums=(1,))
+        return start.lower(), attempt_.lower(donate_argnums=(1,))
 
     @property
     def origin(self) -> str:
@@ -214,10 +213,10 @@ class Program:
         and the two functions compile in parallel threads), and put the scene's arrays there
         (building the scene first if no other thread has). `lower_s`: seconds the lowering
         took (tracing apart: `trace_s`)."""
-        start = time.perf_counter()
+        start, here = time.perf_counter(), (self.devices[device],)
         with concurrent.futures.ThreadPoolExecutor(max_workers=1) as other:
-            start_fn = other.submit(lowered[0].compile)
-            attempt_fn = lowered[1].compile()
+            start_fn = other.submit(lowered[0].compile, device_assignment=here)
+            attempt_fn = lowered[1].compile(device_assignment=here)
         self._compile_s[device] = lower_s + time.perf_counter() - start
         # The scene's arrays go to each device once, here, from the host, not from the first
         # device with every chunk: a first copy from device 0 to device 1 took 2 s on two H200s

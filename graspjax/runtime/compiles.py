@@ -2,11 +2,11 @@
 the background, so the devices play one program's chunks while the host still compiles others.
 
 A program is anything with the `Compilable` shape (`batch.program.Program`). One thread lowers
-the programs in turn (lowering is Python and holds the GIL), XLA compiles them in parallel
-threads (its compiles release the GIL), and on a machine with cores to spare helper processes
-(`tracer.py`) trace the later programs into the store of exported programs meanwhile. The
-caller's device threads take their next chunk with `take_ready`: the first in their order whose
-program is ready.
+the programs in turn, each once for every device (lowering is Python and holds the GIL), XLA
+compiles each for every device in parallel threads (its compiles release the GIL), and on a
+machine with cores to spare helper processes (`tracer.py`) trace the later programs into the
+store of exported programs meanwhile. The caller's device threads take their next chunk with
+`take_ready`: the first in their order whose program is ready.
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ class Compilable(Protocol):
     def prepare(self) -> None:
         """Build what playing needs besides the program (a scene), in a thread of its own."""
 
-    def lower(self, device: int) -> Any:
-        """Lower for one device (holds the GIL)."""
+    def lower(self) -> Any:
+        """Lower once for every device (holds the GIL)."""
 
     def compile(self, device: int, lowered: Any, lower_s: float) -> None:
         """Compile what `lower` gave for one device (releases the GIL)."""
@@ -108,7 +108,9 @@ def start_compiles(programs: list[Compilable], pool: concurrent.futures.Executor
     """Compile every program not yet compiled, for every device, in the background; the
     futures per program id.
 
-    One thread lowers the programs in order and hands each to `pool` to compile. Lowering is
+    One thread lowers the programs in order, each once for all devices, and hands each to
+    `pool` to compile for every device (one lowering per device held the GIL some 0.5 s each,
+    and staggered the devices' first chunks by as much: results/benchmarks). Lowering is
     Python and holds the GIL: lowered in parallel threads, every program would finish lowering
     only when all do; XLA's compiles release the GIL and run in parallel. With helper processes
     (`trace_workers()` at a time, `trace_in_worker`) the programs go in order of device work,
@@ -188,19 +190,21 @@ def start_compiles(programs: list[Compilable], pool: concurrent.futures.Executor
                         f"{min(workers, len(work) - i - 1)} worker process(es)")
                 if id(p) in traced_elsewhere:
                     take_over(p)
-                _ = p.portable  # traced or loaded once, then lowered for each device
+                _ = p.portable  # traced or loaded once, then lowered once for every device
             except BaseException as error:  # handed to the threads that wait for it
                 for future in device_futures:
                     future.set_exception(error)
                 continue
-            for device, future in enumerate(device_futures):
-                try:
-                    start = time.perf_counter()
-                    lowered = p.lower(device)
-                    pool.submit(done_into, future, p.compile, device, lowered,
-                                time.perf_counter() - start)
-                except BaseException as error:  # likewise
+            try:
+                start = time.perf_counter()
+                lowered = p.lower()
+                lower_s = time.perf_counter() - start
+            except BaseException as error:  # likewise
+                for future in device_futures:
                     future.set_exception(error)
+                continue
+            for device, future in enumerate(device_futures):
+                pool.submit(done_into, future, p.compile, device, lowered, lower_s)
 
     def lower_then_release() -> None:
         try:

@@ -64,14 +64,19 @@ class Portable:
             return jax.tree.unflatten(self.out_tree, self.program.call(*leaves))
         return jax.jit(call, donate_argnums=donate_argnums)
 
-    def lower(self, sharding: jax.sharding.Sharding | None = None,
-              donate_argnums: tuple[int, ...] = ()) -> jax.stages.Lowered:
-        """`jit` lowered for the arguments' shapes (placed by `sharding`), with one source line
-        per operation like the exported module: lowered with JAX's default, every operation
-        inlined from the module would carry the caller's whole Python stack (a run's lowering
-        thread: some 30 frames), which XLA:GPU formats again at each load (results/benchmarks)."""
+    def lower(self, donate_argnums: tuple[int, ...] = ()) -> jax.stages.Lowered:
+        """`jit` lowered for the arguments' shapes on one device not chosen yet: compile it for
+        any device of the module's platform with `compile(device_assignment=(device,))`, so one
+        lowering (Python: it holds the GIL, ~0.5 s for a batch program) serves every device.
+        With one source line per operation like the exported module: lowered with JAX's
+        default, every operation inlined from the module would carry the caller's whole Python
+        stack (a run's lowering thread: some 30 frames), which XLA:GPU formats again at each
+        load (results/benchmarks)."""
+        one_device = jax.sharding.NamedSharding(jax.sharding.AbstractMesh((1,), ("device",)),
+                                                jax.sharding.PartitionSpec())
         with _one_source_line():
-            return self.jit(donate_argnums).lower(*self.in_shapes(sharding))
+            return self.jit(donate_argnums).trace(*self.in_shapes(one_device)).lower(
+                lowering_platforms=self.program.platforms)
 
 
 def store() -> pathlib.Path | None:
