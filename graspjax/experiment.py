@@ -94,8 +94,20 @@ class RunResult:
     attempts: int  # rows of attempts.csv (0 while parts are missing)
     success_rate: float  # their mean success (nan while parts are missing)
     seconds: dict[str, float] = dataclasses.field(default_factory=dict)  # where the run's time
-    # went: "start" (planning, the folder, until the chunks began), "chunks" (until the last
-    # was kept), "rows" (the sorted attempts, rounds, timings), "report" (tables, figures)
+    # went: "before" (from the interpreter's start: imports, the devices' start; Linux only),
+    # "start" (planning, the folder, until the chunks began), "chunks" (until the last was
+    # kept), "rows" (the sorted attempts, rounds, timings), "report" (tables, figures)
+
+
+def _since_process_start() -> float | None:
+    """Seconds since this process started (Linux's /proc; None elsewhere): what the interpreter,
+    the imports and the devices' start took before a run began."""
+    try:
+        stat = Path("/proc/self/stat").read_text()
+        ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22, starttime, in clock ticks
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
 
 
 def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite: bool = False,
@@ -127,6 +139,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     from graspjax.saved_views import ViewSaver
 
     clock = [time.perf_counter()]  # the ends of the run's phases (`RunResult.seconds`)
+    before = _since_process_start()
 
     batch = experiment.batch or default_batch()
     configs, groups = _grouped(experiment)
@@ -225,6 +238,8 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     success = pd.read_parquet(out / "attempts.parquet", columns=["success"])["success"]
     lengths = [round(end - begin, 2) for begin, end in zip(clock[:-1], clock[1:], strict=True)]
     seconds = dict(zip(("start", "chunks", "rows", "report"), lengths, strict=True))
+    if before is not None:
+        seconds = {"before": round(before, 2), **seconds}
     return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()),
                      seconds)
 

@@ -120,6 +120,17 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
     assert row.ci_low <= row.rate <= row.ci_high
 
 
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="Linux's /proc")
+def test_a_run_s_before_phase_counts_from_the_interpreter_s_start():
+    """`before` in a run's seconds: a process that sleeps 1.5 s at its start, then asks, has
+    been running at least that long (and not minutes)."""
+    code = ("import time; time.sleep(1.5); "
+            "from graspjax.experiment import _since_process_start as age; print(age())")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert 1.5 <= float(done.stdout) < 60
+
+
 def test_peak_memory_is_the_device_s_in_gib():
     class Device:
         def __init__(self, stats):
@@ -525,9 +536,9 @@ def test_a_stored_program_loads_and_lowers_without_its_scene(tiny_run, monkeypat
     built = []
     monkeypatch.setattr(program, "scene_for", lambda *args: built.append(args) or scene_for(*args))
     assert fresh.stored() and fresh.origin == "loaded"
-    start, attempt = fresh.lower(0)
+    start, attempt = fresh.lower()
     assert built == []
-    assert attempt.as_text() == compiled.lower(0)[1].as_text()  # the run's very program
+    assert attempt.as_text() == compiled.lower()[1].as_text()  # the run's very program
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
         list(pool.map(lambda _: fresh.prepare(), range(2)))  # two threads ask: one build
     assert len(built) == 1 and fresh.arrays[0] is fresh.scene.model
