@@ -23,6 +23,12 @@
 #      warm, as fixed_2gpu_*; the rows compared
 #   h  (stop 63, a 4-GPU host) 4 GPUs at 1,000 trials (their first run), then at 4,000 warm;
 #      1 GPU at 1,000 trials (compiled for one device), then at 4,000 warm; the rows compared
+#   i  (stop 64, a 4-GPU host) 4 GPUs at 1,000 trials (their first run; the step ends there if
+#      it fails), then at 4,000 warm, with JAX's preallocation and without
+#      (XLA_PYTHON_CLIENT_PREALLOCATE=false), twice in turn, then under experiments/timeline.py
+#      (without the interpreter's teardown, like the command)
+#   j  (stop 64, the same host after i) 1 GPU at 1,000 trials (compiled for one device), then
+#      at 4,000 warm with and without preallocation; the rows compared
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
 #      4,000 warm, and 2 processes cold (then c: warm)
@@ -152,6 +158,22 @@ for step in "$@"; do
        timed warm_4gpu_4000 0,1,2,3 4000
        timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000
+       compare ;;
+    i) timed first_4gpu_1000 0,1,2,3 1000
+       if [ "$(tail -n 1 "$runs/walls.csv" | cut -d, -f5)" != 0 ]; then
+         tail -n 5 "$runs/first_4gpu_1000.log"
+         exit 1
+       fi
+       for again in "" again_; do
+         timed "${again}warm_4gpu_4000" 0,1,2,3 4000
+         RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=false \
+           timed "${again}warm_4gpu_noprealloc_4000" 0,1,2,3 4000
+       done
+       TIMELINE_EXIT=1 timelined warm_4gpu_timeline_4000 0,1,2,3 4000
+       compare ;;
+    j) timed cold_1gpu_1000 0 1000
+       timed warm_1gpu_4000 0 4000
+       RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=false timed warm_1gpu_noprealloc_4000 0 4000
        compare ;;
     one) timed cold_1gpu_1000 0 1000  # a 2-GPU host: 1 GPU, then 2 (own compiles), processes
          timed warm_1gpu_1000 0 1000
