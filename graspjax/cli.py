@@ -331,6 +331,7 @@ def main(argv: list[str] | None = None) -> int:
         problem = xla.set_xla_flags(deterministic=not getattr(args, "fast", True))
         if problem:
             raise UsageError(problem)
+        xla.memory_as_needed()
         xla.compilation_cache()
         with command(argv):  # recorded as typed (config.json's "command")
             return args.func(args)

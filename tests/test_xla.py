@@ -36,3 +36,18 @@ def test_xla_flags_keep_the_user_s_and_fast_drops_only_the_gpu_s():
     mine = "--xla_cpu_experimental_ynn_fusion_type=dot --xla_gpu_gemm_rewrite_size_threshold=9"
     assert with_xla_flags(mine) == mine + " --xla_gpu_deterministic_ops=true"
     assert with_xla_flags(with_xla_flags("")) == with_xla_flags("")  # nothing added twice
+
+
+def test_devices_take_memory_as_needed_unless_the_user_says_otherwise(monkeypatch, tmp_path):
+    """The CLI sets JAX's preallocation off before any backend starts; a value the user set
+    stays."""
+    from graspjax.cli import main
+
+    monkeypatch.delenv("XLA_PYTHON_CLIENT_PREALLOCATE", raising=False)
+    bad_table = ["run", "--table", "9", "--out", str(tmp_path / "run")]  # stops before a run
+    assert main(bad_table) == 2
+    assert os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] == "false"
+    monkeypatch.setenv("XLA_PYTHON_CLIENT_PREALLOCATE", "true")
+    assert main(bad_table) == 2
+    assert os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] == "true"
+    assert not (tmp_path / "run").exists()

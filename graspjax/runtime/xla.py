@@ -1,5 +1,6 @@
 """How a run sets up JAX before its first device call: XLA's flags (deterministic GPU ops,
-the CPU's small products), the persistent compilation cache, and devices started early.
+the CPU's small products), device memory taken as needed, the persistent compilation cache, and
+devices started early.
 """
 
 from __future__ import annotations
@@ -53,6 +54,16 @@ def knows_cpu_small_dots() -> bool:
     return tuple(int(n) for n in re.findall(r"\d+", version("jaxlib"))[:3]) >= (0, 10, 2)
 
 
+def memory_as_needed() -> None:
+    """Let each device take memory as the run's programs need it, not JAX's default of 75 % at
+    its start, unless XLA_PYTHON_CLIENT_PREALLOCATE says otherwise: a run needs a few GiB per
+    device (`peak_gib` in timings.csv: 3.4 GiB at 2,048 worlds), reserving some 100 GiB took
+    about 2 s per H200 at start and its release slowed the exit, and another process on the
+    same GPU found none left. The rows are the same either way (results/benchmarks). JAX reads
+    it when it starts its first backend, like XLA_FLAGS."""
+    os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
+
+
 def set_xla_flags(deterministic: bool) -> str | None:
     """Set graspjax's XLA flags (`with_xla_flags`): XLA's GPU scatter-adds are not
     deterministic, so a GPU gets deterministic ops unless the user asks for speed; the CPU's
@@ -81,9 +92,10 @@ def set_xla_flags(deterministic: bool) -> str | None:
 
 def start_devices() -> None:
     """Start JAX's devices in threads of their own: on a GPU the driver and the client take
-    about a second, and a device's first allocation (its memory pool, we think) up to two more
-    (results/benchmarks), which then pass while the simulation's modules import (seconds: MJX
-    and its mesh libraries), for every local device at once, not in a device's first chunk.
+    one or two seconds, and a device's first allocation up to two more if JAX preallocates its
+    memory (`memory_as_needed`; results/benchmarks), which then pass while the simulation's
+    modules import (seconds: MJX and its mesh libraries), for every local device at once, not
+    in a device's first chunk.
     A failure is left to the run's own first use of the devices, which raises it again."""
     import threading
 
