@@ -29,10 +29,10 @@
 #      (without the interpreter's teardown, like the command)
 #   j  (stop 64, the same host after i) 1 GPU at 1,000 trials (compiled for one device), then
 #      at 4,000 warm with and without preallocation; the rows compared
-#   k  (stop 64, a 4-GPU host; devices take memory as needed, the CLI's default now) 4 GPUs at
-#      1,000 trials (their first run; the step ends there if it fails), then at 4,000 warm, as
-#      is and under experiments/order_variant.py (g-l's Setup 1 chunks before a-f's), twice in
-#      turn
+#   k  (stop 64, a 4-GPU host) 4 GPUs at 1,000 trials (their first run; the step ends there if
+#      it fails), then at 4,000 warm twice. At stop 64 (60f7fbf) each warm run was paired with
+#      one under experiments/order_variant.py, g-l's Setup 1 chunks before a-f's: the order
+#      `heaviest_first` gives since
 #   l  (stop 64, the same host after k) 1 GPU at 1,000 trials (compiled for one device), then
 #      at 4,000 warm; the rows compared; then experiments/gil_held.py on the 4 GPUs
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
@@ -48,14 +48,12 @@ mkdir -p "$runs"
 timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall time kept;
   # RUN_ENV: assignments for its environment (e.g. CUDA_MODULE_LOADING=EAGER); with TIMELINE
   # set, it runs under experiments/timeline.py (its lines, and the profiles TIMELINE_PROFILE
-  # names, in $OUT/timeline_NAME.txt); RUNNER: another script that takes graspjax's arguments
-  # (experiments/order_variant.py)
+  # names, in $OUT/timeline_NAME.txt)
   local name=$1 gpus=$2 trials=$3 start
   shift 3
   start=$(date +%s.%N)
   local runner=(-m graspjax.cli)
   [ -n "${TIMELINE:-}" ] && runner=(experiments/timeline.py)
-  [ -n "${RUNNER:-}" ] && runner=("$RUNNER")
   env ${RUN_ENV:-} START="$start" CUDA_VISIBLE_DEVICES=$gpus python3 "${runner[@]}" run \
     --table 1,2 --trials "$trials" \
     --seed 0 --quiet --overwrite --out "$runs/$name" "$@" > "$runs/$name.log" 2>&1
@@ -188,10 +186,8 @@ for step in "$@"; do
          tail -n 5 "$runs/first_4gpu_1000.log"
          exit 1
        fi
-       for again in "" again_; do
-         timed "${again}warm_4gpu_4000" 0,1,2,3 4000
-         RUNNER=experiments/order_variant.py timed "${again}ordered_4gpu_4000" 0,1,2,3 4000
-       done
+       timed warm_4gpu_4000 0,1,2,3 4000
+       timed again_warm_4gpu_4000 0,1,2,3 4000
        compare ;;
     l) timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000

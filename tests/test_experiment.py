@@ -561,6 +561,17 @@ def test_the_rounds_group_has_the_most_device_work():
     assert [g.work for g in groups] == [60 * 2 * 1, 20 * 7 * 6, 60 * 2 * 1]
 
 
+def test_devices_take_the_rounds_first_then_the_drops_of_more_convex_pieces():
+    """Tables 1+2 at 10 trials, 30 worlds a chunk: the rounds' chunk (the most work per world)
+    first, then g-l's drops (objects of 2 to 15 convex pieces) before a-f's (one piece each),
+    though both have the same work per world; plan order within a group."""
+    groups = plan.plan([plan.table_job(1, 10), plan.table_job(2, 10)], [Config()], 0)
+    assert [g.letters for g in groups] == [tuple("abcdef"), tuple("abcdef"), tuple("ghijkl")]
+    assert groups[0].work / 60 == groups[2].work / 60 < groups[1].work / 20
+    order = program.heaviest_first(plan.chunks(groups, 30), groups)
+    assert [(c.group, c.index) for c in order] == [(1, 2), (2, 3), (2, 4), (0, 0), (0, 1)]
+
+
 class _FakeProgram:
     """A compiled program whose `play` says when each chunk starts playing."""
 
