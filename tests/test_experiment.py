@@ -605,14 +605,14 @@ def test_the_next_chunk_plays_while_the_caller_handles_the_last(monkeypatch, kee
 
 def test_a_program_that_failed_to_compile_raises_after_the_chunks_before_it(monkeypatch):
     """The first group's chunk is handed over (its rows get written) before the second group's
-    compile failure surfaces."""
-    groups = plan.plan([plan.Job(("a",), (1,), 3), plan.Job(("g",), (1,), 3)], [Config()], 0)
+    compile failure surfaces (two objects of one convex piece each: plan order)."""
+    groups = plan.plan([plan.Job(("a",), (1,), 3), plan.Job(("b",), (1,), 3)], [Config()], 0)
     fakes = {g.letters: _FakeProgram(g, {i: threading.Event() for i in range(2)}) for g in groups}
     failed = concurrent.futures.Future()
     failed.set_exception(RuntimeError("failed to compile"))
     monkeypatch.setattr(program, "program", lambda group, batch, keep: fakes[group.letters])
     monkeypatch.setattr(program, "start_compiles",
-                        lambda programs, pool, log: {id(fakes[("g",)]): [failed]})
+                        lambda programs, pool, log: {id(fakes[("b",)]): [failed]})
     chunks = program.run_chunks(groups, [Config()], 3)
     assert next(chunks).chunk.index == 0
     with pytest.raises(RuntimeError, match="failed to compile"):
