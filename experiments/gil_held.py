@@ -42,7 +42,9 @@ def main() -> None:
     threading.Thread(target=heartbeat, daemon=True).start()
     from graspjax.runtime import xla
 
-    xla.set_xla_flags(deterministic=True)
+    problem = xla.set_xla_flags(deterministic=True)
+    if problem:
+        sys.exit(problem)
     xla.memory_as_needed()
     xla.compilation_cache()
     import jax
@@ -75,6 +77,7 @@ def load(p, devices: int) -> None:
             list(pool.map(lambda d: p.compile(d, tuple(lowered), 0.0), range(devices)))
 
     step(f"{p.name} compiled, {devices} devices", compiled)
+
 
 if __name__ == "__main__":
     main()

@@ -25,21 +25,22 @@
 #      1 GPU at 1,000 trials (compiled for one device), then at 4,000 warm; the rows compared
 #   i  (stop 64, a 4-GPU host) 4 GPUs at 1,000 trials (their first run; the step ends there if
 #      it fails), then at 4,000 warm, with JAX's preallocation and without
-#      (XLA_PYTHON_CLIENT_PREALLOCATE=false), twice in turn, then under experiments/timeline.py
-#      (without the interpreter's teardown, like the command)
+#      (XLA_PYTHON_CLIENT_PREALLOCATE=true / false; the command's default is false since
+#      54a6d9a, and at stop 64 (b57fc0a) the runs with preallocation set nothing), twice in turn,
+#      then under experiments/timeline.py (without the interpreter's teardown, like the command)
 #   j  (stop 64, the same host after i) 1 GPU at 1,000 trials (compiled for one device), then
 #      at 4,000 warm with and without preallocation; the rows compared
 #   k  (stop 64, a 4-GPU host) 4 GPUs at 1,000 trials (their first run; the step ends there if
 #      it fails), then at 4,000 warm twice. At stop 64 (60f7fbf) each warm run was paired with
 #      one under experiments/order_variant.py, g-l's Setup 1 chunks before a-f's: the order
-#      `heaviest_first` gives since
+#      `heaviest_first` gives since 91168a3
 #   l  (stop 64, the same host after k) 1 GPU at 1,000 trials (compiled for one device), then
 #      at 4,000 warm; the rows compared; then experiments/gil_held.py on the 4 GPUs
 #   one, two: the same on a 2-GPU host: 1 GPU at 1,000 trials cold and warm and at 4,000 warm;
 #      then 2 GPUs at 1,000 (their first run: XLA's cache keys hold the visible devices) and at
 #      4,000 warm, and 2 processes cold (then c: warm)
 # Every run's rows get a digest (attempts.csv but run_id and chunk) in $OUT/digests.txt.
-# Each run's "seconds:" line (where its time went: start, chunks, rows, report) goes to
+# Each run's "seconds:" line (where its time went: before, start, chunks, rows, report) goes to
 # $OUT/phases.txt; the last table gives every run's speed-up over the 1-GPU run of its size.
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
@@ -171,14 +172,14 @@ for step in "$@"; do
          exit 1
        fi
        for again in "" again_; do
-         timed "${again}warm_4gpu_4000" 0,1,2,3 4000
+         RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=true timed "${again}warm_4gpu_4000" 0,1,2,3 4000
          RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=false \
            timed "${again}warm_4gpu_noprealloc_4000" 0,1,2,3 4000
        done
        TIMELINE_EXIT=1 timelined warm_4gpu_timeline_4000 0,1,2,3 4000
        compare ;;
     j) timed cold_1gpu_1000 0 1000
-       timed warm_1gpu_4000 0 4000
+       RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=true timed warm_1gpu_4000 0 4000
        RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=false timed warm_1gpu_noprealloc_4000 0 4000
        compare ;;
     k) timed first_4gpu_1000 0,1,2,3 1000

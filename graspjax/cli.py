@@ -82,9 +82,9 @@ def _run_experiment(args, grid_items=None) -> int:
         return 0
     print(f"{result.attempts} attempts, success {result.success_rate:.1%}; wrote "
           + ", ".join(p.name for p in result.files) + f" to {result.folder}")
+    before = "before: from the interpreter's start; " if "before" in result.seconds else ""
     print("seconds: " + ", ".join(f"{phase} {s:.1f}" for phase, s in result.seconds.items())
-          + " (before: from the interpreter's start; chunks: programs loaded or compiled, "
-          "and played)")
+          + f" ({before}chunks: programs loaded or compiled, and played)")
     for name in ("table1.md", "table2.md"):
         if (result.folder / name).exists() and grid_items is None:
             print((result.folder / name).read_text())

@@ -100,6 +100,49 @@ class _LoggedProgram:
         pass
 
 
+class _ThreeDevices:
+    """A program of three devices that notes its lowerings and compiles (or fails to lower)."""
+
+    name, work, compiled, devices = "three", 1, False, [None] * 3
+    portable = None
+
+    def __init__(self, lowering_fails: bool):
+        self.lowering_fails, self.lowered, self.compiles = lowering_fails, [], []
+
+    def stored(self):
+        return True
+
+    def prepare(self):
+        pass
+
+    def lower(self):
+        if self.lowering_fails:
+            raise ValueError("cannot lower")
+        self.lowered.append(object())
+        return self.lowered[-1]
+
+    def compile(self, device, lowered, lower_s):
+        self.compiles.append((device, lowered))
+
+
+@pytest.mark.parametrize("lowering_fails", [False, True])
+def test_a_program_is_lowered_once_and_compiled_for_each_device(lowering_fails):
+    """One lowering serves every device: each device's compile gets that one lowered program;
+    a failed lowering reaches every device's future."""
+    p = _ThreeDevices(lowering_fails)
+    with concurrent.futures.ThreadPoolExecutor(4) as pool:
+        futures = compiles.start_compiles([p], pool)[id(p)]
+        concurrent.futures.wait(futures, timeout=30)
+    *devices, scene = futures
+    if lowering_fails:
+        assert all(isinstance(f.exception(), ValueError) for f in devices)
+        assert p.compiles == []
+    else:
+        assert len(p.lowered) == 1 and all(f.exception() is None for f in devices)
+        assert sorted(p.compiles, key=lambda c: c[0]) == [(d, p.lowered[0]) for d in range(3)]
+    assert scene.exception() is None
+
+
 @pytest.mark.parametrize("stored, order", [(False, ["heavy", "light"]),
                                            (True, ["light", "heavy"])])
 def test_with_helpers_the_heaviest_program_goes_first_unless_it_is_stored(

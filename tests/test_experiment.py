@@ -3,6 +3,7 @@
 import concurrent.futures
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -711,6 +712,11 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     for proc, (_, stderr) in zip(procs, said, strict=True):
         assert proc.returncode == 0, stderr[-2000:]
     assert "process 0 writes the results" in said[1][0] and "success" in said[0][0]
+    # where its seconds went, from the interpreter's start (Linux): before, then the run's phases
+    if os.path.exists("/proc/self/stat"):
+        before = re.search(r"^seconds: before ([\d.]+), start [\d.]+, chunks ", said[0][0],
+                           re.M)
+        assert before and 0 < float(before.group(1)) < 600
     timings = pd.read_csv(out / "timings.csv")
     assert sorted(timings["process"]) == [0, 1]  # one chunk each
     assert not (out / "parts").exists() and (out / "table1.md").is_file()

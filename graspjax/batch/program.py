@@ -295,8 +295,8 @@ def heaviest_first(todo: list[Chunk], groups: list[Group]) -> list[Chunk]:
     """The chunks in the order devices take them: the groups of the most device work per world
     first (a round of six objects before a drop of one); among equals, the group whose objects
     have more convex pieces, since MJX's collision work grows with them (g-l's Setup 1 chunks
-    took 3.3-4.5 s on an H200, a-f's 2.2-2.7 s), so that the last chunks of a run on several
-    devices are the short ones; plan order otherwise."""
+    took 3.2-4.3 s on one H200, a-f's 2.2-2.8 s: results/benchmarks, stop 64), so that the last
+    chunks of a run on several devices are the short ones; plan order otherwise."""
     def cost(chunk: Chunk) -> tuple[float, int]:
         group = groups[chunk.group]
         pieces = sum(len(OBJECTS[letter].pieces) for letter in group.letters)

@@ -58,9 +58,9 @@ def memory_as_needed() -> None:
     """Let each device take memory as the run's programs need it, not JAX's default of 75 % at
     its start, unless XLA_PYTHON_CLIENT_PREALLOCATE says otherwise: a run needs a few GiB per
     device (`peak_gib` in timings.csv: 3.4 GiB at 2,048 worlds), reserving some 100 GiB took
-    about 2 s per H200 at start and its release slowed the exit, and another process on the
-    same GPU found none left. The rows are the same either way (results/benchmarks). JAX reads
-    it when it starts its first backend, like XLA_FLAGS."""
+    about 2 s per H200 at start and its release slowed the exit, and it leaves other processes
+    on the same GPU (a second run, a trace helper) only the rest. The rows are the same either
+    way (results/benchmarks). JAX reads it when it starts its first backend, like XLA_FLAGS."""
     os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
 
 
@@ -91,11 +91,12 @@ def set_xla_flags(deterministic: bool) -> str | None:
 
 
 def start_devices() -> None:
-    """Start JAX's devices in threads of their own: on a GPU the driver and the client take
-    one or two seconds, and a device's first allocation up to two more if JAX preallocates its
-    memory (`memory_as_needed`; results/benchmarks), which then pass while the simulation's
-    modules import (seconds: MJX and its mesh libraries), for every local device at once, not
-    in a device's first chunk.
+    """Start JAX's devices in threads of their own, beside the simulation's imports (seconds:
+    MJX and its mesh libraries), for every local device at once, not in a device's first chunk:
+    on a GPU the driver and the client take one or two seconds, and a device's first
+    allocation up to two more if JAX preallocates its memory (`memory_as_needed`). JAX's
+    client holds the GIL for much of its start (1.05 of 1.68 s for 4 H200s:
+    experiments/gil_held.py), and the imports wait for it meanwhile (results/benchmarks).
     A failure is left to the run's own first use of the devices, which raises it again."""
     import threading
 
