@@ -42,11 +42,9 @@ def main() -> None:
     threading.Thread(target=heartbeat, daemon=True).start()
     from graspjax.runtime import xla
 
-    problem = xla.set_xla_flags(deterministic=True)
+    problem = xla.set_up(deterministic=True)  # as the command sets JAX up
     if problem:
         sys.exit(problem)
-    xla.memory_as_needed()
-    xla.compilation_cache()
     import jax
 
     devices = []

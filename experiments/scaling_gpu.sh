@@ -59,12 +59,21 @@ timed() {  # timed NAME GPUS TRIALS [EXTRA...]: one run on the GPUs listed, wall
     --table 1,2 --trials "$trials" \
     --seed 0 --quiet --overwrite --out "$runs/$name" "$@" > "$runs/$name.log" 2>&1
   local code=$?
-  echo "$name,${gpus//,/+},$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),$code" >> "$runs/walls.csv"
+  echo "$name,${gpus//,/+},$trials,$(since "$start"),$code" >> "$runs/walls.csv"
   echo "== $name (GPUs $gpus, $trials trials): exit $code, $(tail -n 1 "$runs/walls.csv")"
   echo "$name: $(grep '^seconds:' "$runs/$name.log")" >> "$runs/phases.txt"
   [ -n "${TIMELINE:-}" ] && grep -v '^[|#]' "$runs/$name.log" > "$out/timeline_$name.txt"
   digest "$name"
   keep "$name"
+  return $code
+}
+since() {  # since START: seconds from START (date +%s.%N) to now, to 0.1 s
+  python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" \
+    "$(date +%s.%N)" "$1"
+}
+stop_after() {  # stop_after NAME: the failed run's last lines, then the script ends
+  tail -n 5 "$runs/$1.log"
+  exit 1
 }
 timelined() {  # timelined NAME GPUS TRIALS: `timed` under experiments/timeline.py, with the
   # device calls timed and the rows phase and the report profiled
@@ -99,7 +108,7 @@ distributed() {  # distributed NAME TRIALS: 2 processes of 1 GPU each, one coord
       > "$runs/$name.$i.log" 2>&1 &
   done
   wait
-  echo "$name,0+1,$trials,$(python3 -c "import sys; print(round(float(sys.argv[1]) - float(sys.argv[2]), 1))" "$(date +%s.%N)" "$start"),0" >> "$runs/walls.csv"
+  echo "$name,0+1,$trials,$(since "$start"),0" >> "$runs/walls.csv"
   echo "== $name (2 processes): $(tail -n 1 "$runs/walls.csv"); $(tail -n 1 "$runs/$name.1.log")"
   echo "$name: $(grep '^seconds:' "$runs/$name.0.log")" >> "$runs/phases.txt"
   digest "$name"
@@ -166,11 +175,7 @@ for step in "$@"; do
        timed cold_1gpu_1000 0 1000
        timed warm_1gpu_4000 0 4000
        compare ;;
-    i) timed first_4gpu_1000 0,1,2,3 1000
-       if [ "$(tail -n 1 "$runs/walls.csv" | cut -d, -f5)" != 0 ]; then
-         tail -n 5 "$runs/first_4gpu_1000.log"
-         exit 1
-       fi
+    i) timed first_4gpu_1000 0,1,2,3 1000 || stop_after first_4gpu_1000
        for again in "" again_; do
          RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=true timed "${again}warm_4gpu_4000" 0,1,2,3 4000
          RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=false \
@@ -182,11 +187,7 @@ for step in "$@"; do
        RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=true timed warm_1gpu_4000 0 4000
        RUN_ENV=XLA_PYTHON_CLIENT_PREALLOCATE=false timed warm_1gpu_noprealloc_4000 0 4000
        compare ;;
-    k) timed first_4gpu_1000 0,1,2,3 1000
-       if [ "$(tail -n 1 "$runs/walls.csv" | cut -d, -f5)" != 0 ]; then
-         tail -n 5 "$runs/first_4gpu_1000.log"
-         exit 1
-       fi
+    k) timed first_4gpu_1000 0,1,2,3 1000 || stop_after first_4gpu_1000
        timed warm_4gpu_4000 0,1,2,3 4000
        timed again_warm_4gpu_4000 0,1,2,3 4000
        compare ;;

@@ -328,11 +328,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         from graspjax.runtime import xla
 
-        problem = xla.set_xla_flags(deterministic=not getattr(args, "fast", True))
+        problem = xla.set_up(deterministic=not getattr(args, "fast", True))
         if problem:
             raise UsageError(problem)
-        xla.memory_as_needed()
-        xla.compilation_cache()
         with command(argv):  # recorded as typed (config.json's "command")
             return args.func(args)
     except (InputError, ConfigError, UsageError) as exc:

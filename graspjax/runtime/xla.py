@@ -90,6 +90,18 @@ def set_xla_flags(deterministic: bool) -> str | None:
     return None
 
 
+def set_up(deterministic: bool) -> str | None:
+    """Everything the command sets before JAX starts: XLA's flags (`set_xla_flags`), memory as
+    needed (`memory_as_needed`) and the compilation cache; why it cannot, else None (nothing
+    else is set then)."""
+    problem = set_xla_flags(deterministic)
+    if problem:
+        return problem
+    memory_as_needed()
+    compilation_cache()
+    return None
+
+
 def start_devices() -> None:
     """Start JAX's devices in threads of their own, beside the simulation's imports (seconds:
     MJX and its mesh libraries), for every local device at once, not in a device's first chunk:
