@@ -227,8 +227,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--range", metavar="MIN,MAX", help="depth range in metres (default 0,10)")
     g.add_argument("--bin", action="store_true",
                    help="a bin or tote: each image's workspace is its bin's interior found from "
-                        "depth (the floor's convex hull) within --roi/--mask, and the jaws see "
-                        "its walls; give a --roi around the whole bin, or none")
+                        "depth (the floor's convex hull) within --roi/--mask; give a --roi around "
+                        "the whole bin, or none")
     p.add_argument("--downsample", type=int,
                    help="block factor of the detection resolution (default: the one that brings "
                         "a pixel nearest 1.4 mm at the image's median depth, from the intrinsics)")

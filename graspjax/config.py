@@ -595,7 +595,7 @@ class RealImageConfig:
     fill_gap_px: int = 2  # bridge holes up to this many detection pixels wide inside a surface (0: off)
     support: bool = True  # find the support plane (False: the paper's rule, target = nearest point)
     bin: bool = False  # a bin or tote (`--bin`): the workspace is its interior found from depth
-    # (`imagefiles.bins`), and the jaws' checks see the whole image in the depth range (its walls)
+    # (`imagefiles.bins`); the jaws' checks see the whole image in the depth range, as always
     plane_hypotheses: int = 128  # random triangles of valid pixels scored as the support plane
     plane_pixels: int = 4800  # the support plane is found on a regular grid of about this many pixels
     plane_threshold: float = 0.005  # max distance of a support-plane inlier from the plane (m)

@@ -159,9 +159,10 @@ def test_the_input_reduction_follows_the_pixel_footprint_and_the_pixel_count():
     np.testing.assert_allclose(back, source.project(point), atol=1e-3)
 
 
-def test_a_reduced_image_keeps_its_workspace_and_range_out_of_the_medians(tmp_path):
-    """Pixels outside the workspace or the depth range take no part in a block's median, and a
-    workspace too small for the reduced resolution is refused in one line."""
+def test_a_reduced_image_keeps_its_range_out_of_the_medians(tmp_path):
+    """Pixels outside the depth range take no part in a block's median (those outside the
+    workspace do: the jaws' checks see them), and a workspace too small for the reduced
+    resolution is refused in one line."""
     from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
     from graspjax.io import InputError
 
@@ -174,7 +175,8 @@ def test_a_reduced_image_keeps_its_workspace_and_range_out_of_the_medians(tmp_pa
     full, camera, _ = inputs.read(tmp_path / "d.npy")
     assert full.shape == (480, 640) and camera.fx == 750.0
     assert np.all(full[:250, 321:] == np.float32(0.7)) and np.all(full[:250, 320] == np.float32(0.7))
-    assert np.all(full[:250, :320] == 0) and np.all(full[250:] == 0)  # outside: no depth
+    assert np.all(full[:, :320] == 0)  # outside the range: no depth
+    assert np.all(full[250:, 321:] == np.float32(0.7))  # outside the box: kept
     with pytest.raises(InputError, match="workspace is too small"):
         prepare([tmp_path / "d.npy"], intrinsics=IntrinsicsRequest(focal=(3000, 3000)),
                 roi=(10, 10, 11, 11))
@@ -373,10 +375,10 @@ def test_bin_on_an_image_without_a_floor_names_it(tmp_path):
 
 
 def test_the_jaws_see_a_bins_walls_outside_its_workspace():
-    """A part 2 cm from a wall, the workspace the bin's interior (the wall outside it): with
-    `image.bin` the jaws' checks see the wall, and the grasp closes along it (a jaw across it
-    would open into the wall); without, the wall is not seen and the narrower grasp across,
-    toward the wall, wins."""
+    """A part 2 cm from a wall, the workspace the bin's interior (the wall outside it): the
+    jaws' checks see the wall, and the grasp closes along it (a jaw across it would open into
+    the wall); were the pixels outside the workspace hidden from them, the narrower grasp
+    across, toward the wall, would win."""
     from graspjax.imagefiles.bins import bin_interior
 
     depth, camera, rotation = _tote_with_a_part_near_a_wall()
@@ -389,11 +391,12 @@ def test_the_jaws_see_a_bins_walls_outside_its_workspace():
     coarse = block_median(seen, factor), reduced(camera, factor)
     interior = bin_interior(seen, camera, box_ws, RealImageConfig(), coarse)
     axes = {}
-    for bin_ in (False, True):
-        result = detect_batch(depth[None], interior, stack_cameras([camera]), Config(),
-                              RealImageConfig(bin=bin_))
+    for hidden in (False, True):
+        seen_by_jaws = np.where(interior, depth, 0.0) if hidden else depth
+        result = detect_batch(seen_by_jaws[None], interior, stack_cameras([camera]), Config(),
+                              RealImageConfig())
         r = jax.tree.map(lambda x: np.asarray(x)[0], result)
         assert bool(r.found)
-        axes[bin_] = rotation @ r.closing_axis  # world
-    assert abs(axes[True][0]) > np.cos(np.deg2rad(5.0))  # along the wall (world x)
-    assert abs(axes[False][1]) > np.cos(np.deg2rad(5.0))  # toward it (world y)
+        axes[hidden] = rotation @ r.closing_axis  # world
+    assert abs(axes[False][0]) > np.cos(np.deg2rad(5.0))  # along the wall (world x)
+    assert abs(axes[True][1]) > np.cos(np.deg2rad(5.0))  # toward it (world y)

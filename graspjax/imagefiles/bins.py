@@ -7,8 +7,8 @@ is the support plane (`perception.support.support_plane`, fitted on the image's 
 workspace); the interior is the convex hull of the floor's largest connected part in the
 image, so that objects on the floor (holes in it) and against a wall (notches in it) lie
 inside, and the walls, which rise from the floor's edge, outside. The workspace becomes the
-user's box (or the whole image) within that hull; the jaws' checks still see the walls
-(`RealImageConfig.bin`).
+user's box (or the whole image) within that hull; the jaws' checks still see the walls (they
+see every pixel in the depth range).
 """
 
 from __future__ import annotations

@@ -128,10 +128,9 @@ class Inputs:
     def at_full_resolution(self, depth: np.ndarray, file_k) -> tuple[np.ndarray, Camera, str]:
         """`read` of an image already read from its file (`read_depth`: depth, its K or None)."""
         camera = self.intrinsics.camera(*self.source_size, file_k)
-        if self.reduction > 1:  # pixels outside the workspace (a bin's: the image) or the
-            kept = ((self.source_workspace | self.image.bin)  # range take no part
-                    & (depth >= self.image.min_depth)
-                    & (depth <= self.image.max_depth))
+        if self.reduction > 1:  # pixels outside the range take no part; those outside the
+            # workspace stay, for the jaws' checks (`detect_real_image` masks them elsewhere)
+            kept = (depth >= self.image.min_depth) & (depth <= self.image.max_depth)
             depth = block_median(np.where(kept, depth, 0.0), self.reduction)
         return depth, reduced(camera, self.reduction), self.intrinsics.describe(file_k)
 
