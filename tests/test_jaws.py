@@ -18,9 +18,12 @@ CENTRE = table_centre()
 check = jax.jit(check_jaws)
 
 
-def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig()):
-    """check_jaws for a grasp at world point `top` closing along `axis_world`."""
+def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig(), shadow=None):
+    """check_jaws for a grasp at world point `top` closing along `axis_world`; `shadow`: no depth
+    on the table between these world x of the centre (`_shade`)."""
     depth, camera, workspace, rotation, eye = table_with(solids)
+    if shadow is not None:
+        depth = _shade(depth, camera, rotation, eye, *shadow)
     depth = np.where(workspace, depth, 0.0).astype(np.float32)
     centre = rotation.T @ (np.asarray(top, float) - eye)
     axis = rotation.T @ np.asarray(axis_world, float)
@@ -81,6 +84,34 @@ def test_a_ledge_under_part_of_a_pad_holds_that_jaw_up():
         free = _jaws([body], _at(z=0.04), X, 0.04, config)
         assert free.reason == GraspReason.FOUND
         assert float(free.landing) > 0.03  # the table (or a fall the camera does not see)
+
+
+def _shade(depth, camera, rotation, eye, x_from, x_to):
+    """`depth` with no depth where the table (z < 2 mm) lies between world x_from and x_to of the
+    centre, within 4 cm in y: a shadow, as a projector's sensor loses it."""
+    v, u = np.mgrid[:depth.shape[0], :depth.shape[1]]
+    rays = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(depth)])
+    world = np.einsum("ij,jhw->hwi", rotation, rays * depth) + eye
+    shade = ((world[..., 2] < 0.002) & (world[..., 0] - CENTRE[0] > x_from)
+             & (world[..., 0] - CENTRE[0] < x_to) & (np.abs(world[..., 1] - CENTRE[1]) < 0.04))
+    return np.where(shade, 0.0, depth)
+
+
+def test_a_shadow_beyond_a_taller_neighbour_is_no_landing():
+    """A 4 x 6 x 4 cm part with a 4 mm board 1 cm taller against its +x face, and the table
+    beyond unseen for 2 cm (the board's shadow): across x the +x jaw meets the board, and what
+    lies beyond it is not the part's side, so the grasp is refused (were the unseen samples a
+    fall, it would pass). The same shadow beside the part alone is a fall the sensor lost: the
+    grasp passes."""
+    part = box((0.04, 0.06, 0.04), _at())
+    board = box((0.004, 0.06, 0.05), _at(x=0.022))
+    for config in (Config(), preset("realistic")):
+        beside = _jaws([part, board], _at(z=0.04), X, 0.04, config, shadow=(0.024, 0.044))
+        assert beside.reason == GraspReason.JAWS_BLOCKED
+        assert float(beside.landing) < 0.0  # no fall seen before the board
+        alone = _jaws([part], _at(z=0.04), X, 0.04, config, shadow=(0.02, 0.04))
+        assert alone.reason == GraspReason.FOUND
+        assert float(alone.unknown) > 0.2  # the +x jaw's path in the shadow
 
 
 def test_a_rounded_top_is_held_where_the_jaws_touch_it():

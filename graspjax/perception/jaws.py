@@ -13,7 +13,10 @@ answer, sample by sample along each jaw's path:
   its edge the part falls at least that depth, on average steeper than the
   pads' friction cone (else the jaws land on the object's own top or on a
   shoulder of it, not beside it), in every lane across the pad's width (a
-  ledge under part of a pad holds that jaw up as well). Closing at the
+  ledge under part of a pad holds that jaw up as well); from the first
+  surface out that stands above the band's top (a taller neighbour, a wall,
+  a step up) nothing further out is the part's fall, seen or unseen (its
+  shadow). Closing at the
   tips' level, each jaw touches the part where it first stands higher than
   the tips, so the jaws may hold a part wider below its top, as a rounded
   one; between the band and the contact there is no gap (a gap means the
@@ -109,11 +112,17 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # by the part's own top (its ray met the band, not the side: the far side of a tall part
     # seen by a tilted camera).
     # Every lane across the pad's width must fall: one lane on a ledge holds the jaw up.
+    # From the first sample out that stands above the band's top (a taller neighbour, a wall or
+    # a step up) the lane no longer shows the part's side: a fall seen beyond it, or a sample
+    # unseen there (the taller surface's shadow), is not a landing.
     reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
     near = across[None, :, None]
     hidden = seen & (out <= width / 2 + step) & (near > width / 2 + step)
+    risen = seen & (height < -detect.surface_tolerance)
+    beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
     lost = (near <= reach_out) & (~seen | hidden)
-    fall = jnp.where(lost, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf))  # (2, A, L)
+    fall = jnp.where(beyond, -jnp.inf,
+                     jnp.where(lost, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf)))
     landing = jnp.min(jnp.max(fall, 1))  # the worst lane's deepest fall near the edge
     sides = landing >= detect.min_grasp_depth
     # Closing at the tips' level: each jaw touches the part where it first stands higher than
