@@ -230,8 +230,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     """Find the best grasps, and a re-alignment plane, on the objects highest above the support.
 
     depth: metric depth (H, W) float32 at full resolution, 0 or nan = invalid; workspace:
-    (H, W) bool, True where the search may look (pixels outside are invalid for every step
-    but the jaws' checks, which see every pixel in the depth range);
+    (H, W) bool, where the search may look (the jaws' checks see every pixel in the range);
     camera: intrinsics of the full image; image: the real-image steps' settings. Pure and
     static-shaped: jit it, vmap it over a batch.
     """
@@ -243,10 +242,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     # The window's own checks; the wall is judged at full resolution where the jaws touch.
     window_config = replace_unchecked(config, detect=replace_unchecked(
         config.detect, tbeam_positions=image.tbeam_positions, wall_check=jnp.zeros((), bool)))
-    # The jaws meet whatever stands in their path, inside the workspace or not (a bin's wall, a
-    # part the box cuts): their checks see every pixel in the depth range.
-    full = jnp.where(valid_mask(depth) & (depth >= image.min_depth) & (depth <= image.max_depth),
-                     jnp.asarray(depth, jnp.float32), 0.0)
+    in_range = valid_mask(depth) & (depth >= image.min_depth) & (depth <= image.max_depth)
+    full = jnp.where(in_range, jnp.asarray(depth, jnp.float32), 0.0)  # in the workspace or not
     approach = rotation[:, 2]  # the view's optical axis, camera frame
     n, per = image.max_targets, image.candidates_per_target
     check = jax.vmap(check_jaws, in_axes=(None, None, 0, 0, None, 0, None, None, None))
