@@ -136,3 +136,20 @@ def table_centre() -> np.ndarray:
     rotation, eye = tilted_pose(0.73, 13.0)
     axis = rotation @ np.array([0.0, 0.0, 1.0])
     return (eye + axis * eye[2] / -axis[2])[:2]
+
+
+def steep_table_scene() -> RealScene:
+    """A 4 x 6 x 15 cm box standing on a table seen 44 degrees off vertical from 0.58 m (an
+    RGB-D camera on a robot's head, as the NVlabs demo frames), 4 cm nearer than where the
+    optical axis meets the table: the camera sees its near face almost as much as its top."""
+    camera = Camera(WIDTH, HEIGHT, 613.0, 613.0, 319.5, 239.5)
+    rotation, eye = tilted_pose(0.58, 44.0)
+    axis = rotation @ np.array([0.0, 0.0, 1.0])
+    cx, cy = (eye + axis * eye[2] / -axis[2])[:2]  # where the optical axis meets the table
+    near = rotation @ np.array([0.0, 1.0, 0.0])  # down the image, along the table
+    size, yaw = (0.04, 0.06), 0.2
+    centre = np.array([cx, cy]) + 0.04 * near[:2] / np.linalg.norm(near[:2])
+    depth = analytic_depth(camera, rotation, eye, [box((*size, 0.15), (*centre, 0.0), yaw)])
+    roi = (20, 20, 620, 460)
+    return RealScene(depth, camera, rotation, eye, _roi_mask(roi), roi,
+                     np.array([*centre, 0.15]), size, yaw)

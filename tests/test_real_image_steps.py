@@ -5,19 +5,22 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from real_scenes import tilted_pose
+from real_scenes import steep_table_scene, tilted_pose
 
 from graspjax import Camera
 from graspjax.codes import SupportReason, TargetReason
-from graspjax.config import ConfigError, RealImageConfig
+from graspjax.config import Config, ConfigError, RealImageConfig
+from graspjax.perception.real_image import _targets
 from graspjax.perception.support import plane_height, support_plane
 from graspjax.perception.target import (
     best_candidate,
     similar_neighbours,
+    surface_normals,
     surface_slope,
     target_candidates,
 )
-from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
+from graspjax.perception.virtual import slope_in_view, view_camera, view_rotation, warp_depth, warp_values
+from graspjax.perception.window import detection_window, followed_surface, in_view
 from graspjax.perception.workspace import block_median, fill_holes
 from graspjax.synthetic import analytic_depth, box
 
@@ -32,6 +35,12 @@ def support():
 def _angle_deg(a, b):
     a, b = np.asarray(a, float), np.asarray(b, float)
     return np.rad2deg(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1)))
+
+
+def _angle_deg_rows(vectors, b):
+    """Angles (N,) between the lines of `vectors` (N, 3) and `b` (3,), degrees."""
+    cos = np.abs(vectors @ b) / np.linalg.norm(vectors, axis=-1) / np.linalg.norm(b)
+    return np.rad2deg(np.arccos(np.clip(cos, -1, 1)))
 
 
 def _table(solids=(), tilt_deg=13.0, camera=WORK):
@@ -128,6 +137,24 @@ def test_surface_slope_of_an_analytic_plane(slope_deg):
     assert np.all(flat == 0.0)
 
 
+@pytest.mark.parametrize("slope_deg", [0.0, 30.0])
+def test_surface_slope_far_off_the_optical_axis(slope_deg):
+    """A view whose rays meet the scene 40-50 deg off its axis (a view turned to face a tilted
+    table): a plane z = z0 + tan(a) y has its own slope at every pixel, and a vertical face
+    (y = const) is near 90 deg, though its depth changes only about one lateral pixel per pixel
+    (a per-pixel depth difference would call it 45 deg)."""
+    fy = 300.0
+    camera = Camera(41, 31, 300.0, fy, 20.0, 15.0 - fy * np.tan(np.deg2rad(45.0)))
+    v = np.arange(31, dtype=np.float64)[:, None] * np.ones((1, 41))
+    ray_y = (v - camera.cy) / fy  # tan of each row's ray angle, 40-50 deg
+    plane = 0.7 / (1.0 - np.tan(np.deg2rad(slope_deg)) * ray_y)
+    slope = np.asarray(surface_slope(jnp.asarray(plane, jnp.float32), camera, 2))
+    assert np.allclose(slope[2:-2, 2:-2], np.tan(np.deg2rad(slope_deg)), atol=0.01)
+    face = 0.7 / ray_y  # every ray meets the face y = 0.7 m
+    steep = np.degrees(np.arctan(np.asarray(surface_slope(jnp.asarray(face, jnp.float32), camera, 2))))
+    assert np.all(steep[2:-2, 2:-2] > 85.0)
+
+
 def test_support_plane_of_a_tilted_table_with_an_object(support):
     depth, rotation, eye = _table([box((0.04, 0.07, 0.04), (0.02, 0.15, 0.0), 0.3)])
     plane = support(jnp.asarray(depth), WORK)
@@ -186,6 +213,50 @@ def test_virtual_view_faces_the_table():
     top = np.abs(warped[valid] - 0.69) < 1e-4  # the box top stands 4 cm nearer
     assert table.mean() > 0.95 and top.sum() > 100
     assert np.array_equal(np.asarray(view_rotation(up, jnp.asarray(False))), np.eye(3))
+
+
+def test_normals_seen_through_a_view_that_faces_a_steep_table():
+    """A table seen 44 deg off vertical: its normals, measured on the camera's own image, are
+    the table's; carried into the view turned to face it, they face that view everywhere."""
+    depth, rotation, _ = _table([], tilt_deg=44.0)
+    up = rotation.T @ [0.0, 0.0, 1.0]
+    normals = np.asarray(surface_normals(jnp.asarray(depth), WORK, 2))
+    valid = np.isfinite(normals[..., 0])
+    assert valid.mean() > 0.95
+    assert np.all(_angle_deg_rows(normals[valid], up) < 0.5)
+    turn = view_rotation(jnp.asarray(up, jnp.float32), jnp.asarray(True))
+    view = view_camera(WORK, turn)
+    slope = np.asarray(warp_values(slope_in_view(jnp.asarray(normals), turn), WORK, view, turn,
+                                   jnp.inf))
+    seen = np.isfinite(slope)
+    assert seen.mean() > 0.3
+    assert np.all(slope[seen] < np.tan(np.deg2rad(0.5)))
+
+
+def test_a_turned_views_target_surface_stops_at_the_objects_side():
+    """A 15 cm box on a table seen 44 deg off vertical: in the view turned to face the table,
+    its near face becomes a slope of depths a pixel apart that a depth-connected surface
+    follows down from the top; measured on the real image, the face is steep and the
+    target's surface is the top alone."""
+    scene = steep_table_scene()
+    config, image = Config(), RealImageConfig()
+    prep = _targets(scene.depth, jnp.asarray(scene.workspace), scene.camera, config, image)
+    rotation = np.asarray(prep.rotation)
+    top = jnp.asarray(rotation.T @ scene.to_camera(scene.top), jnp.float32)  # view frame
+    window, slope, window_camera = detection_window(
+        prep.fine, prep.fine_slope, prep.fine_camera, view_camera(prep.fine_camera, prep.rotation),
+        prep.rotation, top, image.crop_px)
+    plane = in_view(prep.support, prep.rotation)
+    points = window_camera.unproject(window_camera.pixel_grid(), window)
+    height = np.asarray(plane_height(points, plane.normal, plane.distance))
+
+    def surface(max_slope_deg):
+        return np.asarray(followed_surface(window, slope, window_camera, top, plane, config,
+                                           max_slope_deg))
+
+    assert height[surface(90.0)].min() < 0.12  # no slope test: down the face
+    kept = surface(image.max_target_slope_deg)
+    assert kept.sum() > 1000 and height[kept].min() > 0.14  # the 15 cm top
 
 
 def test_the_papers_nearest_point_on_a_tilted_table_is_its_near_edge(support):

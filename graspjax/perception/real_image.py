@@ -13,17 +13,16 @@
    holds: the camera looks perpendicular at the surface.
 4. Targets (`target.py`), in that view at the support resolution: the
    pixel highest above the support that is neither a speck nor on a
-   surface too steep to face the view (the nearest one when there is no
-   support plane).
+   surface too steep to face the view, its slope measured on the real
+   image (the nearest one when there is no support plane).
 5. Detect (`detect_grasp`, or the baseline `config.method` names:
    `baselines.grasp_method`) at the detection resolution, in a `crop_px`
-   square window of the virtual view centred on the target (the same camera
-   with a shifted principal point, so nothing else changes), with the
-   target's depth-connected surface in the window as `seed_mask`, found
-   from its 3-D point as the simulated robot finds its target in each new
-   view (`target.follow_target`), and `tbeam_positions` T-beams per
-   edge. Its `candidates_per_target` most central placements are checked on
-   the full-resolution image (`jaws.py`: width, the jaws' paths, the wall
+   square window of the virtual view centred on the target (`window.py`),
+   with the target's depth-connected surface in the window as `seed_mask`,
+   found from its 3-D point as the simulated robot finds its target in each
+   new view, and `tbeam_positions` T-beams per edge. Its
+   `candidates_per_target` most central placements are checked on the
+   full-resolution image (`jaws.py`: width, the jaws' paths, the wall
    where the jaws touch), scored (`jaws.grasp_score`) and pooled. The next target is
    the highest candidate outside the surfaces already tried, until `top_k`
    distinct grasps passed or `max_targets` were tried (the paper tries one:
@@ -57,8 +56,9 @@ from graspjax.perception.jaws import check_jaws, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import further_reason, furthest_reason
 from graspjax.perception.support import SupportPlane, support_plane
-from graspjax.perception.target import best_candidate, follow_target, standing_candidates
-from graspjax.perception.virtual import view_camera, view_rotation, warp_depth
+from graspjax.perception.target import best_candidate, standing_candidates, surface_normals
+from graspjax.perception.virtual import slope_in_view, view_camera, view_rotation, warp_depth, warp_values
+from graspjax.perception.window import detection_window, followed_surface, in_view
 from graspjax.perception.workspace import working_views
 from graspjax.tree import pytree_dataclass
 
@@ -133,41 +133,13 @@ def _no_support() -> SupportPlane:
                         inliers=jnp.int32(0), fraction=jnp.float32(0.0))
 
 
-def _window(fine: jax.Array, fine_camera: Camera, view: Camera, rotation: jax.Array,
-            point: jax.Array, size: int) -> tuple[jax.Array, Camera]:
-    """The `size`-square detection window of the view centred on a view-frame `point` (3,):
-    its depth (S, S) and its camera (the view's, principal point shifted)."""
-    uv = view.project(point)
-    origin = jnp.round(jnp.where(jnp.isfinite(uv), uv, 0.0)) - size // 2  # whole pixels
-    camera = Camera(size, size, view.fx, view.fy, view.cx - origin[0], view.cy - origin[1])
-    return warp_depth(fine, fine_camera, camera, rotation), camera
-
-
-def _in_view(support: SupportPlane, rotation: jax.Array) -> SupportPlane:
-    """The support plane in the frame of a view turned by `rotation` (view-to-camera)."""
-    return dataclasses.replace(support, normal=rotation.T @ support.normal)
-
-
-def _followed(window: jax.Array, camera: Camera, point: jax.Array, support: SupportPlane,
-              rotation: jax.Array, config: Config) -> jax.Array:
-    """The target's depth-connected surface (S, S) bool in its detection window, found from its
-    view-frame `point` (3,) as the simulated robot finds it in each new view (`follow_target`):
-    the pixels where the detector and the alignment take z_min."""
-    perception = config.perception
-    candidate, _, _ = standing_candidates(window, camera, _in_view(support, rotation),
-                                          min_height=perception.min_height,
-                                          tolerance=config.detect.surface_tolerance)
-    surface, _, _ = follow_target(window, camera, candidate, point, perception.surface_step,
-                                  perception.follow_distance)
-    return surface
-
-
 @dataclasses.dataclass(frozen=True)
 class _Targets:
     """Steps 1-4 of `detect_real_image` on one image: its views and target candidates."""
 
     fine: jax.Array  # (H', W') detection-resolution depth (0 = invalid)
     fine_camera: Camera  # intrinsics of `fine`
+    fine_slope: jax.Array  # (H', W') its surfaces' slope against the view (tangent; inf: unknown)
     work: jax.Array  # (h, w) support-resolution depth
     work_camera: Camera  # intrinsics of `work`
     support: SupportPlane  # the support plane, camera frame
@@ -198,13 +170,18 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
     view = view_camera(work_camera, rotation)
     view_depth = jnp.where(virtual, warp_depth(work, work_camera, view, rotation), work)
     points = view.unproject(view.pixel_grid(), view_depth)
+    step = max(1, image.target_window_px // 2)  # the slope's span (support pixels)
+    slope = warp_values(slope_in_view(surface_normals(work, work_camera, step), rotation),
+                        work_camera, view, rotation, jnp.inf)
     candidate, height, reason = standing_candidates(
-        view_depth, view, _in_view(support, rotation), window=image.target_window_px,
+        view_depth, view, in_view(support, rotation), window=image.target_window_px,
         min_pixels=image.min_target_pixels, max_slope_deg=image.max_target_slope_deg,
-        min_height=config.perception.min_height, tolerance=tolerance)
+        min_height=config.perception.min_height, tolerance=tolerance, slope=slope)
+    fine_slope = slope_in_view(surface_normals(fine, fine_camera,
+                                               step * (fine.shape[1] // work.shape[1])), rotation)
     score = jnp.where(support.found, height, -view_depth)  # highest above it; else z_min
-    return _Targets(fine, fine_camera, work, work_camera, support, virtual, rotation, view,
-                    view_depth, points, height, candidate, score, reason)
+    return _Targets(fine, fine_camera, fine_slope, work, work_camera, support, virtual,
+                    rotation, view, view_depth, points, height, candidate, score, reason)
 
 
 def _select(passed, score, position, axis, count: int, distance: float) -> tuple[jax.Array, jax.Array]:
@@ -239,6 +216,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     view_depth, height, candidate, score = prep.depth, prep.height, prep.candidate, prep.score
     tolerance = config.detect.surface_tolerance
     fine_view = view_camera(fine_camera, rotation)
+    support = in_view(prep.support, rotation)
     # The window's own checks; the wall is judged at full resolution where the jaws touch.
     window_config = replace_unchecked(config, detect=replace_unchecked(
         config.detect, tbeam_positions=image.tbeam_positions, wall_check=jnp.zeros((), bool)))
@@ -292,9 +270,10 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         chosen, target = best_candidate(candidate & ~tried, score)
         has_target = jnp.any(chosen)
         point = jnp.where(has_target, points[target[1], target[0]], 0.0)  # view frame
-        window, window_camera = _window(fine, fine_camera, fine_view, rotation, point,
-                                        image.crop_px)
-        seed = _followed(window, window_camera, point, prep.support, rotation, config)
+        window, slope, window_camera = detection_window(fine, prep.fine_slope, fine_camera,
+                                                        fine_view, rotation, point, image.crop_px)
+        seed = followed_surface(window, slope, window_camera, point, support, config,
+                                image.max_target_slope_deg)
         grasp = grasp_method(config.method)(window, window_camera, window_config,
                                             seed & has_target)
         surface, _ = target_surface(view_depth, valid & has_target, target,
@@ -372,10 +351,11 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         more, lambda state: attempt(*state), attempt(0, nothing_tried, pool, best))
     chosen, ranked_ok = distinct(pool)
     pick = jnp.clip(chosen, 0)
-    window, window_camera = _window(fine, fine_camera, fine_view, rotation,
-                                    pool["points"][best], image.crop_px)
-    seed = _followed(window, window_camera, pool["points"][best], prep.support, rotation,
-                     config) & pool["has_target"][best]
+    window, slope, window_camera = detection_window(
+        fine, prep.fine_slope, fine_camera, fine_view, rotation, pool["points"][best],
+        image.crop_px)
+    seed = followed_surface(window, slope, window_camera, pool["points"][best], support, config,
+                            image.max_target_slope_deg) & pool["has_target"][best]
     alignment = align_tool(window, window_camera, config.align, jax.random.key(image.seed),
                            seed_mask=seed)
 

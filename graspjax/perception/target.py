@@ -14,11 +14,11 @@ Real images add two outlier tests:
 - at least `min_target_pixels` valid pixels of its `target_window_px`
   square window (itself included) lie within the surface tolerance of its
   depth: a speck smaller than that never qualifies; and
-- its surface faces the view within `max_target_slope_deg`: the depth
-  changes by at most tan(slope) times the lateral distance over half the
-  window, on the smoother side along each image axis (so the pixels of an
-  object's top next to its edge still qualify). A bin wall seen from the
-  side is not a target: the detector could not cluster a surface there.
+- its surface faces the view within `max_target_slope_deg`: the normal of
+  the 3-D points half the window away, on the smoother side along each
+  image axis (so the pixels of an object's top next to its edge still
+  qualify). A bin wall seen from the side is not a target: the detector
+  could not cluster a surface there.
 
 `best_candidate` takes the best-ranked candidate: the nearest (z_min) in a
 simulated view, the highest above the fitted plane in a real image's view
@@ -60,35 +60,52 @@ def similar_neighbours(depth: jax.Array, window: int, tolerance: float) -> jax.A
     return jnp.where(valid, count, 0)
 
 
-def surface_slope(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
-    """Tangent `(H, W)` of the surface's slope against the view, from depth differences.
+def surface_normals(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
+    """Unit surface normals `(H, W, 3)` in the camera frame, from the 3-D points (nan: unknown).
 
     depth: metric depth (H, W), 0 or nan = invalid. Along each image axis the
-    depth difference to the pixel `step` away on the smoother side, over the
-    lateral distance `step` pixels span at that depth; inf where neither side
-    is valid.
+    point `step` pixels away on the smoother side (the smaller depth change)
+    spans a tangent; the normal is that of the two tangents (its sign is of
+    no use: slopes take its direction only). Unknown where neither side of
+    an axis is valid.
     """
     valid = valid_mask(depth)
-    clean = jnp.where(valid, depth, 0.0)
+    points = camera.unproject(camera.pixel_grid(), jnp.where(valid, depth, 0.0))
     height, width = depth.shape
-    padded_z, padded_ok = jnp.pad(clean, step), jnp.pad(valid, step)
+    padded_p = jnp.pad(points, ((step, step), (step, step), (0, 0)))
+    padded_ok = jnp.pad(valid, step)
 
-    def gradient(du, dv, focal):
-        sides = []
+    def tangent(du, dv):
+        sides, changes = [], []
         for sign in (1, -1):
             v0, u0 = step + sign * step * dv, step + sign * step * du
-            z = padded_z[v0: v0 + height, u0: u0 + width]
             ok = padded_ok[v0: v0 + height, u0: u0 + width]
-            sides.append(jnp.where(ok, jnp.abs(z - clean), jnp.inf))
-        return jnp.minimum(*sides) * focal / (step * jnp.maximum(clean, 1e-6))
+            span = padded_p[v0: v0 + height, u0: u0 + width] - points
+            sides.append(span)
+            changes.append(jnp.where(ok, jnp.abs(span[..., 2]), jnp.inf))
+        smoother = (changes[0] <= changes[1])[..., None]
+        return jnp.where(smoother, sides[0], sides[1]), jnp.isfinite(jnp.minimum(*changes))
 
-    slope = jnp.hypot(gradient(1, 0, camera.fx), gradient(0, 1, camera.fy))
-    return jnp.where(valid, slope, jnp.inf)
+    along_u, seen_u = tangent(1, 0)
+    along_v, seen_v = tangent(0, 1)
+    normal = jnp.cross(along_u, along_v)
+    normal = normal / jnp.maximum(jnp.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
+    return jnp.where((valid & seen_u & seen_v)[..., None], normal, jnp.nan)
+
+
+def surface_slope(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
+    """Tangent `(H, W)` of the surface's slope against the view (`surface_normals`), true
+    anywhere in the image: a vertical face seen far off the axis is steep, though its depth
+    changes by about one lateral pixel per pixel there; inf where unknown."""
+    normals = surface_normals(depth, camera, step)
+    slope = jnp.hypot(normals[..., 0], normals[..., 1]) / jnp.maximum(jnp.abs(normals[..., 2]), 1e-12)
+    return jnp.where(jnp.isnan(slope), jnp.inf, slope)
 
 
 def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_plane: jax.Array,
                       *, min_height, tolerance: float, window: int = 1, min_pixels: int = 1,
-                      max_slope_deg: float = 90.0) -> tuple[jax.Array, jax.Array]:
+                      max_slope_deg: float = 90.0, slope: jax.Array | None = None
+                      ) -> tuple[jax.Array, jax.Array]:
     """Pixels that may be the target: (candidates (H, W) bool, TargetReason ()).
 
     depth: metric depth (H, W) of the view seen by `camera`, 0 or nan =
@@ -96,7 +113,10 @@ def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_p
     (H, W) height above the support plane (m), used when `has_plane` (()
     bool). The speck test (`window`, `min_pixels`) and the slope test
     (`max_slope_deg`) are for real images' outliers; their defaults leave
-    them out. Rank the candidates with `best_candidate`.
+    them out. `slope`: (H, W) tangents of the slope measured on the image the
+    view was turned from (`virtual.slope_in_view`), else from `depth` itself
+    (a turned view repeats real pixels, so its own depth steps are no
+    slope). Rank the candidates with `best_candidate`.
     """
     valid = valid_mask(depth)
     standing = valid & (~has_plane | (height >= min_height))
@@ -104,8 +124,9 @@ def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_p
     if min_pixels > 1:
         candidate = candidate & (similar_neighbours(depth, window, tolerance) >= min_pixels)
     if max_slope_deg < 90.0:
-        step = max(1, window // 2)
-        candidate = candidate & (surface_slope(depth, camera, step) <= np.tan(np.deg2rad(max_slope_deg)))
+        if slope is None:
+            slope = surface_slope(depth, camera, max(1, window // 2))
+        candidate = candidate & (slope <= np.tan(np.deg2rad(max_slope_deg)))
     reason = jnp.select([~jnp.any(valid), ~jnp.any(standing), ~jnp.any(candidate)],
                         [TargetReason.EMPTY_WORKSPACE, TargetReason.NO_OBJECT,
                          TargetReason.NO_SURFACE], TargetReason.FOUND).astype(jnp.int32)
@@ -114,7 +135,8 @@ def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_p
 
 def standing_candidates(depth: jax.Array, camera: Camera, support: SupportPlane, *, min_height,
                         tolerance: float, window: int = 1, min_pixels: int = 1,
-                        max_slope_deg: float = 90.0) -> tuple[jax.Array, jax.Array, jax.Array]:
+                        max_slope_deg: float = 90.0, slope: jax.Array | None = None
+                        ) -> tuple[jax.Array, jax.Array, jax.Array]:
     """`target_candidates` of a view whose support plane is known (calibrated) or fitted:
     (candidates (H, W) bool, height above the support (H, W) (m; nan without one),
     TargetReason ()). depth: metric depth (H, W) of the view seen by `camera`; support: the
@@ -125,7 +147,7 @@ def standing_candidates(depth: jax.Array, camera: Camera, support: SupportPlane,
     candidate, reason = target_candidates(depth, camera, height, support.found,
                                           min_height=min_height, tolerance=tolerance,
                                           window=window, min_pixels=min_pixels,
-                                          max_slope_deg=max_slope_deg)
+                                          max_slope_deg=max_slope_deg, slope=slope)
     return candidate, height, reason
 
 

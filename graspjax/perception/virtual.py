@@ -46,26 +46,51 @@ def view_camera(camera: Camera, rotation: jax.Array) -> Camera:
                   camera.cy - camera.fy * axis[1] / axis[2])
 
 
-def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Array) -> jax.Array:
-    """Depth `(H, W)` along the virtual optical axis, seen by `view` turned by `rotation`.
-
-    depth: metric depth (H, W) of `camera`, 0 or nan = invalid; 0 where the
-    virtual ray leaves the real image or meets an invalid pixel.
-    """
+def _sources(camera: Camera, view: Camera, rotation: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """The real pixel nearest to each virtual pixel's ray: (u, v) int32 (H', W', 2), clipped,
+    and whether the ray meets the real image (H', W')."""
     rays = _rotate(rotation, view.rays())  # (H, W, 3) in the camera frame, virtual z = 1
     forward = rays[..., 2] > 1e-6
     uv = camera.project(jnp.where(forward[..., None], rays, _OPTICAL_AXIS))
     iuv = jnp.round(uv).astype(jnp.int32)
     inside = (forward & (iuv[..., 0] >= 0) & (iuv[..., 0] < camera.width)
               & (iuv[..., 1] >= 0) & (iuv[..., 1] < camera.height))
-    iuv = jnp.stack([jnp.clip(iuv[..., 0], 0, camera.width - 1),
-                     jnp.clip(iuv[..., 1], 0, camera.height - 1)], -1)
+    return jnp.stack([jnp.clip(iuv[..., 0], 0, camera.width - 1),
+                      jnp.clip(iuv[..., 1], 0, camera.height - 1)], -1), inside
+
+
+def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Array) -> jax.Array:
+    """Depth `(H, W)` along the virtual optical axis, seen by `view` turned by `rotation`.
+
+    depth: metric depth (H, W) of `camera`, 0 or nan = invalid; 0 where the
+    virtual ray leaves the real image or meets an invalid pixel.
+    """
+    iuv, inside = _sources(camera, view, rotation)
     z = depth[iuv[..., 1], iuv[..., 0]]
     ok = inside & valid_mask(z)
     points = camera.unproject(iuv.astype(jnp.float32), jnp.where(ok, z, 0.0))  # the real pixel's point
     axis = rotation[:, 2]  # the virtual optical axis, camera frame
     along = points[..., 0] * axis[0] + points[..., 1] * axis[1] + points[..., 2] * axis[2]
     return jnp.where(ok, along, 0.0)  # its depth along the virtual axis
+
+
+def slope_in_view(normals: jax.Array, rotation: jax.Array) -> jax.Array:
+    """Tangent `(H, W)` of the slope of surfaces with unit `normals` (H, W, 3) (camera frame,
+    `target.surface_normals`; nan: unknown) against the optical axis of the view turned by
+    `rotation`; inf where unknown. Measured where the points were seen: a turned view repeats
+    real pixels, so its own depth steps are no slope."""
+    axis = rotation[:, 2]  # the view's optical axis, camera frame
+    cos = jnp.abs(normals[..., 0] * axis[0] + normals[..., 1] * axis[1] + normals[..., 2] * axis[2])
+    slope = jnp.sqrt(jnp.maximum(1.0 - cos * cos, 0.0)) / jnp.maximum(cos, 1e-12)
+    return jnp.where(jnp.isnan(slope), jnp.inf, slope)
+
+
+def warp_values(values: jax.Array, camera: Camera, view: Camera, rotation: jax.Array,
+                fill) -> jax.Array:
+    """`values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation` (H', W'): each
+    virtual pixel takes its real pixel's, as `warp_depth`; `fill` where the ray leaves the image."""
+    iuv, inside = _sources(camera, view, rotation)
+    return jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill)
 
 
 def _rotate(rotation: jax.Array, vectors: jax.Array) -> jax.Array:
