@@ -15,11 +15,12 @@ from graspjax.perception.support import plane_height, support_plane
 from graspjax.perception.target import (
     best_candidate,
     similar_neighbours,
+    slope_against,
     surface_normals,
     surface_slope,
     target_candidates,
 )
-from graspjax.perception.virtual import slope_in_view, view_camera, view_rotation, warp_depth, warp_values
+from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
 from graspjax.perception.window import detection_window, followed_surface, in_view
 from graspjax.perception.workspace import block_median, fill_holes
 from graspjax.synthetic import analytic_depth, box
@@ -226,7 +227,7 @@ def test_normals_seen_through_a_view_that_faces_a_steep_table():
     assert np.all(_angle_deg_rows(normals[valid], up) < 0.5)
     turn = view_rotation(jnp.asarray(up, jnp.float32), jnp.asarray(True))
     view = view_camera(WORK, turn)
-    slope = np.asarray(warp_values(slope_in_view(jnp.asarray(normals), turn), WORK, view, turn,
+    slope = np.asarray(warp_values(slope_against(jnp.asarray(normals), turn[:, 2]), WORK, view, turn,
                                    jnp.inf))
     seen = np.isfinite(slope)
     assert seen.mean() > 0.3

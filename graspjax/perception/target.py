@@ -93,13 +93,19 @@ def surface_normals(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
     return jnp.where((valid & seen_u & seen_v)[..., None], normal, jnp.nan)
 
 
+def slope_against(normals: jax.Array, axis) -> jax.Array:
+    """Tangent `(...)` of the angle between surfaces with unit `normals` `(..., 3)` (nan:
+    unknown) and a view's unit optical `axis` (3,) in their frame; inf where unknown."""
+    cos = jnp.abs(normals[..., 0] * axis[0] + normals[..., 1] * axis[1] + normals[..., 2] * axis[2])
+    slope = jnp.sqrt(jnp.maximum(1.0 - cos * cos, 0.0)) / jnp.maximum(cos, 1e-12)
+    return jnp.where(jnp.isnan(slope), jnp.inf, slope)
+
+
 def surface_slope(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
     """Tangent `(H, W)` of the surface's slope against the view (`surface_normals`), true
     anywhere in the image: a vertical face seen far off the axis is steep, though its depth
     changes by about one lateral pixel per pixel there; inf where unknown."""
-    normals = surface_normals(depth, camera, step)
-    slope = jnp.hypot(normals[..., 0], normals[..., 1]) / jnp.maximum(jnp.abs(normals[..., 2]), 1e-12)
-    return jnp.where(jnp.isnan(slope), jnp.inf, slope)
+    return slope_against(surface_normals(depth, camera, step), (0.0, 0.0, 1.0))
 
 
 def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_plane: jax.Array,
@@ -114,7 +120,7 @@ def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_p
     bool). The speck test (`window`, `min_pixels`) and the slope test
     (`max_slope_deg`) are for real images' outliers; their defaults leave
     them out. `slope`: (H, W) tangents of the slope measured on the image the
-    view was turned from (`virtual.slope_in_view`), else from `depth` itself
+    view was turned from (`slope_against` its axis), else from `depth` itself
     (a turned view repeats real pixels, so its own depth steps are no
     slope). Rank the candidates with `best_candidate`.
     """

@@ -74,17 +74,6 @@ def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Arr
     return jnp.where(ok, along, 0.0)  # its depth along the virtual axis
 
 
-def slope_in_view(normals: jax.Array, rotation: jax.Array) -> jax.Array:
-    """Tangent `(H, W)` of the slope of surfaces with unit `normals` (H, W, 3) (camera frame,
-    `target.surface_normals`; nan: unknown) against the optical axis of the view turned by
-    `rotation`; inf where unknown. Measured where the points were seen: a turned view repeats
-    real pixels, so its own depth steps are no slope."""
-    axis = rotation[:, 2]  # the view's optical axis, camera frame
-    cos = jnp.abs(normals[..., 0] * axis[0] + normals[..., 1] * axis[1] + normals[..., 2] * axis[2])
-    slope = jnp.sqrt(jnp.maximum(1.0 - cos * cos, 0.0)) / jnp.maximum(cos, 1e-12)
-    return jnp.where(jnp.isnan(slope), jnp.inf, slope)
-
-
 def warp_values(values: jax.Array, camera: Camera, view: Camera, rotation: jax.Array,
                 fill) -> jax.Array:
     """`values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation` (H', W'): each
