@@ -86,6 +86,24 @@ def test_a_ledge_under_part_of_a_pad_holds_that_jaw_up():
         assert float(free.landing) > 0.03  # the table (or a fall the camera does not see)
 
 
+def test_a_top_going_on_unseen_past_the_band_is_no_landing():
+    """A 6 x 3 x 4 cm part with a block level with its top against its +y face, under half of
+    that pad (x 0..3 cm, y 1.5..3 cm): closing across y, the camera tilted about x sees the +y
+    jaw's tip-level samples near the band's edge only through the part's top (hidden), and the
+    block's top level with the band farther out; the unseen stretch is the top going on, not a
+    fall: refused (taken as a drop, it passed). The part alone: its hidden side is followed by
+    the table, 4 cm down: a fall, the grasp passes."""
+    part = box((0.06, 0.03, 0.04), _at())
+    block = box((0.03, 0.015, 0.04), _at(x=0.015, y=0.0225))
+    for config in (Config(), preset("realistic")):
+        held = _jaws([part, block], _at(z=0.04), Y, 0.03, config)
+        assert held.reason == GraspReason.JAWS_BLOCKED
+        assert abs(float(held.landing)) < 0.001  # the block's top, level with the band
+        alone = _jaws([part], _at(z=0.04), Y, 0.03, config)
+        assert alone.reason == GraspReason.FOUND
+        assert float(alone.landing) > 0.03
+
+
 def _shade(depth, camera, rotation, eye, x_from, x_to):
     """`depth` with no depth where the table (z < 2 mm) lies between world x_from and x_to of the
     centre, within 4 cm in y: a shadow, as a projector's sensor loses it."""
