@@ -18,12 +18,12 @@ CENTRE = table_centre()
 check = jax.jit(check_jaws)
 
 
-def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig(), shadow=None):
-    """check_jaws for a grasp at world point `top` closing along `axis_world`; `shadow`: no depth
-    on the table between these world x of the centre (`_shade`)."""
+def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig(), lose=None):
+    """check_jaws for a grasp at world point `top` closing along `axis_world`; `lose`: which
+    pixels the sensor loses, from their world points (H, W, 3) relative to the table's centre."""
     depth, camera, workspace, rotation, eye = table_with(solids)
-    if shadow is not None:
-        depth = _shade(depth, camera, rotation, eye, *shadow)
+    if lose is not None:
+        depth = np.where(lose(_world(depth, camera, rotation, eye)), 0.0, depth)
     depth = np.where(workspace, depth, 0.0).astype(np.float32)
     centre = rotation.T @ (np.asarray(top, float) - eye)
     axis = rotation.T @ np.asarray(axis_world, float)
@@ -104,15 +104,36 @@ def test_a_top_going_on_unseen_past_the_band_is_no_landing():
         assert float(alone.landing) > 0.03
 
 
-def _shade(depth, camera, rotation, eye, x_from, x_to):
-    """`depth` with no depth where the table (z < 2 mm) lies between world x_from and x_to of the
-    centre, within 4 cm in y: a shadow, as a projector's sensor loses it."""
+def test_a_top_going_on_past_a_strip_without_depth_is_no_landing():
+    """The part and a block level with it as above, the block on the -y side (seen directly),
+    and no depth on both tops for 6 mm beyond the band's edge (a specular strip): the unseen
+    strip lies between the band and the block's top seen level with it, so it is no fall:
+    refused (taken as a drop, it passed)."""
+    part = box((0.06, 0.03, 0.04), _at())
+    block = box((0.03, 0.015, 0.04), _at(x=0.015, y=-0.0225))
+
+    def strip(world):
+        return (world[..., 2] > 0.035) & (world[..., 1] > -0.02) & (world[..., 1] < -0.014)
+
+    for config in (Config(), preset("realistic")):
+        held = _jaws([part, block], _at(z=0.04), Y, 0.03, config, lose=strip)
+        assert held.reason == GraspReason.JAWS_BLOCKED
+        assert float(held.unknown) > 0.0  # the strip is in the -y jaw's path
+        assert float(held.landing) < config.detect.min_grasp_depth
+
+
+def _world(depth, camera, rotation, eye):
+    """World points (H, W, 3) of every pixel, relative to the table's centre."""
     v, u = np.mgrid[:depth.shape[0], :depth.shape[1]]
     rays = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(depth)])
-    world = np.einsum("ij,jhw->hwi", rotation, rays * depth) + eye
-    shade = ((world[..., 2] < 0.002) & (world[..., 0] - CENTRE[0] > x_from)
-             & (world[..., 0] - CENTRE[0] < x_to) & (np.abs(world[..., 1] - CENTRE[1]) < 0.04))
-    return np.where(shade, 0.0, depth)
+    return np.einsum("ij,jhw->hwi", rotation, rays * depth) + eye - [*CENTRE, 0.0]
+
+
+def _table_between(x_from, x_to):
+    """The table (z < 2 mm) between these world x, within 4 cm in y: a shadow, as a
+    projector's sensor loses it."""
+    return lambda world: ((world[..., 2] < 0.002) & (world[..., 0] > x_from)
+                          & (world[..., 0] < x_to) & (np.abs(world[..., 1]) < 0.04))
 
 
 def test_a_shadow_beyond_a_taller_neighbour_is_no_landing():
@@ -124,10 +145,11 @@ def test_a_shadow_beyond_a_taller_neighbour_is_no_landing():
     part = box((0.04, 0.06, 0.04), _at())
     board = box((0.004, 0.06, 0.05), _at(x=0.022))
     for config in (Config(), preset("realistic")):
-        beside = _jaws([part, board], _at(z=0.04), X, 0.04, config, shadow=(0.024, 0.044))
+        beside = _jaws([part, board], _at(z=0.04), X, 0.04, config,
+                      lose=_table_between(0.024, 0.044))
         assert beside.reason == GraspReason.JAWS_BLOCKED
         assert float(beside.landing) < 0.0  # no fall seen before the board
-        alone = _jaws([part], _at(z=0.04), X, 0.04, config, shadow=(0.02, 0.04))
+        alone = _jaws([part], _at(z=0.04), X, 0.04, config, lose=_table_between(0.02, 0.04))
         assert alone.reason == GraspReason.FOUND
         assert float(alone.unknown) > 0.2  # the +x jaw's path in the shadow
 

@@ -16,8 +16,8 @@ answer, sample by sample along each jaw's path:
   ledge under part of a pad holds that jaw up as well); from the first
   surface out that stands above the band's top (a taller neighbour, a wall,
   a step up) nothing further out is the part's fall, seen or unseen (its
-  shadow); a stretch the part's own top hides is a fall only where the
-  surface seen next beyond it has fallen. Closing at the
+  shadow); a stretch without depth or hidden by the part's own top is a
+  fall only where the surface seen next beyond it has fallen. Closing at the
   tips' level, each jaw touches the part where it first stands higher than
   the tips, so the jaws may hold a part wider below its top, as a rounded
   one; between the band and the contact there is no gap (a gap means the
@@ -109,11 +109,11 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # friction x that depth of the band's edge (on average steeper than the pads' friction
     # cone); else the band tops a mound or a shoulder, and the jaws land on the part.
     # Judged where each ray met the surface (a tilted ray meets it nearer or farther out than
-    # its sample). A sample near the edge that is not seen counts as a drop: no depth, or hidden
-    # by the part's own top (its ray met the band, not the side: the far side of a tall part
-    # seen by a tilted camera) where the lane's next sample seen farther out has fallen that
-    # depth, or none is; seen again less deep, the top went on past the band's edge (unseen
-    # between, it is taken to go on as it is seen at both ends).
+    # its sample). A sample near the edge that is not seen (no depth, or hidden by the part's
+    # own top: its ray met the band, not the side, as on the far side of a tall part seen by a
+    # tilted camera) counts as a drop where the lane's next sample seen farther out has fallen
+    # that depth, or none is; seen again less deep, the top went on past the band's edge
+    # (unseen between, it is taken to go on as it is seen at both ends).
     # Every lane across the pad's width must fall: one lane on a ledge holds the jaw up.
     # From the first sample out that stands above the band's top (a taller neighbour, a wall or
     # a step up) the lane no longer shows the part's side: a fall seen beyond it, or a sample
@@ -125,10 +125,10 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     following = jax.lax.cummin(jnp.where(direct, jnp.arange(samples)[:, None], samples), axis=1,
                                reverse=True)  # (2, A, L) index of the next directly seen sample
     next_height = jnp.take_along_axis(height, jnp.minimum(following, samples - 1), axis=1)
-    shadow = hidden & ((following == samples) | (next_height >= detect.min_grasp_depth))
+    shadow = (~seen | hidden) & ((following == samples) | (next_height >= detect.min_grasp_depth))
     risen = seen & (height < -detect.surface_tolerance)
     beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
-    lost = (near <= reach_out) & (~seen | shadow)
+    lost = (near <= reach_out) & shadow
     fall = jnp.where(beyond, -jnp.inf,
                      jnp.where(lost, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf)))
     landing = jnp.min(jnp.max(fall, 1))  # the worst lane's deepest fall near the edge
