@@ -104,6 +104,20 @@ def test_a_top_going_on_unseen_past_the_band_is_no_landing():
         assert float(alone.landing) > 0.03
 
 
+def test_a_fall_hidden_behind_a_lip_is_a_landing():
+    """A 6 x 4 x 4 cm part with a lip 3 mm down and 2 mm wide along both edges the jaws close
+    across (y, the camera tilted about x): on the far side the rays see the band's top, the
+    lip, then the table 4 cm down well beyond the reach; the side between, unseen, begins
+    2 mm past the band's edge, so the jaws land beside the part (judged by the lip's 3 mm
+    alone, the grasp was refused)."""
+    part = box((0.06, 0.04, 0.04), _at())
+    lips = [box((0.06, 0.002, 0.037), _at(y=side * 0.021)) for side in (-1, 1)]
+    for config in (Config(), preset("realistic")):
+        result = _jaws([part, *lips], _at(z=0.04), Y, 0.04, config)
+        assert result.reason == GraspReason.FOUND
+        assert float(result.landing) > 0.03
+
+
 def test_a_top_going_on_past_a_strip_without_depth_is_no_landing():
     """The part and a block level with it as above, the block on the -y side (seen directly),
     and no depth on both tops for 6 mm beyond the band's edge (a specular strip): the unseen

@@ -16,8 +16,9 @@ answer, sample by sample along each jaw's path:
   ledge under part of a pad holds that jaw up as well); from the first
   surface out that stands above the band's top (a taller neighbour, a wall,
   a step up) nothing further out is the part's fall, seen or unseen (its
-  shadow); a stretch without depth or hidden by the part's own top is a
-  fall only where the surface seen next beyond it has fallen. Closing at the
+  shadow); a stretch the camera does not see (no depth, or hidden by the
+  part's own top) is a fall only where the surface seen after it has fallen
+  or none is. Closing at the
   tips' level, each jaw touches the part where it first stands higher than
   the tips, so the jaws may hold a part wider below its top, as a rounded
   one; between the band and the contact there is no gap (a gap means the
@@ -109,29 +110,32 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # friction x that depth of the band's edge (on average steeper than the pads' friction
     # cone); else the band tops a mound or a shoulder, and the jaws land on the part.
     # Judged where each ray met the surface (a tilted ray meets it nearer or farther out than
-    # its sample). A sample near the edge that is not seen (no depth, or hidden by the part's
-    # own top: its ray met the band, not the side, as on the far side of a tall part seen by a
-    # tilted camera) counts as a drop where the lane's next sample seen farther out has fallen
-    # that depth, or none is; seen again less deep, the top went on past the band's edge
-    # (unseen between, it is taken to go on as it is seen at both ends).
+    # its sample). What the rays do not show is a stretch between two surface points seen one
+    # after the other along the lane (samples without depth, or rays that all meet the part's
+    # own top: the far side of a tall part seen by a tilted camera), wider than the samples and
+    # pixels leave on a surface seen throughout; it is a drop where it begins within that reach
+    # and the surface seen after it has fallen the shallowest grasp depth, or where nothing is
+    # seen after it. Seen again less deep, the top went on past the band's edge (a specular
+    # strip, or a top level with the band under part of a pad).
     # Every lane across the pad's width must fall: one lane on a ledge holds the jaw up.
     # From the first sample out that stands above the band's top (a taller neighbour, a wall or
-    # a step up) the lane no longer shows the part's side: a fall seen beyond it, or a sample
+    # a step up) the lane no longer shows the part's side: a fall seen beyond it, or a stretch
     # unseen there (the taller surface's shadow), is not a landing.
     reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
-    near = across[None, :, None]
-    hidden = seen & (out <= width / 2 + step) & (near > width / 2 + step)
-    direct = seen & ~hidden
-    following = jax.lax.cummin(jnp.where(direct, jnp.arange(samples)[:, None], samples), axis=1,
-                               reverse=True)  # (2, A, L) index of the next directly seen sample
-    next_height = jnp.take_along_axis(height, jnp.minimum(following, samples - 1), axis=1)
-    shadow = (~seen | hidden) & ((following == samples) | (next_height >= detect.min_grasp_depth))
+    unseen_gap = 2 * step + center[2] / camera.fx  # two samples and a pixel
+    seen_out = jnp.where(seen, out, -jnp.inf)
+    before = jnp.concatenate([jnp.full_like(seen_out[:, :1], -jnp.inf),
+                              jax.lax.cummax(seen_out, axis=1)[:, :-1]], axis=1)
+    before = jnp.maximum(width / 2, before)  # (2, A, L) farthest out seen before each sample
     risen = seen & (height < -detect.surface_tolerance)
     beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
-    lost = (near <= reach_out) & shadow
-    fall = jnp.where(beyond, -jnp.inf,
-                     jnp.where(lost, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf)))
-    landing = jnp.min(jnp.max(fall, 1))  # the worst lane's deepest fall near the edge
+    unseen_drop = (seen & (out - before > unseen_gap) & (before <= reach_out)
+                   & (height >= detect.min_grasp_depth))
+    fall = jnp.where(beyond, -jnp.inf, jnp.where(
+        unseen_drop, jnp.inf, jnp.where(seen & (out <= reach_out), height, -jnp.inf)))
+    last_out = jnp.maximum(width / 2, jnp.max(seen_out, 1))  # (2, L)
+    open_end = ~seen[:, -1] & (last_out <= reach_out) & ~jnp.any(risen, 1)  # unseen to the end
+    landing = jnp.min(jnp.where(open_end, jnp.inf, jnp.max(fall, 1)))  # the worst lane's fall
     sides = landing >= detect.min_grasp_depth
     # Closing at the tips' level: each jaw touches the part where it first stands higher than
     # the tips, with no gap between the band and the contact (else it closes on something else).
