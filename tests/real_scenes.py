@@ -123,17 +123,18 @@ def bin_scene(whole: bool = False) -> RealScene:
                      np.array([*centre, 0.06]), size, yaw)
 
 
-def table_with(solids, roi=(40, 20, 600, 400)):
+def table_with(solids, roi=(40, 20, 600, 400), tilt_deg: float = 13.0):
     """`solids` on the PrimeSense-like tilted table: depth (H, W), camera, workspace (H, W),
-    and the camera-to-world rotation (3, 3) and centre (3,) to check results in world terms."""
+    and the camera-to-world rotation (3, 3) and centre (3,) to check results in world terms;
+    `tilt_deg` off vertical (about world x)."""
     camera = Camera(WIDTH, HEIGHT, 525.0, 525.0, 319.5, 239.5)
-    rotation, eye = tilted_pose(0.73, 13.0)
+    rotation, eye = tilted_pose(0.73, tilt_deg)
     return (analytic_depth(camera, rotation, eye, solids), camera, _roi_mask(roi), rotation, eye)
 
 
-def table_centre() -> np.ndarray:
+def table_centre(tilt_deg: float = 13.0) -> np.ndarray:
     """Where the tilted table camera's optical axis meets the table (world x, y)."""
-    rotation, eye = tilted_pose(0.73, 13.0)
+    rotation, eye = tilted_pose(0.73, tilt_deg)
     axis = rotation @ np.array([0.0, 0.0, 1.0])
     return (eye + axis * eye[2] / -axis[2])[:2]
 

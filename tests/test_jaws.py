@@ -12,16 +12,18 @@ from graspjax.config import Config, RealImageConfig, preset
 from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
 from graspjax.perception.jaws import check_jaws
-from graspjax.synthetic import box, regular_prism, rot_y
+from graspjax.synthetic import box, regular_prism, rot_x, rot_y
 
 CENTRE = table_centre()
 check = jax.jit(check_jaws)
 
 
-def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig(), lose=None):
+def _jaws(solids, top, axis_world, width, config=Config(), image=RealImageConfig(), lose=None,
+          tilt_deg=13.0):
     """check_jaws for a grasp at world point `top` closing along `axis_world`; `lose`: which
-    pixels the sensor loses, from their world points (H, W, 3) relative to the table's centre."""
-    depth, camera, workspace, rotation, eye = table_with(solids)
+    pixels the sensor loses, from their world points (H, W, 3) relative to the table's centre;
+    the camera `tilt_deg` off vertical."""
+    depth, camera, workspace, rotation, eye = table_with(solids, tilt_deg=tilt_deg)
     if lose is not None:
         depth = np.where(lose(_world(depth, camera, rotation, eye)), 0.0, depth)
     depth = np.where(workspace, depth, 0.0).astype(np.float32)
@@ -88,11 +90,11 @@ def test_a_ledge_under_part_of_a_pad_holds_that_jaw_up():
 
 def test_a_top_going_on_unseen_past_the_band_is_no_landing():
     """A 6 x 3 x 4 cm part with a block level with its top against its +y face, under half of
-    that pad (x 0..3 cm, y 1.5..3 cm): closing across y, the camera tilted about x sees the +y
-    jaw's tip-level samples near the band's edge only through the part's top (hidden), and the
-    block's top level with the band farther out; the unseen stretch is the top going on, not a
-    fall: refused (taken as a drop, it passed). The part alone: its hidden side is followed by
-    the table, 4 cm down: a fall, the grasp passes."""
+    that pad (x 0..3 cm, y 1.5..3 cm): closing across y, the camera tilted about x, the +y
+    jaw's tip-level rays near the band's edge meet the part's top, then the block's, level with
+    the band: no stretch unseen, no fall: refused (the old per-sample "hidden" rule took those
+    rays as a drop and passed it). The part alone: its hidden side is followed by the table,
+    4 cm down: a fall, the grasp passes."""
     part = box((0.06, 0.03, 0.04), _at())
     block = box((0.03, 0.015, 0.04), _at(x=0.015, y=0.0225))
     for config in (Config(), preset("realistic")):
@@ -118,11 +120,33 @@ def test_a_fall_hidden_behind_a_lip_is_a_landing():
         assert float(result.landing) > 0.03
 
 
+def test_a_chamfer_seen_44_degrees_off_vertical_is_no_landing():
+    """A 6 x 4 x 4 cm part with a 45-degree chamfer 12 mm wide along both edges the jaws close
+    across (then a step down to the table): within the reach, 5.6 mm past the edge, the side
+    falls 5.6 mm, less than the 8 mm shallowest grasp, seen 13 and 44 degrees off vertical. At
+    44 degrees the first sample's ray on the side facing the camera meets the chamfer 10 mm out,
+    10 mm down (the chamfer nearer the edge is seen by rays inside the band, not sampled): no
+    unseen stretch, so no fall (before, a drop). The part alone passes."""
+    for tilt in (13.0, 44.0):
+        cx, cy = table_centre(tilt)
+        part = box((0.06, 0.04, 0.04), (cx, cy, 0.0))
+        size = 0.017  # the chamfer's face, 12 mm wide and deep
+        chamfers = [box((0.06, size, size), (0.0, 0.0, -size / 2)).moved(
+            rot_x(np.pi / 4), (cx, cy + side * 0.02, 0.04 - size / np.sqrt(2))) for side in (-1, 1)]
+        steps = [box((0.06, 0.012, 0.028), (cx, cy + side * 0.026, 0.0)) for side in (-1, 1)]
+        for config in (Config(), preset("realistic")):
+            held = _jaws([part, *chamfers, *steps], (cx, cy, 0.04), Y, 0.04, config, tilt_deg=tilt)
+            assert held.reason == GraspReason.JAWS_BLOCKED
+            assert float(held.landing) < config.detect.min_grasp_depth
+            alone = _jaws([part], (cx, cy, 0.04), Y, 0.04, config, tilt_deg=tilt)
+            assert alone.reason == GraspReason.FOUND
+
+
 def test_a_top_going_on_past_a_strip_without_depth_is_no_landing():
     """The part and a block level with it as above, the block on the -y side (seen directly),
-    and no depth on both tops for 6 mm beyond the band's edge (a specular strip): the unseen
-    strip lies between the band and the block's top seen level with it, so it is no fall:
-    refused (taken as a drop, it passed)."""
+    and no depth on both tops from 1 mm inside the band's edge to 5 mm beyond it (a specular
+    strip): the unseen strip lies between the band and the block's top seen level with it, so
+    it is no fall: refused (taken as a drop, it passed)."""
     part = box((0.06, 0.03, 0.04), _at())
     block = box((0.03, 0.015, 0.04), _at(x=0.015, y=-0.0225))
 

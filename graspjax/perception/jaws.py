@@ -129,8 +129,10 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     before = jnp.maximum(width / 2, before)  # (2, A, L) farthest out seen before each sample
     risen = seen & (height < -detect.surface_tolerance)
     beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
+    # The first sample's ray may meet the side well out from the edge on the side facing the
+    # camera, seen by rays inside the band's width that are not sampled: it ends no stretch.
     unseen_drop = (seen & (out - before > unseen_gap) & (before <= reach_out)
-                   & (height >= detect.min_grasp_depth))
+                   & (height >= detect.min_grasp_depth) & (jnp.arange(samples)[:, None] > 0))
     fall = jnp.where(beyond, -jnp.inf, jnp.where(
         unseen_drop, jnp.inf, jnp.where(seen & (out <= reach_out), height, -jnp.inf)))
     last_out = jnp.maximum(width / 2, jnp.max(seen_out, 1))  # (2, L)
