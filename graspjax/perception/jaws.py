@@ -123,26 +123,25 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # unseen there (the taller surface's shadow), is not a landing.
     reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
     unseen_gap = 2 * step + center[2] / camera.fx  # two samples and a pixel
-    seen_out = jnp.where(seen, out, -jnp.inf)
-    before = jnp.concatenate([jnp.full_like(seen_out[:, :1], -jnp.inf),
-                              jax.lax.cummax(seen_out, axis=1)[:, :-1]], axis=1)
-    before = jnp.maximum(width / 2, before)  # (2, A, L) farthest out seen before each sample
+    farthest = jnp.maximum(width / 2, jax.lax.cummax(jnp.where(seen, out, -jnp.inf), axis=1))
+    before = jnp.concatenate([jnp.full_like(farthest[:, :1], width / 2), farthest[:, :-1]],
+                             axis=1)  # (2, A, L) farthest out seen before each sample (the edge)
     risen = seen & (height < -detect.surface_tolerance)
     beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
     # The first sample's ray may meet the side well out from the edge on the side facing the
     # camera, seen by rays inside the band's width that are not sampled: it ends no stretch.
+    index = jnp.arange(samples)
     unseen_drop = (seen & (out - before > unseen_gap) & (before <= reach_out)
-                   & (height >= detect.min_grasp_depth) & (jnp.arange(samples)[:, None] > 0))
+                   & (height >= detect.min_grasp_depth) & (index[:, None] > 0))
     fall = jnp.where(beyond, -jnp.inf, jnp.where(
-        unseen_drop, jnp.inf, jnp.where(seen & (out <= reach_out), height, -jnp.inf)))
-    last_out = jnp.maximum(width / 2, jnp.max(seen_out, 1))  # (2, L)
-    open_end = ~seen[:, -1] & (last_out <= reach_out) & ~jnp.any(risen, 1)  # unseen to the end
+        unseen_drop, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf)))  # out: inf unseen
+    open_end = (~seen[:, -1] & (farthest[:, -1] <= reach_out)
+                & ~jnp.any(risen, 1))  # (2, L) unseen to the lane's end
     landing = jnp.min(jnp.where(open_end, jnp.inf, jnp.max(fall, 1)))  # the worst lane's fall
     sides = landing >= detect.min_grasp_depth
     # Closing at the tips' level: each jaw touches the part where it first stands higher than
     # the tips, with no gap between the band and the contact (else it closes on something else).
     above = top < reach  # (2, A)
-    index = jnp.arange(samples)
     last = jnp.max(jnp.where(above, index, 0), -1)  # (2,) the outermost sample above the tips
     contact_width = width + jnp.sum(last) * step
     gap = jnp.any((index < last[:, None]) & (top > reach + detect.surface_tolerance))
