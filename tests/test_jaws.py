@@ -160,6 +160,43 @@ def test_a_top_going_on_past_a_strip_without_depth_is_no_landing():
         assert float(held.landing) < config.detect.min_grasp_depth
 
 
+def test_a_top_going_on_past_the_band_seen_44_degrees_to_the_side_is_no_landing():
+    """A 3 x 6 x 4 cm part with a block level with its top against its +x face, 1.5 cm wide,
+    under half of that pad (y 0..1 cm), the camera tilted 44 degrees about x, the jaws closing
+    across x: the rays through the tips' level, 2 cm below the top, meet the surface ~2 cm to
+    the side of the pad's lanes, past the block, on the table: an 11 mm fall (the grasp passed
+    on them alone). Through the top's level they meet the block's top on the lanes: no fall
+    within the reach, refused. The part alone passes."""
+    cx, cy = table_centre(44.0)
+    part = box((0.03, 0.06, 0.04), (cx, cy, 0.0))
+    block = box((0.015, 0.01, 0.04), (cx + 0.0225, cy + 0.005, 0.0))
+    for config in (Config(), preset("realistic")):
+        held = _jaws([part, block], (cx, cy, 0.04), X, 0.03, config, tilt_deg=44.0)
+        assert held.reason == GraspReason.JAWS_BLOCKED
+        assert abs(float(held.landing)) < 0.002  # the block's top, level with the band
+        alone = _jaws([part], (cx, cy, 0.04), X, 0.03, config, tilt_deg=44.0)
+        assert alone.reason == GraspReason.FOUND
+        assert float(alone.landing) > 0.03
+
+
+def test_a_groove_then_something_beyond_it_is_what_the_jaws_close_on():
+    """A 2.6 cm ridge 1 cm above a 5 cm base, and along both its sides, past a 6 mm groove, a
+    6 mm rail 3 mm below the ridge's top: closing at the tips' level (2 cm down) the jaws touch
+    the rails' outer faces, not the ridge: refused, though the ridge falls 1 cm into the groove
+    (the landing). Without the rails they close on the base, 5 cm apart, its side falling from
+    the groove's floor to the table: a grasp of the part."""
+    base = box((0.05, 0.06, 0.03), _at())
+    ridge = box((0.026, 0.06, 0.04), _at())
+    rails = [box((0.006, 0.06, 0.037), _at(x=side * 0.022)) for side in (-1, 1)]
+    for config in (Config(), preset("realistic")):
+        beyond = _jaws([base, ridge, *rails], _at(z=0.04), X, 0.026, config)
+        assert beyond.reason == GraspReason.JAWS_BLOCKED
+        assert float(beyond.landing) >= config.detect.min_grasp_depth  # it does fall first
+        plain = _jaws([base, ridge], _at(z=0.04), X, 0.026, config)
+        assert plain.reason == GraspReason.FOUND
+        assert abs(float(plain.contact_width) - 0.05) < 0.004
+
+
 def _world(depth, camera, rotation, eye):
     """World points (H, W, 3) of every pixel, relative to the table's centre."""
     v, u = np.mgrid[:depth.shape[0], :depth.shape[1]]

@@ -18,12 +18,15 @@ answer, sample by sample along each jaw's path:
   a step up) nothing further out is the part's fall, seen or unseen (its
   shadow); a stretch the camera does not see (no depth, or hidden by the
   part's own top) is a fall only where the surface seen after it has fallen
-  or none is. Closing at the
+  or none is. The fall is judged through the tips' level and through the
+  top's, and the worse counts: a camera tilted far to the side of the pads
+  sees the tips' level well beside their lanes. Closing at the
   tips' level, each jaw touches the part where it first stands higher than
   the tips, so the jaws may hold a part wider below its top, as a rounded
-  one; between the band and the contact there is no gap (a gap means the
-  jaw closes on something else), and the contact width fits the opening.
-  Else `JAWS_BLOCKED`.
+  one; between the band and the contact there is no gap (a fall below the
+  tips, or a rise after a fall: a groove, then something beyond it; either
+  way the jaw closes on something else), and the contact width fits the
+  opening. Else `JAWS_BLOCKED`.
 * With the wall check on (`detect.wall_check`, the realistic preset), the
   side is judged where the jaw touches it, not at the band's top edge: it
   must fall steeper than 90 deg - atan(friction) there (else `NO_WALL`).
@@ -83,6 +86,48 @@ def _path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax
     return jnp.where(seen, height, jnp.inf), jnp.where(seen, out, jnp.inf), seen
 
 
+def _landing(height, out, seen, width, step, pixel, below_top: bool, detect: DetectorConfig,
+             gripper: GripperConfig) -> jax.Array:
+    """How far the part falls beside the band, at the worst lane of both jaws (m; inf: a lane's
+    fall unseen), from one level's samples: heights, where their rays met the surface and which
+    had depth (2, A, L); width: the band's; step: between samples; pixel: a pixel's size at the
+    grasp (m); below_top: the samples lie below the band's top (the tips' level).
+
+    The band has sides: the part falls at least the shallowest grasp depth within friction x
+    that depth of the band's edge (on average steeper than the pads' friction cone); else the
+    band tops a mound or a shoulder, and the jaws land on the part. Judged where each ray met
+    the surface (a tilted ray meets it nearer or farther out than its sample). What the rays do
+    not show is a stretch between two surface points seen one after the other along the lane
+    (samples without depth, or rays that all meet the part's own top: the far side of a tall
+    part seen by a tilted camera), wider than the samples and pixels leave on a surface seen
+    throughout; it is a drop where it begins within that reach and the surface seen after it
+    has fallen the shallowest grasp depth, or where nothing is seen after it. Seen again less
+    deep, the top went on past the band's edge (a specular strip, or a top level with the band
+    under part of a pad). Every lane across the pad's width must fall: one lane on a ledge
+    holds the jaw up. From the first sample out that stands above the band's top (a taller
+    neighbour, a wall or a step up) the lane no longer shows the part's side: a fall seen
+    beyond it, or a stretch unseen there (the taller surface's shadow), is not a landing.
+    """
+    reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
+    unseen_gap = 2 * step + pixel  # two samples and a pixel
+    farthest = jnp.maximum(width / 2, jax.lax.cummax(jnp.where(seen, out, -jnp.inf), axis=1))
+    before = jnp.concatenate([jnp.full_like(farthest[:, :1], width / 2), farthest[:, :-1]],
+                             axis=1)  # (2, A, L) farthest out seen before each sample (the edge)
+    risen = seen & (height < -detect.surface_tolerance)
+    beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
+    # Below the top, the first sample's ray may meet the side well out from the edge on the side
+    # facing the camera, seen by rays inside the band's width that are not sampled: it ends no
+    # stretch. At the top's level it meets the band's edge (or, grazing it, what lies beyond).
+    first = (jnp.arange(height.shape[1]) == 0) & below_top
+    unseen_drop = (seen & (out - before > unseen_gap) & (before <= reach_out)
+                   & (height >= detect.min_grasp_depth) & ~first[:, None])
+    fall = jnp.where(beyond, -jnp.inf, jnp.where(
+        unseen_drop, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf)))  # out: inf unseen
+    open_end = (~seen[:, -1] & (farthest[:, -1] <= reach_out)
+                & ~jnp.any(risen, 1))  # (2, L) unseen to the lane's end
+    return jnp.min(jnp.where(open_end, jnp.inf, jnp.max(fall, 1)))
+
+
 def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
                approach: jax.Array, width: jax.Array, detect: DetectorConfig,
                gripper: GripperConfig, image: RealImageConfig) -> JawCheck:
@@ -106,45 +151,26 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     footprint = across >= gripper.opening / 2
     free = jnp.min(jnp.where(footprint, top, jnp.inf))
     reach = jnp.minimum(wanted, free - detect.depth_clearance)
-    # The band has sides: the part falls at least the shallowest grasp depth within
-    # friction x that depth of the band's edge (on average steeper than the pads' friction
-    # cone); else the band tops a mound or a shoulder, and the jaws land on the part.
-    # Judged where each ray met the surface (a tilted ray meets it nearer or farther out than
-    # its sample). What the rays do not show is a stretch between two surface points seen one
-    # after the other along the lane (samples without depth, or rays that all meet the part's
-    # own top: the far side of a tall part seen by a tilted camera), wider than the samples and
-    # pixels leave on a surface seen throughout; it is a drop where it begins within that reach
-    # and the surface seen after it has fallen the shallowest grasp depth, or where nothing is
-    # seen after it. Seen again less deep, the top went on past the band's edge (a specular
-    # strip, or a top level with the band under part of a pad).
-    # Every lane across the pad's width must fall: one lane on a ledge holds the jaw up.
-    # From the first sample out that stands above the band's top (a taller neighbour, a wall or
-    # a step up) the lane no longer shows the part's side: a fall seen beyond it, or a stretch
-    # unseen there (the taller surface's shadow), is not a landing.
-    reach_out = width / 2 + detect.min_grasp_depth * gripper.friction
-    unseen_gap = 2 * step + center[2] / camera.fx  # two samples and a pixel
-    farthest = jnp.maximum(width / 2, jax.lax.cummax(jnp.where(seen, out, -jnp.inf), axis=1))
-    before = jnp.concatenate([jnp.full_like(farthest[:, :1], width / 2), farthest[:, :-1]],
-                             axis=1)  # (2, A, L) farthest out seen before each sample (the edge)
-    risen = seen & (height < -detect.surface_tolerance)
-    beyond = jnp.cumsum(risen, axis=1) > 0  # (2, A, L) at or past the lane's first risen sample
-    # The first sample's ray may meet the side well out from the edge on the side facing the
-    # camera, seen by rays inside the band's width that are not sampled: it ends no stretch.
+    # The band has sides (`_landing`), seen through the tips' level and through the top's: at a
+    # steep view the rays through the tips' level meet the surface far to the side of the
+    # pad's lanes, where it may already have fallen; through the top's level they meet a top
+    # that goes on near the lane.
     index = jnp.arange(samples)
-    unseen_drop = (seen & (out - before > unseen_gap) & (before <= reach_out)
-                   & (height >= detect.min_grasp_depth) & (index[:, None] > 0))
-    fall = jnp.where(beyond, -jnp.inf, jnp.where(
-        unseen_drop, jnp.inf, jnp.where(out <= reach_out, height, -jnp.inf)))  # out: inf unseen
-    open_end = (~seen[:, -1] & (farthest[:, -1] <= reach_out)
-                & ~jnp.any(risen, 1))  # (2, L) unseen to the lane's end
-    landing = jnp.min(jnp.where(open_end, jnp.inf, jnp.max(fall, 1)))  # the worst lane's fall
+    at_top = _path_heights(depth, camera, center, axis, approach, across, lateral, jnp.float32(0))
+    landing = jnp.minimum(
+        _landing(height, out, seen, width, step, center[2] / camera.fx, True, detect, gripper),
+        _landing(*at_top, width, step, center[2] / camera.fx, False, detect, gripper))
     sides = landing >= detect.min_grasp_depth
     # Closing at the tips' level: each jaw touches the part where it first stands higher than
-    # the tips, with no gap between the band and the contact (else it closes on something else).
+    # the tips, with no gap between the band and the contact: no fall below the tips, and no
+    # rise after a fall (a groove, then something beyond it); else it closes on something else.
     above = top < reach  # (2, A)
     last = jnp.max(jnp.where(above, index, 0), -1)  # (2,) the outermost sample above the tips
     contact_width = width + jnp.sum(last) * step
-    gap = jnp.any((index < last[:, None]) & (top > reach + detect.surface_tolerance))
+    deepest = jax.lax.cummax(jnp.where(jnp.isfinite(top), top, -jnp.inf), axis=1)
+    rises = top[:, 1:] < deepest[:, :-1] - detect.surface_tolerance  # (2, A - 1)
+    gap = (jnp.any((index < last[:, None]) & (top > reach + detect.surface_tolerance))
+           | jnp.any((index[1:] <= last[:, None]) & rises))
     fits = contact_width <= gripper.opening - 2 * detect.clearance
     # The wall where the jaws touch (`wall_check`): over `run` samples each side of the contact
     # the side falls at least 1 / friction per unit of run (its normal in the pads' cone).
