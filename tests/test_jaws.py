@@ -12,7 +12,7 @@ from graspjax.config import Config, RealImageConfig, preset
 from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
 from graspjax.perception.jaws import check_jaws
-from graspjax.synthetic import box, regular_prism, rot_x, rot_y
+from graspjax.synthetic import box, prism, regular_prism, rot_x, rot_y
 
 CENTRE = table_centre()
 check = jax.jit(check_jaws)
@@ -197,6 +197,40 @@ def test_a_groove_then_something_beyond_it_is_what_the_jaws_close_on():
         assert abs(float(plain.contact_width) - 0.05) < 0.004
 
 
+def _ridged_top(length=0.12):
+    """A 6 cm wide part, `length` long (y), 2 cm high, with a ridge along y: 2 cm wide on top,
+    6.5 mm higher, its flanks sloping 30 degrees down to a 8.75 mm wide shoulder along each
+    edge (the top falls 6.5 mm, gently, then 2 cm to the table)."""
+    rise = 0.0065
+    half_base = 0.01 + rise / np.tan(np.deg2rad(30.0))
+    trapezoid = [(-half_base, 0.0), (half_base, 0.0), (0.01, rise), (-0.01, rise)]
+    ridge = prism(trapezoid, length).moved(rot_x(np.pi / 2), _at(y=length / 2, z=0.02))
+    return [box((0.06, length, 0.02), _at()), ridge]
+
+
+def test_a_top_falling_gently_past_the_band_is_grasped_on_its_followed_surface():
+    """The ridged part (`_ridged_top`), 12 cm long: the T-beam's band (within 5 mm of the
+    ridge's depth) ends on the flanks, 6 mm down, and the shoulders beyond fall only 6.5 mm
+    within the reach (the jaws would land on them): every placement across it is refused, and
+    along it the part is too long. The contour search on the target's followed surface (the
+    ridge, flanks and shoulders, depth-connected) closes across the whole 6 cm."""
+    depth, camera, workspace, rotation, eye = table_with(_ridged_top())
+
+    def detect(image):
+        result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(), image)
+        return jax.tree.map(lambda x: np.asarray(x)[0], result)
+
+    tbeam_only = detect(RealImageConfig(contour_search=False, max_targets=1))
+    assert not bool(tbeam_only.found)
+    assert tbeam_only.attempt_reasons[0] == GraspReason.JAWS_BLOCKED
+    r = detect(RealImageConfig(max_targets=1))
+    assert bool(r.found) and bool(r.ranked.contour[0])
+    axis = rotation @ r.closing_axis
+    assert abs(axis[0]) > 0.97  # across the part
+    assert abs(float(r.ranked.width[0]) - 0.06) < 0.004
+    assert float(r.ranked.landing[0]) > 0.015  # its sides fall to the table
+
+
 def _world(depth, camera, rotation, eye):
     """World points (H, W, 3) of every pixel, relative to the table's centre."""
     v, u = np.mgrid[:depth.shape[0], :depth.shape[1]]
@@ -313,6 +347,7 @@ def test_a_blocked_bar_is_grasped_where_its_contour_is_free(beside, tbeam_reason
     assert 0.04 + 0.01 - 0.0015 <= centre[1] <= 0.07  # the pads past the ends (a pixel's leeway)
     assert abs(float(r.ranked.width[0]) - 0.04) < 0.004
     # The reported detector result is the contour placement's (after the T-beam's candidates).
-    tbeams = r.grasp.candidates.valid.shape[0] - Config().baseline.antipodal_contacts
+    # (the contour search's pairs: on the band's contour, then on the followed surface's)
+    tbeams = r.grasp.candidates.valid.shape[0] - 2 * Config().baseline.antipodal_contacts
     assert int(r.grasp.index) >= tbeams and bool(r.grasp.found)
     assert np.allclose(r.rotation @ r.grasp.position, r.position, atol=1e-5)

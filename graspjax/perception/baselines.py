@@ -39,14 +39,20 @@ from graspjax.perception.placements import (
 )
 
 
-def _band(depth: jax.Array, config: DetectorConfig, seed_mask: jax.Array | None):
-    """The target's surface band, as the T-beam finds it: valid pixels (H, W), any valid seed
-    (), the z_min pixel (2,), the band (H, W), its depth () and its pixel count ()."""
+def _band(depth: jax.Array, config: DetectorConfig, seed_mask: jax.Array | None,
+          surface: jax.Array | None = None):
+    """The target's surface band, as the T-beam finds it (or `surface` (H, W) bool, given):
+    valid pixels (H, W), any valid seed (), the z_min pixel (2,), the band (H, W), its mean
+    depth () and its pixel count ()."""
     valid = valid_mask(depth)
     any_valid = jnp.any(valid if seed_mask is None else valid & seed_mask)
     seed, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
-    cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
-                                  config.band_step)
+    if surface is None:
+        cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
+                                      config.band_step)
+    else:
+        cluster = valid & surface
+        z_s = jnp.sum(jnp.where(cluster, depth, 0.0)) / jnp.maximum(jnp.sum(cluster), 1)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
     return valid, any_valid, seed, cluster, z_s, jnp.sum(cluster)
 
@@ -138,12 +144,13 @@ def _spread(mask: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
 def antipodal_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
                     gripper: GripperConfig = GripperConfig(),
                     baseline: BaselineConfig = BaselineConfig(),
-                    seed_mask: jax.Array | None = None) -> Grasp:
+                    seed_mask: jax.Array | None = None, surface: jax.Array | None = None) -> Grasp:
     """Antipodal contact pairs on the nearest surface band's boundary (module docstring).
-    depth: metric depth (H, W); seed_mask: as for `detect_grasp`. M = `antipodal_contacts`
-    candidates."""
+    depth: metric depth (H, W); seed_mask: as for `detect_grasp`; surface: optional (H, W)
+    bool, the target's surface to pair contacts on instead of the band. M =
+    `antipodal_contacts` candidates."""
     depth = check_image(depth, camera)
-    valid, any_valid, seed, cluster, z_s, n_surface = _band(depth, config, seed_mask)
+    valid, any_valid, seed, cluster, z_s, n_surface = _band(depth, config, seed_mask, surface)
     height, width = cluster.shape
     xy = surface_xy(camera, z_s)
     normals = _outward_normals(cluster, camera, z_s)

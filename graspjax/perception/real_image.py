@@ -27,8 +27,10 @@
    the highest candidate outside the surfaces already tried, until `top_k`
    distinct grasps passed or `max_targets` were tried (the paper tries one:
    its nearest object). When none of a target's T-beam placements passes, with
-   `image.contour_search` `per` of its contour's antipodal pairs (`antipodal_grasp`),
-   spread along it, are checked the same way before it is given up (clutter).
+   `image.contour_search` `per` antipodal pairs (`antipodal_grasp`) spread along its
+   band's contour, and `per` along its followed surface's (a top that slopes past the
+   band's depth), are checked the same way, the best `per` kept, before it is given up
+   (clutter).
    The best `top_k` are returned, best first. Align (`align_tool`) in the
    window of the best grasp's target (the last target when none passed).
 
@@ -289,11 +291,23 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         reason = outcome(placements, grasp.reason)
         if contour_search:
             def search():
-                pairs = antipodal_grasp(window, window_camera, window_config.detect,
-                                        config.gripper, config.baseline, seed & has_target)
-                searched = checked(pairs.candidates, pairs.found & has_target, centre, k,
-                                   grasp.candidates.valid.shape[0], True)
-                return pairs.candidates, searched, outcome(searched, pairs.reason)
+                # Pairs on the band's contour, and on the target's followed surface's (a top
+                # that slopes or bulges past the band's depth: the part's own outline); `per`
+                # of each checked, the `per` best kept.
+                first = grasp.candidates.valid.shape[0]
+                searches = [antipodal_grasp(window, window_camera, window_config.detect,
+                                            config.gripper, config.baseline, seed & has_target,
+                                            surface=surface)
+                            for surface in (None, seed & has_target)]
+                both = jax.tree.map(lambda *parts: jnp.concatenate(parts), *[
+                    checked(pairs.candidates, pairs.found & has_target, centre, k,
+                            first + i * pairs.candidates.valid.shape[0], True)
+                    for i, pairs in enumerate(searches)])
+                reason = outcome(both, further_reason(*[pairs.reason for pairs in searches]))
+                _, best = lax.top_k(both["score"], per)
+                candidates = jax.tree.map(lambda *parts: jnp.concatenate(parts),
+                                          *[pairs.candidates for pairs in searches])
+                return candidates, jax.tree.map(lambda x: x[best], both), reason
 
             def skipped():  # no placement, every one refused
                 pairs, searched, _ = jax.tree.map(jnp.zeros_like, jax.eval_shape(search))
