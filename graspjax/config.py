@@ -612,8 +612,9 @@ class RealImageConfig:
     candidates_per_target: int = 16  # the most central grasps of each target checked at full resolution
     contour_search: bool = True  # ours, paper method: when none of a target's checked T-beam
     # placements passes, `candidates_per_target` of its contour's antipodal pairs
-    # (`baseline.antipodal_*`), spread along it, are checked the same way before the target is
-    # given up (clutter: a place or closing direction the T-beam lacks)
+    # (`baseline.antipodal_*`), spread along it, and as many along its followed surface's
+    # contour, are checked the same way before the target is given up (clutter: a place or
+    # closing direction the T-beam lacks; a top sloping past the band: the part's outline)
     top_k: int = 1  # grasps returned, best first (`--top K`); targets are tried until this many pass
     min_width: float = 0.01  # narrower gripped parts are refused, TOO_NARROW (m)
     jaw_samples: int = 32  # samples along each jaw's path, band edge to outer jaw face

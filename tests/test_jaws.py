@@ -192,6 +192,7 @@ def test_a_groove_then_something_beyond_it_is_what_the_jaws_close_on():
         beyond = _jaws([base, ridge, *rails], _at(z=0.04), X, 0.026, config)
         assert beyond.reason == GraspReason.JAWS_BLOCKED
         assert float(beyond.landing) >= config.detect.min_grasp_depth  # it does fall first
+        assert abs(float(beyond.contact_width) - 0.05) < 0.004  # on the rails' outer faces
         plain = _jaws([base, ridge], _at(z=0.04), X, 0.026, config)
         assert plain.reason == GraspReason.FOUND
         assert abs(float(plain.contact_width) - 0.05) < 0.004

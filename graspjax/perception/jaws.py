@@ -31,9 +31,10 @@ answer, sample by sample along each jaw's path:
   side is judged where the jaw touches it, not at the band's top edge: it
   must fall steeper than 90 deg - atan(friction) there (else `NO_WALL`).
 
-A sample is a point at the finger tips' level; the camera ray through it
-meets the surface at the pixel it projects to, and the sample's height is
-that surface point's distance below the grasp centre along the approach.
+A sample is a point at the finger tips' level (for the landing, also at the
+top's); the camera ray through it meets the surface at the pixel it projects
+to, and the sample's height is that surface point's distance below the grasp
+centre along the approach.
 Pixels without depth count as free (a real sensor loses edges; the record
 says how many there were). `grasp_score` ranks the grasps that pass.
 """
@@ -60,14 +61,15 @@ class JawCheck:
     depth: jax.Array  # () finger-tip depth below the grasp centre the jaws can reach
     clearance: jax.Array  # () free height below the finger tips in the checked path (inf: all free)
     landing: jax.Array  # () how far the part falls beside the band, at the worst of both jaws'
-    # lanes across the pad's width (inf: a lane's fall unseen); kept if >= min_grasp_depth
+    # lanes across the pad's width, the worse of the tips' and the top's level (inf: a lane's
+    # fall unseen); kept if >= min_grasp_depth
     contact_width: jax.Array  # () distance between the jaws where they touch the part
     unknown: jax.Array  # () share of the path's samples without depth
 
 
 def _path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
                   approach: jax.Array, across: jax.Array, lateral: jax.Array,
-                  level: jax.Array) -> tuple[jax.Array, jax.Array]:
+                  level: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Depth below `center` along `approach` of the surface seen through points at `level` below
     it, `across` (A,) along the closing axis on both sides and `lateral` (L,) along the edge:
     heights (2, A, L) (inf: no depth), how far out along the closing axis the ray met the

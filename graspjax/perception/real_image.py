@@ -291,23 +291,26 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         reason = outcome(placements, grasp.reason)
         if contour_search:
             def search():
-                # Pairs on the band's contour, and on the target's followed surface's (a top
-                # that slopes or bulges past the band's depth: the part's own outline); `per`
-                # of each checked, the `per` best kept.
+                # Pairs on the band's contour and on the followed surface's (a top sloping past
+                # the band's depth: the part's outline); `per` of each checked, the `per` best
+                # distinct kept (the two propose the same pairs where the band is the surface).
                 first = grasp.candidates.valid.shape[0]
                 searches = [antipodal_grasp(window, window_camera, window_config.detect,
                                             config.gripper, config.baseline, seed & has_target,
-                                            surface=surface)
-                            for surface in (None, seed & has_target)]
+                                            surface=outline)
+                            for outline in (None, seed & has_target)]
                 both = jax.tree.map(lambda *parts: jnp.concatenate(parts), *[
                     checked(pairs.candidates, pairs.found & has_target, centre, k,
                             first + i * pairs.candidates.valid.shape[0], True)
                     for i, pairs in enumerate(searches)])
                 reason = outcome(both, further_reason(*[pairs.reason for pairs in searches]))
-                _, best = lax.top_k(both["score"], per)
+                best, distinct = _select(both["passed"], both["score"], both["position"],
+                                         both["axis"], per, image.duplicate_distance)
+                kept = jax.tree.map(lambda x: x[jnp.clip(best, 0)], both)
+                kept.update(passed=distinct, score=jnp.where(distinct, kept["score"], -jnp.inf))
                 candidates = jax.tree.map(lambda *parts: jnp.concatenate(parts),
                                           *[pairs.candidates for pairs in searches])
-                return candidates, jax.tree.map(lambda x: x[best], both), reason
+                return candidates, kept, reason
 
             def skipped():  # no placement, every one refused
                 pairs, searched, _ = jax.tree.map(jnp.zeros_like, jax.eval_shape(search))
