@@ -29,6 +29,11 @@ def where_tree(flag: jax.Array, a, b):
     return jax.tree.map(lambda x, y: jnp.where(flag, x, y), a, b)
 
 
+def concat_trees(*trees):
+    """Pytrees of one structure joined along their leaves' leading axis."""
+    return jax.tree.map(lambda *parts: jnp.concatenate(parts), *trees)
+
+
 def named_fields(obj: Any, prefix: str = "") -> dict[str, Any]:
     """Every field of a (nested) dataclass that is not itself a dataclass, by dotted name
     (`{"align.window_px": 15, ...}`), in declaration order."""

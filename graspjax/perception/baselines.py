@@ -25,7 +25,13 @@ import jax.numpy as jnp
 from graspjax.camera import Camera
 from graspjax.codes import GraspReason
 from graspjax.config import BaselineConfig, DetectorConfig, GripperConfig
-from graspjax.perception.cluster import boundary_pixels, nearest_pixel, target_surface, valid_mask
+from graspjax.perception.cluster import (
+    boundary_pixels,
+    mean_depth,
+    nearest_pixel,
+    target_surface,
+    valid_mask,
+)
 from graspjax.perception.contour import Edges
 from graspjax.perception.grasp import detect_grasp
 from graspjax.perception.placements import (
@@ -52,7 +58,7 @@ def _band(depth: jax.Array, config: DetectorConfig, seed_mask: jax.Array | None,
                                       config.band_step)
     else:
         cluster = valid & surface
-        z_s = jnp.sum(jnp.where(cluster, depth, 0.0)) / jnp.maximum(jnp.sum(cluster), 1)
+        z_s = mean_depth(depth, cluster)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
     return valid, any_valid, seed, cluster, z_s, jnp.sum(cluster)
 

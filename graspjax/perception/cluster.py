@@ -155,6 +155,11 @@ def connected_surface(depth: jax.Array, allowed: jax.Array, seed: jax.Array, max
                   depth.shape[1], steps_per_iteration)
 
 
+def mean_depth(depth: jax.Array, mask: jax.Array) -> jax.Array:
+    """Mean of `depth` (H, W) over `mask` (H, W) bool (0 where it is empty)."""
+    return jnp.sum(jnp.where(mask, depth, 0.0)) / jnp.maximum(jnp.sum(mask), 1)
+
+
 def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
                    tolerance: float, max_step: float = 0.0) -> tuple[jax.Array, jax.Array]:
     """The surface cluster of the nearest object and its depth.
@@ -168,10 +173,6 @@ def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
     neighbour whose top lies within the band, a step away, stays out.
     Returns the mask (H, W) bool and z_s (the mean depth of the final cluster).
     """
-    def mean_depth(mask):
-        n = jnp.sum(mask)
-        return jnp.sum(jnp.where(mask, depth, 0.0)) / jnp.maximum(n, 1)
-
     def band(low, high):
         if max_step > 0:
             return connected_surface(depth, valid & (depth >= low) & (depth <= high), seed,
@@ -179,9 +180,9 @@ def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
         return surface_cluster(depth, valid, seed, low, high)
 
     first = band(z_min, z_min + tolerance)
-    z_first = mean_depth(first)
+    z_first = mean_depth(depth, first)
     cluster = band(z_first - tolerance, z_first + tolerance)
-    return cluster, mean_depth(cluster)
+    return cluster, mean_depth(depth, cluster)
 
 
 def boundary_pixels(mask: jax.Array) -> jax.Array:

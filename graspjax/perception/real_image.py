@@ -62,7 +62,7 @@ from graspjax.perception.target import best_candidate, slope_against, standing_c
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
 from graspjax.perception.window import detection_window, followed_surface, in_view
 from graspjax.perception.workspace import working_views
-from graspjax.tree import pytree_dataclass
+from graspjax.tree import concat_trees, pytree_dataclass
 
 
 @pytree_dataclass
@@ -299,7 +299,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                                             config.gripper, config.baseline, seed & has_target,
                                             surface=outline)
                             for outline in (None, seed & has_target)]
-                both = jax.tree.map(lambda *parts: jnp.concatenate(parts), *[
+                both = concat_trees(*[
                     checked(pairs.candidates, pairs.found & has_target, centre, k,
                             first + i * pairs.candidates.valid.shape[0], True)
                     for i, pairs in enumerate(searches)])
@@ -308,8 +308,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                                          both["axis"], per, image.duplicate_distance)
                 kept = jax.tree.map(lambda x: x[jnp.clip(best, 0)], both)
                 kept.update(passed=distinct, score=jnp.where(distinct, kept["score"], -jnp.inf))
-                candidates = jax.tree.map(lambda *parts: jnp.concatenate(parts),
-                                          *[pairs.candidates for pairs in searches])
+                candidates = concat_trees(*[pairs.candidates for pairs in searches])
                 return candidates, kept, reason
 
             def skipped():  # no placement, every one refused
@@ -324,8 +323,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
             placements = jax.tree.map(lambda a, b: jnp.where(rescued, b, a), placements,
                                       searched)
             reason = further_reason(reason, searched_reason)  # skipped: NO_ANTIPODAL
-            grasp = dataclasses.replace(grasp, candidates=jax.tree.map(
-                lambda a, b: jnp.concatenate([a, b]), grasp.candidates, pairs))
+            grasp = dataclasses.replace(grasp, candidates=concat_trees(grasp.candidates, pairs))
         placements.pop("placed")
         own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
         return tried | surface | chosen, placements, own, grasp
