@@ -30,7 +30,8 @@
    `image.contour_search` `per` antipodal pairs (`antipodal_grasp`) spread along its
    band's contour, and `per` along its followed surface's (a top that slopes past the
    band's depth), are checked the same way, the best `per` kept, before it is given up
-   (clutter).
+   (clutter); a target given up gives up its whole followed surface, not only its band
+   (the next target is another object, not a lower band of the same dome).
    The best `top_k` are returned, best first. Align (`align_tool`) in the
    window of the best grasp's target (the last target when none passed).
 
@@ -49,7 +50,7 @@ import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
-from graspjax.codes import GraspReason, SupportReason
+from graspjax.codes import GraspReason
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_method
@@ -57,10 +58,10 @@ from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.jaws import check_jaws, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import further_reason, furthest_reason
-from graspjax.perception.support import SupportPlane, support_plane
+from graspjax.perception.support import SupportPlane, no_support, support_plane
 from graspjax.perception.target import best_candidate, slope_against, standing_candidates, surface_normals
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
-from graspjax.perception.window import detection_window, followed_surface, in_view
+from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
 from graspjax.perception.workspace import working_views
 from graspjax.tree import concat_trees, pytree_dataclass
 
@@ -128,13 +129,6 @@ class RealImageDetection:
     views: RealImageViews  # the images the steps worked on (for figures)
 
 
-def _no_support() -> SupportPlane:
-    nan3 = jnp.full(3, jnp.nan, jnp.float32)
-    return SupportPlane(found=jnp.array(False), reason=jnp.int32(SupportReason.OFF), normal=nan3,
-                        distance=jnp.float32(jnp.nan), tilt=jnp.float32(jnp.nan),
-                        inliers=jnp.int32(0), fraction=jnp.float32(0.0))
-
-
 @dataclasses.dataclass(frozen=True)
 class _Targets:
     """Steps 1-4 of `detect_real_image` on one image: its views and target candidates."""
@@ -166,7 +160,7 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
                                                          tolerance)
 
     # Support plane and the view (turned to face it when it is tilted).
-    support = support_plane(work, work_camera, image) if image.support else _no_support()
+    support = support_plane(work, work_camera, image) if image.support else no_support()
     virtual = support.found & (support.tilt > np.deg2rad(image.max_tilt_deg))
     rotation = view_rotation(support.normal, virtual)
     view = view_camera(work_camera, rotation)
@@ -230,6 +224,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     approach = rotation[:, 2]  # the view's optical axis, camera frame
     n, per = image.max_targets, image.candidates_per_target
     check = jax.vmap(check_jaws, in_axes=(None, None, 0, 0, None, 0, None, None, None))
+    factor = fine.shape[1] // view_depth.shape[1]  # detection pixels per support pixel
 
     # Targets in order of height, each outside the surfaces already tried; each detected in
     # its own window of the view at the detection resolution, its most central placements
@@ -326,7 +321,11 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
             grasp = dataclasses.replace(grasp, candidates=concat_trees(grasp.candidates, pairs))
         placements.pop("placed")
         own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
-        return tried | surface | chosen, placements, own, grasp
+        # A target given up on gives up its object: its followed surface (the outline the
+        # contour search paired across), not only its band, is tried.
+        given_up = surface_in_view(seed & has_target & ~jnp.any(placements["passed"]),
+                                   window_camera, points, valid, factor)
+        return tried | surface | chosen | given_up, placements, own, grasp
 
     # The loop carries the targets' small results (a batch's loop selects its whole carry at
     # every step) and the detector result of one target: the best grasp's so far (the last

@@ -48,6 +48,14 @@ class SupportPlane:
     fraction: jax.Array  # () inliers / valid grid pixels
 
 
+def no_support() -> SupportPlane:
+    """The result when the support plane is not looked for (`RealImageConfig.support` off)."""
+    nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    return SupportPlane(found=jnp.array(False), reason=jnp.int32(SupportReason.OFF), normal=nan3,
+                        distance=jnp.float32(jnp.nan), tilt=jnp.float32(jnp.nan),
+                        inliers=jnp.int32(0), fraction=jnp.float32(0.0))
+
+
 def plane_height(points: jax.Array, normal: jax.Array, distance) -> jax.Array:
     """Signed height `(...)` of camera-frame points `(..., 3)` above the plane (toward the camera)."""
     return (points[..., 0] * normal[0] + points[..., 1] * normal[1] + points[..., 2] * normal[2]

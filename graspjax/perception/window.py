@@ -17,6 +17,7 @@ import jax.numpy as jnp
 
 from graspjax.camera import Camera
 from graspjax.config import Config
+from graspjax.perception.placements import sample_nearest
 from graspjax.perception.support import SupportPlane
 from graspjax.perception.target import follow_target, standing_candidates
 from graspjax.perception.virtual import warp_depth, warp_values
@@ -53,3 +54,18 @@ def followed_surface(window: jax.Array, slope: jax.Array, camera: Camera, point:
     surface, _, _ = follow_target(window, camera, candidate, point, perception.surface_step,
                                   perception.follow_distance)
     return surface
+
+
+def surface_in_view(surface: jax.Array, camera: Camera, points: jax.Array, valid: jax.Array,
+                    factor: int) -> jax.Array:
+    """The pixels (h, w) bool of a view of the same frame `factor` times coarser that show a
+    window's `surface` (S, S) bool seen by `camera` (`detection_window`): those whose points
+    (h, w, 3) (`valid` (h, w) bool) project within half a coarse pixel of it (a coarse pixel
+    on its edge shows it in part)."""
+    reach = factor // 2
+    if reach > 0:
+        surface = jax.lax.reduce_window(surface, False, jax.lax.bitwise_or,
+                                        (2 * reach + 1, 2 * reach + 1), (1, 1), "SAME")
+    safe = jnp.where(valid[..., None], points, jnp.array([0.0, 0.0, 1.0], points.dtype))
+    shown, _ = sample_nearest(surface, camera.project(safe), False)
+    return valid & shown
