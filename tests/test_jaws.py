@@ -299,9 +299,9 @@ def test_only_the_graspable_part_of_a_workspace_is_returned():
 def test_a_target_given_up_gives_up_its_object():
     """A 12 x 12 cm wedge, its top sloping 20 degrees from 6.4 cm down to 2 cm (too wide to
     grasp across either way; every band of it a strip whose jaws land on the slope below), and
-    a 3 x 4 x 1.5 cm box. Its bands are the highest targets, one after another; once the first
-    is given up, its whole followed surface (the wedge's top) is, so the second target is the
-    box, found within three targets."""
+    a 3 x 4 x 1.5 cm box. Its bands are the highest targets, one after another (the old rule,
+    giving up a band at a time, spends three targets on them); once the first is given up, its
+    whole followed surface (the wedge's top) is, so the second target is the box."""
     profile = [(-0.06, 0.0), (0.06, 0.0), (0.06, 0.064), (-0.06, 0.02)]
     wedge = prism(profile, 0.12).moved(rot_x(np.pi / 2), _at(x=-0.05, y=0.06))
     part = box((0.03, 0.04, 0.015), _at(x=0.09, y=-0.05))
@@ -310,9 +310,12 @@ def test_a_target_given_up_gives_up_its_object():
                           RealImageConfig(max_targets=3))
     r = jax.tree.map(lambda x: np.asarray(x)[0], result)
     assert bool(r.found)
-    assert int(r.attempts) == 2 and r.attempt_reasons[0] != GraspReason.FOUND
+    assert int(r.attempts) == 2
+    assert r.attempt_reasons[0] != GraspReason.FOUND and r.attempt_reasons[1] == GraspReason.FOUND
+    assert int(r.ranked.attempt[0]) == 1
     top = rotation.T @ (np.array(_at(x=0.09, y=-0.05, z=0.015)) - eye)
     assert np.linalg.norm(r.position - top) < 0.02
+    assert np.linalg.norm(r.target_point - top) < 0.03  # the second target is on the box
 
 
 @pytest.mark.parametrize("top_k", [3])

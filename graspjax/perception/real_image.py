@@ -30,8 +30,8 @@
    `image.contour_search` `per` antipodal pairs (`antipodal_grasp`) spread along its
    band's contour, and `per` along its followed surface's (a top that slopes past the
    band's depth), are checked the same way, the best `per` kept, before it is given up
-   (clutter); a target given up gives up its whole followed surface, not only its band
-   (the next target is another object, not a lower band of the same dome).
+   (clutter); a target given up gives up its followed surface in the window, not only its
+   band (the next target is another object, not a lower band of the same dome).
    The best `top_k` are returned, best first. Align (`align_tool`) in the
    window of the best grasp's target (the last target when none passed).
 
@@ -321,8 +321,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
             grasp = dataclasses.replace(grasp, candidates=concat_trees(grasp.candidates, pairs))
         placements.pop("placed")
         own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
-        # A target given up on gives up its object: its followed surface (the outline the
-        # contour search paired across), not only its band, is tried.
+        # A target given up gives up its object: its followed surface in the window (with the
+        # contour search, the outline it paired across), not only its band, is tried.
         given_up = surface_in_view(seed & has_target & ~jnp.any(placements["passed"]),
                                    window_camera, points, valid, factor)
         return tried | surface | chosen | given_up, placements, own, grasp

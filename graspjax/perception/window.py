@@ -60,8 +60,8 @@ def surface_in_view(surface: jax.Array, camera: Camera, points: jax.Array, valid
                     factor: int) -> jax.Array:
     """The pixels (h, w) bool of a view of the same frame `factor` times coarser that show a
     window's `surface` (S, S) bool seen by `camera` (`detection_window`): those whose points
-    (h, w, 3) (`valid` (h, w) bool) project within half a coarse pixel of it (a coarse pixel
-    on its edge shows it in part)."""
+    (h, w, 3) (`valid` (h, w) bool) project within about half a coarse pixel of it (a coarse
+    pixel on its edge shows it in part; `factor` whole, rounded down)."""
     reach = factor // 2
     if reach > 0:
         surface = jax.lax.reduce_window(surface, False, jax.lax.bitwise_or,
