@@ -21,7 +21,7 @@ from graspjax.perception.target import (
     target_candidates,
 )
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
-from graspjax.perception.window import detection_window, followed_surface, in_view
+from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
 from graspjax.perception.workspace import block_median, fill_holes
 from graspjax.synthetic import analytic_depth, box
 
@@ -232,6 +232,35 @@ def test_normals_seen_through_a_view_that_faces_a_steep_table():
     seen = np.isfinite(slope)
     assert seen.mean() > 0.3
     assert np.all(slope[seen] < np.tan(np.deg2rad(0.5)))
+
+
+def test_a_windows_surface_seen_in_a_view_four_times_coarser():
+    """A 32-pixel square (fine pixels 40-71 of a 96-pixel window whose principal point is
+    shifted 8 pixels, as `detection_window` cuts it) seen from a 32-pixel view of the same
+    optics, 4 times coarser (`Camera.scaled`): coarse pixel u's centre lies on fine pixel
+    4u + 1.5 of the full image, 4u - 6.5 of the window. Coarse pixels whose blocks lie inside
+    the square (u 12-19) show it, those a whole coarse pixel or more outside do not (u <= 10,
+    u >= 21), the edge ones within half a coarse pixel (u 11, 20) may; invalid points never."""
+    full = Camera(128, 128, 100.0, 100.0, 63.5, 63.5)
+    window = Camera(96, 96, 100.0, 100.0, 63.5 - 8, 63.5 - 8)
+    coarse = full.scaled(32, 32)
+    surface = np.zeros((96, 96), bool)
+    surface[40:72, 40:72] = True
+    depth = np.full((32, 32), 0.8, np.float32)
+    depth[0, :] = 0.0  # no depth on the first row
+    points = coarse.unproject(coarse.pixel_grid(), jnp.asarray(depth))
+    shown = np.asarray(surface_in_view(jnp.asarray(surface), window, points,
+                                       jnp.asarray(depth > 0), 4))
+    inside = np.zeros(32, bool)
+    inside[12:20] = True
+    edge = np.zeros(32, bool)
+    edge[[11, 20]] = True
+    assert shown[np.ix_(inside, inside)].all()
+    outside = ~(inside | edge)
+    assert not shown[outside].any() and not shown[:, outside].any()
+    assert not shown[0].any()
+    none = surface_in_view(jnp.zeros((96, 96), bool), window, points, jnp.asarray(depth > 0), 4)
+    assert not np.asarray(none).any()
 
 
 def test_a_turned_views_target_surface_stops_at_the_objects_side():
