@@ -63,7 +63,7 @@ from graspjax.perception.target import best_candidate, slope_against, standing_c
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
 from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
 from graspjax.perception.workspace import working_views
-from graspjax.tree import concat_trees, pytree_dataclass
+from graspjax.tree import concat_trees, pytree_dataclass, where_tree
 
 
 @pytree_dataclass
@@ -315,8 +315,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
             pairs, searched, searched_reason = lax.cond(
                 ~jnp.any(placements["passed"]) & has_target, search, skipped)
             rescued = jnp.any(searched["passed"])
-            placements = jax.tree.map(lambda a, b: jnp.where(rescued, b, a), placements,
-                                      searched)
+            placements = where_tree(rescued, searched, placements)
             reason = further_reason(reason, searched_reason)  # skipped: NO_ANTIPODAL
             grasp = dataclasses.replace(grasp, candidates=concat_trees(grasp.candidates, pairs))
         placements.pop("placed")
@@ -343,7 +342,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         own_score = jnp.max(placements["score"])
         better = (own_score > best_score) | (best_score == -jnp.inf)  # ties keep the first
         best = (jnp.where(better, own_score, best_score), jnp.where(better, k, best_k),
-                jax.tree.map(lambda new, old: jnp.where(better, new, old), grasp, best_grasp))
+                where_tree(better, grasp, best_grasp))
         return k + 1, tried, pool, best
 
     def distinct(pool):
