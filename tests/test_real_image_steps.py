@@ -156,6 +156,28 @@ def test_surface_slope_far_off_the_optical_axis(slope_deg):
     assert np.all(steep[2:-2, 2:-2] > 85.0)
 
 
+def test_surface_slope_against_a_turned_axis():
+    """The plane z = z0 + tan(30 deg) y against an axis turned 30 deg about x (the plane's own
+    normal direction) has no slope, against one turned 30 deg the other way 60 deg; and it is
+    `slope_against` of `surface_normals`, unknown (inf) where the depth is."""
+    camera = Camera(41, 31, 300.0, 300.0, 20.0, 15.0)
+    v = np.arange(31, dtype=np.float64)[:, None] * np.ones((1, 41))
+    a = np.deg2rad(30.0)
+    z = 0.7 / (1.0 - np.tan(a) * (v - 15.0) / 300.0)
+    z[10:13, 5:8] = 0.0
+    depth = jnp.asarray(z, jnp.float32)
+    inner = (slice(2, -2), slice(2, -2))
+    for turn, expected in ((a, 0.0), (-a, np.tan(2 * a))):
+        axis = jnp.asarray([0.0, -np.sin(turn), np.cos(turn)], jnp.float32)
+        slope = np.asarray(surface_slope(depth, camera, 2, axis))
+        known = np.isfinite(slope)
+        assert not known[10:13, 5:8].any() and known[inner].mean() > 0.9
+        assert np.allclose(slope[inner][known[inner]], expected, atol=0.02)
+        reference = np.asarray(slope_against(surface_normals(depth, camera, 2), axis))
+        assert np.array_equal(np.isfinite(reference), known)
+        assert np.allclose(slope[known], reference[known], rtol=1e-5, atol=1e-6)
+
+
 def test_support_plane_of_a_tilted_table_with_an_object(support):
     depth, rotation, eye = _table([box((0.04, 0.07, 0.04), (0.02, 0.15, 0.0), 0.3)])
     plane = support(jnp.asarray(depth), WORK)

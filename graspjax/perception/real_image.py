@@ -59,7 +59,7 @@ from graspjax.perception.jaws import check_jaws, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import further_reason, furthest_reason
 from graspjax.perception.support import SupportPlane, no_support, support_plane
-from graspjax.perception.target import best_candidate, slope_against, standing_candidates, surface_normals
+from graspjax.perception.target import best_candidate, standing_candidates, surface_slope
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
 from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
 from graspjax.perception.workspace import working_views
@@ -170,14 +170,13 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
     # Slopes measured on the real image, against the view's axis: a turned view repeats real
     # pixels, so its own depth steps are no slope.
     axis = rotation[:, 2]
-    slope = warp_values(slope_against(surface_normals(work, work_camera, step), axis),
-                        work_camera, view, rotation, jnp.inf)
+    slope = warp_values(surface_slope(work, work_camera, step, axis), work_camera, view, rotation,
+                        jnp.inf)
     candidate, height, reason = standing_candidates(
         view_depth, view, in_view(support, rotation), window=image.target_window_px,
         min_pixels=image.min_target_pixels, max_slope_deg=image.max_target_slope_deg,
         min_height=config.perception.min_height, tolerance=tolerance, slope=slope)
-    fine_slope = slope_against(surface_normals(fine, fine_camera,
-                                               step * (fine.shape[1] // work.shape[1])), axis)
+    fine_slope = surface_slope(fine, fine_camera, step * (fine.shape[1] // work.shape[1]), axis)
     score = jnp.where(support.found, height, -view_depth)  # highest above it; else z_min
     return _Targets(fine, fine_camera, fine_slope, work, work_camera, support, virtual,
                     rotation, view, view_depth, points, height, candidate, score, reason)

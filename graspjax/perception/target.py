@@ -60,6 +60,36 @@ def similar_neighbours(depth: jax.Array, window: int, tolerance: float) -> jax.A
     return jnp.where(valid, count, 0)
 
 
+def _normal_planes(depth: jax.Array, camera: Camera, step: int):
+    """`surface_normals` as three planes (nx, ny, nz), each (H, W), and where they are known
+    (H, W): computed plane by plane, with no (H, W, 3) stack to transpose and reduce."""
+    valid = valid_mask(depth)
+    z = jnp.where(valid, depth, 0.0)
+    height, width = depth.shape
+    v, u = jnp.meshgrid(jnp.arange(height, dtype=jnp.float32),
+                        jnp.arange(width, dtype=jnp.float32), indexing="ij")
+    points = jnp.stack([(u - camera.cx) * z / camera.fx, (v - camera.cy) * z / camera.fy, z])
+    padded_p = jnp.pad(points, ((0, 0), (step, step), (step, step)))  # (3, H + 2s, W + 2s)
+    padded_ok = jnp.pad(valid, step)
+
+    def tangent(du, dv):
+        sides, changes = [], []
+        for sign in (1, -1):
+            v0, u0 = step + sign * step * dv, step + sign * step * du
+            ok = padded_ok[v0: v0 + height, u0: u0 + width]
+            span = padded_p[:, v0: v0 + height, u0: u0 + width] - points
+            sides.append(span)
+            changes.append(jnp.where(ok, jnp.abs(span[2]), jnp.inf))
+        smoother = changes[0] <= changes[1]
+        return jnp.where(smoother, sides[0], sides[1]), jnp.isfinite(jnp.minimum(*changes))
+
+    (ax, ay, az), seen_u = tangent(1, 0)
+    (bx, by, bz), seen_v = tangent(0, 1)
+    normal = (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+    inverse = 1.0 / jnp.maximum(jnp.sqrt(sum(c * c for c in normal)), 1e-12)
+    return tuple(c * inverse for c in normal), valid & seen_u & seen_v
+
+
 def surface_normals(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
     """Unit surface normals `(H, W, 3)` in the camera frame, from the 3-D points (nan: unknown).
 
@@ -69,43 +99,31 @@ def surface_normals(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
     no use: slopes take its direction only). Unknown where neither side of
     an axis is valid.
     """
-    valid = valid_mask(depth)
-    points = camera.unproject(camera.pixel_grid(), jnp.where(valid, depth, 0.0))
-    height, width = depth.shape
-    padded_p = jnp.pad(points, ((step, step), (step, step), (0, 0)))
-    padded_ok = jnp.pad(valid, step)
+    normal, known = _normal_planes(depth, camera, step)
+    return jnp.where(known[..., None], jnp.stack(normal, -1), jnp.nan)
 
-    def tangent(du, dv):
-        sides, changes = [], []
-        for sign in (1, -1):
-            v0, u0 = step + sign * step * dv, step + sign * step * du
-            ok = padded_ok[v0: v0 + height, u0: u0 + width]
-            span = padded_p[v0: v0 + height, u0: u0 + width] - points
-            sides.append(span)
-            changes.append(jnp.where(ok, jnp.abs(span[..., 2]), jnp.inf))
-        smoother = (changes[0] <= changes[1])[..., None]
-        return jnp.where(smoother, sides[0], sides[1]), jnp.isfinite(jnp.minimum(*changes))
 
-    along_u, seen_u = tangent(1, 0)
-    along_v, seen_v = tangent(0, 1)
-    normal = jnp.cross(along_u, along_v)
-    normal = normal / jnp.maximum(jnp.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
-    return jnp.where((valid & seen_u & seen_v)[..., None], normal, jnp.nan)
+def _slope(normal, axis) -> jax.Array:
+    """Tangent of the angle between unit normals (nx, ny, nz) (...) and `axis` (3,)."""
+    cos = jnp.abs(normal[0] * axis[0] + normal[1] * axis[1] + normal[2] * axis[2])
+    return jnp.sqrt(jnp.maximum(1.0 - cos * cos, 0.0)) / jnp.maximum(cos, 1e-12)
 
 
 def slope_against(normals: jax.Array, axis) -> jax.Array:
     """Tangent `(...)` of the angle between surfaces with unit `normals` `(..., 3)` (nan:
     unknown) and a view's unit optical `axis` (3,) in their frame; inf where unknown."""
-    cos = jnp.abs(normals[..., 0] * axis[0] + normals[..., 1] * axis[1] + normals[..., 2] * axis[2])
-    slope = jnp.sqrt(jnp.maximum(1.0 - cos * cos, 0.0)) / jnp.maximum(cos, 1e-12)
+    slope = _slope(jnp.moveaxis(normals, -1, 0), axis)
     return jnp.where(jnp.isnan(slope), jnp.inf, slope)
 
 
-def surface_slope(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
-    """Tangent `(H, W)` of the surface's slope against the view (`surface_normals`), true
-    anywhere in the image: a vertical face seen far off the axis is steep, though its depth
-    changes by about one lateral pixel per pixel there; inf where unknown."""
-    return slope_against(surface_normals(depth, camera, step), (0.0, 0.0, 1.0))
+def surface_slope(depth: jax.Array, camera: Camera, step: int, axis=(0.0, 0.0, 1.0)) -> jax.Array:
+    """Tangent `(H, W)` of the surface's slope against a view's unit optical `axis` (3,) in the
+    camera frame (`surface_normals`; default the camera's own), true anywhere in the image: a
+    vertical face seen far off the axis is steep, though its depth changes by about one
+    lateral pixel per pixel there; inf where unknown. The same as `slope_against` of the
+    normals, without their (H, W, 3) stack."""
+    normal, known = _normal_planes(depth, camera, step)
+    return jnp.where(known, _slope(normal, axis), jnp.inf)
 
 
 def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_plane: jax.Array,
