@@ -1,0 +1,180 @@
+"""Does a capture hold grasps that `graspjax detect`'s own jaw checks accept but its search
+never proposes? Every grasp on a dense grid through `perception.jaws.check_jaws`, judged.
+
+    python experiments/exhaustive_jaws.py IMAGE (--intrinsics FILE | --fx FX --fy FY --cx CX
+        --cy CY) [--roi x0,y0,x1,y1] [--preset paper|realistic] [--set key=value ...]
+        [--stride 3] [--angle-step 15] [--csv OUT]
+
+A miss of the detector is either its search's (a grasp its checks would pass was never tried)
+or its checks' (none passes): this tells them apart. `graspjax detect` runs once for the
+support plane and the view's approach. Then a grasp is tried at every `--stride`-th pixel of
+the workspace box (and `--margin` rows below it: parts pushed past its edge) standing
+`--min-height` above the support, for every closing direction `--angle-step` apart across the
+support plane (0 deg: approach x the camera's x, about the image's columns; 90: about its
+rows). Its band is the T-beam's rule: the stretch along the closing axis, unbroken,
+within `detect.surface_tolerance` of the centre's own height (sampled every millimetre at the
+top's level, as the jaws' checks sample it); the grasp is centred on that band and checked at
+full resolution with the preset's settings (`check_jaws`, the same call the detector makes).
+Every grasp that passes is judged by `judge_real_depth.py`. The bands are the depth band's
+only (not the followed surface's, which the contour search also pairs on), so the grid is not
+a superset of the detector's proposals; its grasps at other heights and directions are.
+Prints the reasons' counts and every passing grasp; `--csv` writes one row per grasp tried.
+The captures stay outside the repository.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib.util
+import sys
+from collections import Counter
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from graspjax.arguments import UsageError, detect_settings
+from graspjax.codes import GraspReason
+from graspjax.imagefiles.batches import detect_files
+from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
+from graspjax.io import InputError
+from graspjax.perception.jaws import _path_heights, check_jaws
+from graspjax.perception.support import plane_height
+
+BAND_REACH = 0.045  # how far each side of the centre a band may run (m): past half the opening
+CHUNK = 20000  # grasps per compiled call
+
+
+def _judge():
+    path = Path(__file__).with_name("judge_real_depth.py")
+    spec = importlib.util.spec_from_file_location("judge_real_depth", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.judge
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("image")
+    parser.add_argument("--intrinsics", help="intrinsics file (else --fx --fy --cx --cy)")
+    for name in ("fx", "fy", "cx", "cy"):
+        parser.add_argument(f"--{name}", type=float)
+    parser.add_argument("--roi", help="workspace box x0,y0,x1,y1 (default: the whole image)")
+    parser.add_argument("--preset", default="paper", choices=["paper", "realistic"])
+    parser.add_argument("--set", action="append", default=[], help="key=value, as for detect")
+    parser.add_argument("--stride", type=int, default=3, help="pixels between grasp centres")
+    parser.add_argument("--angle-step", type=float, default=15.0, help="degrees between axes")
+    parser.add_argument("--min-height", type=float, default=0.02,
+                        help="centres stand this high above the support plane (m)")
+    parser.add_argument("--margin", type=int, default=20, help="rows below the box also tried")
+    parser.add_argument("--csv", help="write one row per grasp tried here")
+    args = parser.parse_args()
+    if args.intrinsics:
+        request = IntrinsicsRequest(file=args.intrinsics)
+    elif None not in (args.fx, args.fy, args.cx, args.cy):
+        request = IntrinsicsRequest(focal=(args.fx, args.fy), centre=(args.cx, args.cy))
+    else:
+        parser.error("give --intrinsics or all of --fx --fy --cx --cy")
+    roi = tuple(int(v) for v in args.roi.split(",")) if args.roi else None
+    try:
+        inputs = prepare([args.image], intrinsics=request, roi=roi,
+                         overrides=detect_settings(args.preset, None, args.set))
+    except (InputError, UsageError, ValueError) as error:
+        print(f"exhaustive_jaws: {error}", file=sys.stderr)
+        return 2
+    result = next(iter(detect_files(inputs))).result
+    depth, camera, _ = inputs.read(Path(args.image))
+    config, image = inputs.config, inputs.image
+    if not bool(result.support.found):
+        print("no support plane: nothing to measure heights from", file=sys.stderr)
+        return 1
+    approach = jnp.asarray(result.approach, jnp.float32)
+    normal, distance = np.asarray(result.support.normal), float(result.support.distance)
+
+    # Grasp centres: every stride-th pixel in the box (and a margin below it) standing up.
+    d = np.asarray(depth, np.float32)
+    known = np.isfinite(d) & (d > 0) & (d >= image.min_depth) & (d <= image.max_depth)
+    full = jnp.asarray(np.where(known, d, 0.0))  # as the detector hands its jaws' checks
+    x0, y0, x1, y1 = roi or (0, 0, d.shape[1], d.shape[0])
+    v, u = np.mgrid[y0:min(y1 + args.margin, d.shape[0]):args.stride, x0:x1:args.stride]
+    keep = known[v, u]
+    u, v = u[keep], v[keep]
+    z = d[v, u]
+    points = np.stack([(u - float(camera.cx)) * z / float(camera.fx),
+                       (v - float(camera.cy)) * z / float(camera.fy), z], -1)
+    height = plane_height(points, normal, distance)
+    standing = height >= args.min_height
+    points, height = points[standing], height[standing]
+
+    # Closing axes across the support plane (perpendicular to the approach).
+    angles = np.deg2rad(np.arange(0.0, 180.0, args.angle_step))
+    first = np.cross(np.asarray(approach), [1.0, 0.0, 0.0])
+    first /= np.linalg.norm(first)
+    second = np.cross(np.asarray(approach), first)
+    axes = np.cos(angles)[:, None] * first + np.sin(angles)[:, None] * second
+    centre_index, axis_index = (g.ravel() for g in np.meshgrid(
+        np.arange(len(points)), np.arange(len(axes)), indexing="ij"))
+
+    across = jnp.arange(0.0, BAND_REACH + 1e-6, 0.001, dtype=jnp.float32)
+    tolerance = config.detect.surface_tolerance
+
+    def one(centre, axis):
+        """The band through `centre` along `axis` (the T-beam's rule), and its jaws checked."""
+        rise, _, _ = _path_heights(full, camera, centre, axis, approach, across,
+                                   jnp.zeros(1, jnp.float32), jnp.float32(0.0))
+        inside = jnp.abs(rise[..., 0]) <= tolerance  # (2, A); no depth: inf, outside
+        ends = jnp.argmin(jnp.concatenate([inside, jnp.zeros((2, 1), bool)], 1), 1)
+        extent = across[jnp.maximum(ends - 1, 0)] + 0.0005  # half a sample past the last
+        width = extent[0] + extent[1]
+        centred = centre + (extent[0] - extent[1]) / 2 * axis
+        check = check_jaws(full, camera, centred, axis, approach, width, config.detect,
+                           config.gripper, image)
+        return check, width, centred
+
+    checked = jax.jit(jax.vmap(one))
+    parts = []
+    for start in range(0, len(centre_index), CHUNK):
+        chunk = slice(start, start + CHUNK)
+        check, width, centred = checked(jnp.asarray(points[centre_index[chunk]], jnp.float32),
+                                        jnp.asarray(axes[axis_index[chunk]], jnp.float32))
+        parts.append(jax.tree.map(np.asarray, (check.reason, check.landing, check.contact_width,
+                                               width, centred)))
+    reason, landing, contact, width, centred = (np.concatenate(p) for p in zip(*parts, strict=True))
+
+    print(f"{args.image}: detector {'found a grasp' if bool(result.found) else 'found none'}; "
+          f"{len(points)} centres x {len(axes)} axes = {len(reason)} grasps")
+    for code, count in sorted(Counter(reason.tolist()).items()):
+        print(f"  {GraspReason(code).name}: {count}")
+    judge = _judge()
+    record = dict(image=str(Path(args.image).resolve()), workspace=dict(roi=list(roi) if roi else None),
+                  camera=dict(fx=float(camera.fx), fy=float(camera.fy), cx=float(camera.cx),
+                              cy=float(camera.cy)))
+    verdicts = {}
+    for i in np.nonzero(reason == GraspReason.FOUND)[0]:
+        ok, text = judge(record, dict(position=centred[i].tolist(),
+                                      closing_axis=axes[axis_index[i]].tolist(),
+                                      width=float(width[i])))
+        verdicts[i] = ok
+        pixel = np.asarray(camera.project(jnp.asarray(centred[i])))
+        print(f"  passes: pixel {pixel[0]:.0f},{pixel[1]:.0f}, {1e3 * height[centre_index[i]]:.0f} mm "
+              f"up, axis {np.rad2deg(angles[axis_index[i]]):.0f} deg, band {1e3 * width[i]:.0f} mm, "
+              f"contact {1e3 * contact[i]:.0f} mm, landing {1e3 * landing[i]:.1f} mm; judge: "
+              f"{'straddles' if ok else 'does not straddle'} ({text})")
+    if args.csv:
+        with open(args.csv, "w", newline="") as out:
+            writer = csv.writer(out)
+            writer.writerow(["x", "y", "z", "height", "axis_deg", "band_width", "reason",
+                             "landing", "contact_width", "judge_straddles"])
+            for i in range(len(reason)):
+                writer.writerow([*np.round(centred[i], 5), round(float(height[centre_index[i]]), 5),
+                                 round(float(np.rad2deg(angles[axis_index[i]])), 1),
+                                 round(float(width[i]), 5), GraspReason(int(reason[i])).name,
+                                 round(float(landing[i]), 5), round(float(contact[i]), 5),
+                                 verdicts.get(i, "")])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
