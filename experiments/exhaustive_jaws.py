@@ -11,14 +11,19 @@ support plane and the view's approach. Then a grasp is tried at every `--stride`
 the workspace box (and `--margin` rows below it: parts pushed past its edge) standing
 `--min-height` above the support, for every closing direction `--angle-step` apart across the
 support plane (0 deg: approach x the camera's x, about the image's columns; 90: about its
-rows). Its band is the T-beam's rule: the stretch along the closing axis, unbroken,
-within `detect.surface_tolerance` of the centre's own height (sampled every millimetre at the
-top's level, as the jaws' checks sample it); the grasp is centred on that band and checked at
-full resolution with the preset's settings (`check_jaws`, the same call the detector makes).
+rows). Its band is close to the T-beam's rule: the stretch along the closing axis within
+`detect.surface_tolerance` of the centre pixel's height, sampled every millimetre at that
+level as the jaws' checks sample (unlike the detector's, a sample without depth ends it: the
+detector bridges holes up to `image.fill_gap_px` pixels). The grasp is centred on that band,
+across and in depth (the band's mean level, as the detector's centre stands at its band's
+mean depth), and checked at full resolution with the preset's settings (`check_jaws`, the
+same call the detector makes).
 Every grasp that passes is judged by `judge_real_depth.py`. The bands are the depth band's
 only (not the followed surface's, which the contour search also pairs on), so the grid is not
 a superset of the detector's proposals; its grasps at other heights and directions are.
-Prints the reasons' counts and every passing grasp; `--csv` writes one row per grasp tried.
+Prints the detector's targets (height, reason), the reasons' counts and every grasp that
+passes or fails on the wall check alone; `--csv` writes one row per grasp tried. Takes a
+`.npy` of metres that `graspjax detect` keeps at its full resolution (the judge reads it).
 The captures stay outside the repository.
 """
 
@@ -84,6 +89,10 @@ def main() -> int:
     except (InputError, UsageError, ValueError) as error:
         print(f"exhaustive_jaws: {error}", file=sys.stderr)
         return 2
+    if inputs.reduction > 1 or Path(args.image).suffix != ".npy":
+        print("exhaustive_jaws: give a .npy that detect keeps at its resolution "
+              f"(this one is reduced {inputs.reduction} times or not a .npy)", file=sys.stderr)
+        return 2
     result = next(iter(detect_files(inputs))).result
     depth, camera, _ = inputs.read(Path(args.image))
     config, image = inputs.config, inputs.image
@@ -126,9 +135,11 @@ def main() -> int:
                                    jnp.zeros(1, jnp.float32), jnp.float32(0.0))
         inside = jnp.abs(rise[..., 0]) <= tolerance  # (2, A); no depth: inf, outside
         ends = jnp.argmin(jnp.concatenate([inside, jnp.zeros((2, 1), bool)], 1), 1)
-        extent = across[jnp.maximum(ends - 1, 0)] + 0.0005  # half a sample past the last
+        extent = jnp.where(ends > 0, across[jnp.maximum(ends - 1, 0)] + 0.0005, 0.0)  # (2,)
         width = extent[0] + extent[1]
-        centred = centre + (extent[0] - extent[1]) / 2 * axis
+        band = inside & (jnp.arange(across.shape[0]) < ends[:, None])
+        level = jnp.sum(jnp.where(band, rise[..., 0], 0.0)) / jnp.maximum(jnp.sum(band), 1)
+        centred = centre + (extent[0] - extent[1]) / 2 * axis + level * approach
         check = check_jaws(full, camera, centred, axis, approach, width, config.detect,
                            config.gripper, image)
         return check, width, centred
@@ -143,8 +154,14 @@ def main() -> int:
                                                width, centred)))
     reason, landing, contact, width, centred = (np.concatenate(p) for p in zip(*parts, strict=True))
 
+    view_height = np.asarray(result.views.height)
+    tried = [f"{1e3 * view_height[v_, u_]:.0f} mm {GraspReason(int(why)).name}" for (u_, v_), why in
+             zip(np.asarray(result.attempt_pixels)[:int(result.attempts)],
+                 np.asarray(result.attempt_reasons)[:int(result.attempts)], strict=True)]
     print(f"{args.image}: detector {'found a grasp' if bool(result.found) else 'found none'}; "
-          f"{len(points)} centres x {len(axes)} axes = {len(reason)} grasps")
+          f"its targets: {', '.join(tried)}")
+    print(f"{len(points)} centres x {len(axes)} axes = {len(reason)} grasps")
+    grasp_height = plane_height(centred, normal, distance)
     for code, count in sorted(Counter(reason.tolist()).items()):
         print(f"  {GraspReason(code).name}: {count}")
     judge = _judge()
@@ -152,13 +169,15 @@ def main() -> int:
                   camera=dict(fx=float(camera.fx), fy=float(camera.fy), cx=float(camera.cx),
                               cy=float(camera.cy)))
     verdicts = {}
-    for i in np.nonzero(reason == GraspReason.FOUND)[0]:
+    shown = (reason == GraspReason.FOUND) | (reason == GraspReason.NO_WALL)
+    for i in np.nonzero(shown)[0]:
         ok, text = judge(record, dict(position=centred[i].tolist(),
                                       closing_axis=axes[axis_index[i]].tolist(),
                                       width=float(width[i])))
         verdicts[i] = ok
         pixel = np.asarray(camera.project(jnp.asarray(centred[i])))
-        print(f"  passes: pixel {pixel[0]:.0f},{pixel[1]:.0f}, {1e3 * height[centre_index[i]]:.0f} mm "
+        what = "passes" if reason[i] == GraspReason.FOUND else "fails the wall check alone"
+        print(f"  {what}: pixel {pixel[0]:.0f},{pixel[1]:.0f}, {1e3 * grasp_height[i]:.0f} mm "
               f"up, axis {np.rad2deg(angles[axis_index[i]]):.0f} deg, band {1e3 * width[i]:.0f} mm, "
               f"contact {1e3 * contact[i]:.0f} mm, landing {1e3 * landing[i]:.1f} mm; judge: "
               f"{'straddles' if ok else 'does not straddle'} ({text})")
@@ -168,7 +187,7 @@ def main() -> int:
             writer.writerow(["x", "y", "z", "height", "axis_deg", "band_width", "reason",
                              "landing", "contact_width", "judge_straddles"])
             for i in range(len(reason)):
-                writer.writerow([*np.round(centred[i], 5), round(float(height[centre_index[i]]), 5),
+                writer.writerow([*np.round(centred[i], 5), round(float(grasp_height[i]), 5),
                                  round(float(np.rad2deg(angles[axis_index[i]])), 1),
                                  round(float(width[i]), 5), GraspReason(int(reason[i])).name,
                                  round(float(landing[i]), 5), round(float(contact[i]), 5),

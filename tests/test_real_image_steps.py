@@ -178,6 +178,24 @@ def test_surface_slope_against_a_turned_axis():
         assert np.allclose(slope[known], reference[known], rtol=1e-5, atol=1e-6)
 
 
+def test_surface_slope_of_a_plane_tilted_about_both_axes():
+    """z = z0 + p x + q y has the normal (-p, -q, 1) everywhere: its slope against an axis with
+    every component non-zero is the tangent of the angle between them (each term of the
+    normal's cross product counts)."""
+    camera = Camera(41, 31, 300.0, 300.0, 20.0, 15.0)
+    v, u = np.mgrid[0:31, 0:41].astype(np.float64)
+    p, q = np.tan(np.deg2rad(20.0)), np.tan(np.deg2rad(-25.0))
+    z = 0.7 / (1.0 - p * (u - 20.0) / 300.0 - q * (v - 15.0) / 300.0)
+    axis = np.array([0.3, 0.2, 0.93]) / np.linalg.norm([0.3, 0.2, 0.93])
+    normal = np.array([-p, -q, 1.0]) / np.linalg.norm([-p, -q, 1.0])
+    expected = np.tan(np.arccos(abs(normal @ axis)))
+    slope = np.asarray(surface_slope(jnp.asarray(z, jnp.float32), camera, 2,
+                                     jnp.asarray(axis, jnp.float32)))
+    assert np.allclose(slope[2:-2, 2:-2], expected, rtol=1e-3)
+    normals = np.asarray(surface_normals(jnp.asarray(z, jnp.float32), camera, 2))[2:-2, 2:-2]
+    assert np.allclose(np.abs(normals @ normal), 1.0, atol=1e-5)
+
+
 def test_support_plane_of_a_tilted_table_with_an_object(support):
     depth, rotation, eye = _table([box((0.04, 0.07, 0.04), (0.02, 0.15, 0.0), 0.3)])
     plane = support(jnp.asarray(depth), WORK)

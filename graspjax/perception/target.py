@@ -61,8 +61,8 @@ def similar_neighbours(depth: jax.Array, window: int, tolerance: float) -> jax.A
 
 
 def _normal_planes(depth: jax.Array, camera: Camera, step: int):
-    """`surface_normals` as three planes (nx, ny, nz), each (H, W), and where they are known
-    (H, W): computed plane by plane, with no (H, W, 3) stack to transpose and reduce."""
+    """`surface_normals` as three planes (nx, ny, nz), each (H, W), not masked, and where they
+    are known (H, W): computed plane by plane, with no (H, W, 3) stack to transpose and reduce."""
     valid = valid_mask(depth)
     z = jnp.where(valid, depth, 0.0)
     height, width = depth.shape
@@ -96,8 +96,8 @@ def surface_normals(depth: jax.Array, camera: Camera, step: int) -> jax.Array:
     depth: metric depth (H, W), 0 or nan = invalid. Along each image axis the
     point `step` pixels away on the smoother side (the smaller depth change)
     spans a tangent; the normal is that of the two tangents (its sign is of
-    no use: slopes take its direction only). Unknown where neither side of
-    an axis is valid.
+    no use: slopes take its direction only). Unknown where the depth is
+    invalid, or neither side of an axis is valid.
     """
     normal, known = _normal_planes(depth, camera, step)
     return jnp.where(known[..., None], jnp.stack(normal, -1), jnp.nan)
@@ -138,7 +138,7 @@ def target_candidates(depth: jax.Array, camera: Camera, height: jax.Array, has_p
     bool). The speck test (`window`, `min_pixels`) and the slope test
     (`max_slope_deg`) are for real images' outliers; their defaults leave
     them out. `slope`: (H, W) tangents of the slope measured on the image the
-    view was turned from (`slope_against` its axis), else from `depth` itself
+    view was turned from (`surface_slope` against its axis), else from `depth` itself
     (a turned view repeats real pixels, so its own depth steps are no
     slope). Rank the candidates with `best_candidate`.
     """

@@ -33,7 +33,7 @@ def detection_window(fine: jax.Array, slope: jax.Array, fine_camera: Camera, vie
                      ) -> tuple[jax.Array, jax.Array, Camera]:
     """The `size`-square window of `view` centred on a view-frame `point` (3,): its depth (S, S),
     the tangent of its surfaces' slope against the view (S, S), from `slope` (H', W') measured
-    on the real image `fine` (`target.slope_against`), and its camera."""
+    on the real image `fine` (`target.surface_slope`), and its camera."""
     uv = view.project(point)
     origin = jnp.round(jnp.where(jnp.isfinite(uv), uv, 0.0)) - size // 2  # whole pixels
     camera = Camera(size, size, view.fx, view.fy, view.cx - origin[0], view.cy - origin[1])
