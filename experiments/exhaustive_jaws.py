@@ -45,6 +45,7 @@ from graspjax.codes import GraspReason
 from graspjax.imagefiles.batches import detect_files
 from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
 from graspjax.io import InputError
+from graspjax.perception.cluster import valid_mask
 from graspjax.perception.jaws import _path_heights, check_jaws
 from graspjax.perception.support import plane_height
 
@@ -104,15 +105,15 @@ def main() -> int:
 
     # Grasp centres: every stride-th pixel in the box (and a margin below it) standing up.
     d = np.asarray(depth, np.float32)
-    known = np.isfinite(d) & (d > 0) & (d >= image.min_depth) & (d <= image.max_depth)
+    known = np.asarray(valid_mask(d)) & (d >= image.min_depth) & (d <= image.max_depth)
     full = jnp.asarray(np.where(known, d, 0.0))  # as the detector hands its jaws' checks
     x0, y0, x1, y1 = roi or (0, 0, d.shape[1], d.shape[0])
     v, u = np.mgrid[y0:min(y1 + args.margin, d.shape[0]):args.stride, x0:x1:args.stride]
     keep = known[v, u]
     u, v = u[keep], v[keep]
     z = d[v, u]
-    points = np.stack([(u - float(camera.cx)) * z / float(camera.fx),
-                       (v - float(camera.cy)) * z / float(camera.fy), z], -1)
+    points = np.asarray(camera.unproject(jnp.asarray(np.stack([u, v], -1), jnp.float32),
+                                         jnp.asarray(z)))
     height = plane_height(points, normal, distance)
     standing = height >= args.min_height
     points, height = points[standing], height[standing]
@@ -145,14 +146,18 @@ def main() -> int:
         return check, width, centred
 
     checked = jax.jit(jax.vmap(one))
-    parts = []
-    for start in range(0, len(centre_index), CHUNK):
+    parts, total = [], len(centre_index)
+    padded = -total % CHUNK  # every call one size: one compile
+    centres = np.concatenate([centre_index, np.zeros(padded, int)])
+    directions = np.concatenate([axis_index, np.zeros(padded, int)])
+    for start in range(0, total, CHUNK):
         chunk = slice(start, start + CHUNK)
-        check, width, centred = checked(jnp.asarray(points[centre_index[chunk]], jnp.float32),
-                                        jnp.asarray(axes[axis_index[chunk]], jnp.float32))
+        check, width, centred = checked(jnp.asarray(points[centres[chunk]], jnp.float32),
+                                        jnp.asarray(axes[directions[chunk]], jnp.float32))
         parts.append(jax.tree.map(np.asarray, (check.reason, check.landing, check.contact_width,
                                                width, centred)))
-    reason, landing, contact, width, centred = (np.concatenate(p) for p in zip(*parts, strict=True))
+    reason, landing, contact, width, centred = (np.concatenate(p)[:total]
+                                                for p in zip(*parts, strict=True))
 
     view_height = np.asarray(result.views.height)
     tried = [f"{1e3 * view_height[v_, u_]:.0f} mm {GraspReason(int(why)).name}" for (u_, v_), why in

@@ -85,9 +85,12 @@ class Camera:
 
     def unproject(self, uv: jax.Array, depth: jax.Array) -> jax.Array:
         """Pixel coordinates `(..., 2)` and depth `(...)` -> camera-frame points `(..., 3)`."""
-        x = (uv[..., 0] - self.cx) * depth / self.fx
-        y = (uv[..., 1] - self.cy) * depth / self.fy
-        return jnp.stack([x, y, depth], axis=-1)
+        return jnp.stack(self.unproject_planes(uv[..., 0], uv[..., 1], depth), axis=-1)
+
+    def unproject_planes(self, u: jax.Array, v: jax.Array, depth: jax.Array) -> tuple:
+        """`unproject` with the coordinates apart: u, v, depth `(...)` -> x, y, z `(...)` each
+        (no stack: a caller that works plane by plane keeps them so)."""
+        return (u - self.cx) * depth / self.fx, (v - self.cy) * depth / self.fy, depth
 
     def pixel_grid(self) -> jax.Array:
         """Pixel-centre coordinates `(H, W, 2)` as (u, v)."""

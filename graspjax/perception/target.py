@@ -66,9 +66,8 @@ def _normal_planes(depth: jax.Array, camera: Camera, step: int):
     valid = valid_mask(depth)
     z = jnp.where(valid, depth, 0.0)
     height, width = depth.shape
-    v, u = jnp.meshgrid(jnp.arange(height, dtype=jnp.float32),
-                        jnp.arange(width, dtype=jnp.float32), indexing="ij")
-    points = jnp.stack([(u - camera.cx) * z / camera.fx, (v - camera.cy) * z / camera.fy, z])
+    grid = camera.pixel_grid()
+    points = jnp.stack(camera.unproject_planes(grid[..., 0], grid[..., 1], z))  # (3, H, W)
     padded_p = jnp.pad(points, ((0, 0), (step, step), (step, step)))  # (3, H + 2s, W + 2s)
     padded_ok = jnp.pad(valid, step)
 
