@@ -30,6 +30,7 @@ import graspjax.perception.align as align_module
 import graspjax.perception.cluster as cluster_module
 import graspjax.perception.real_image as real_image_module
 import graspjax.perception.virtual as virtual_module
+import graspjax.perception.window as window_module
 from graspjax.bench import detect_workload, median_seconds
 from graspjax.config import Config, RealImageConfig
 from graspjax.imagefiles.batches import detect_batch, stack_cameras
@@ -90,16 +91,23 @@ def warp_before(depth, camera, view, rotation):
     return jnp.where(ok, points @ rotation[:, 2], 0.0)
 
 
-PACKED, WARP = cluster_module.surface_cluster, virtual_module.warp_depth
-VARIANTS = {"before": (cluster_before, warp_before), "packed": (PACKED, WARP),
-            "packed-unrolled": (cluster_packed_unrolled, WARP)}
+PACKED, WARPS = cluster_module.surface_cluster, virtual_module.warp_depth_and_values
+VARIANTS = {"before": (cluster_before, warp_before), "packed": (PACKED, None),
+            "packed-unrolled": (cluster_packed_unrolled, None)}
 
 
 def use(name: str) -> None:
     fill, warp = VARIANTS[name]
     cluster_module.surface_cluster = fill  # target_surface looks it up here
     align_module.surface_cluster = fill
-    real_image_module.warp_depth = warp
+
+    def warps(depth, values, camera, view, rotation, fill_value):
+        return (warp(depth, camera, view, rotation),
+                virtual_module.warp_values(values, camera, view, rotation, fill_value))
+
+    # The support view's warp and every detection window's look it up by these names.
+    real_image_module.warp_depth_and_values = WARPS if warp is None else warps
+    window_module.warp_depth_and_values = WARPS if warp is None else warps
 
 
 def main() -> None:

@@ -20,7 +20,13 @@ from graspjax.perception.target import (
     surface_slope,
     target_candidates,
 )
-from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
+from graspjax.perception.virtual import (
+    view_camera,
+    view_rotation,
+    warp_depth,
+    warp_depth_and_values,
+    warp_values,
+)
 from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
 from graspjax.perception.workspace import block_median, fill_holes
 from graspjax.synthetic import analytic_depth, box
@@ -248,6 +254,10 @@ def test_virtual_view_faces_the_table():
     np.testing.assert_allclose(np.asarray(view.project(jnp.asarray(axis))), [159.5, 119.5],
                                atol=1e-3)
     warped = np.asarray(warp_depth(jnp.asarray(depth), WORK, view, turn))
+    both = warp_depth_and_values(jnp.asarray(depth), jnp.asarray(depth), WORK, view, turn, -1.0)
+    np.testing.assert_array_equal(np.asarray(both[0]), warped)  # one ray trace for both
+    np.testing.assert_array_equal(np.asarray(both[1]),
+                                  np.asarray(warp_values(jnp.asarray(depth), WORK, view, turn, -1.0)))
     valid = warped > 0
     assert valid.mean() > 0.85
     table = np.abs(warped[valid] - 0.73) < 1e-4

@@ -60,7 +60,7 @@ from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import further_reason, furthest_reason
 from graspjax.perception.support import SupportPlane, no_support, support_plane
 from graspjax.perception.target import best_candidate, standing_candidates, surface_slope
-from graspjax.perception.virtual import view_camera, view_rotation, warp_depth, warp_values
+from graspjax.perception.virtual import view_camera, view_rotation, warp_depth_and_values
 from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
 from graspjax.perception.workspace import working_views
 from graspjax.tree import concat_trees, pytree_dataclass, where_tree
@@ -164,14 +164,14 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
     virtual = support.found & (support.tilt > np.deg2rad(image.max_tilt_deg))
     rotation = view_rotation(support.normal, virtual)
     view = view_camera(work_camera, rotation)
-    view_depth = jnp.where(virtual, warp_depth(work, work_camera, view, rotation), work)
-    points = view.unproject(view.pixel_grid(), view_depth)
     step = max(1, image.target_window_px // 2)  # the slope's span (support pixels)
     # Slopes measured on the real image, against the view's axis: a turned view repeats real
     # pixels, so its own depth steps are no slope.
     axis = rotation[:, 2]
-    slope = warp_values(surface_slope(work, work_camera, step, axis), work_camera, view, rotation,
-                        jnp.inf)
+    warped, slope = warp_depth_and_values(work, surface_slope(work, work_camera, step, axis),
+                                          work_camera, view, rotation, jnp.inf)
+    view_depth = jnp.where(virtual, warped, work)
+    points = view.unproject(view.pixel_grid(), view_depth)
     candidate, height, reason = standing_candidates(
         view_depth, view, in_view(support, rotation), window=image.target_window_px,
         min_pixels=image.min_target_pixels, max_slope_deg=image.max_target_slope_deg,
@@ -265,7 +265,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
 
     def examine(k, tried):
         """Target k: the surfaces tried after it, its checked placements (`per` each), its own
-        results and its detector result."""
+        results, its detector result, and its window, the window's camera and its followed
+        surface there (`in_window`: where the tool is aligned if it is the best target)."""
         chosen, target = best_candidate(candidate & ~tried, score)
         has_target = jnp.any(chosen)
         point = jnp.where(has_target, points[target[1], target[0]], 0.0)  # view frame
@@ -321,15 +322,17 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         own = dict(reasons=reason, pixels=target, points=point, has_target=has_target)
         # A target given up gives up its object: its followed surface in the window (with the
         # contour search, the outline it paired across), not only its band, is tried.
-        given_up = surface_in_view(seed & has_target & ~jnp.any(placements["passed"]),
-                                   window_camera, points, valid, factor)
-        return tried | surface | chosen | given_up, placements, own, grasp
+        given_up = lax.cond(has_target & ~jnp.any(placements["passed"]),
+                            lambda: surface_in_view(seed, window_camera, points, valid, factor),
+                            lambda: jnp.zeros_like(valid))
+        return (tried | surface | chosen | given_up, placements, own, grasp,
+                (window, window_camera, seed & has_target))
 
     # The loop carries the targets' small results (a batch's loop selects its whole carry at
-    # every step) and the detector result of one target: the best grasp's so far (the last
-    # target's while none passed). Its window is cut again after the loop.
+    # every step) and one target's detector result, window and followed surface: the best
+    # grasp's so far (the last target's while none passed), where the tool is aligned.
     def attempt(k, tried, pool, best):
-        tried, placements, own, grasp = examine(k, tried)
+        tried, placements, own, grasp, in_window = examine(k, tried)
         pool = dict(pool)
         for key, value in placements.items():
             pool[key] = jax.tree.map(
@@ -337,11 +340,11 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                 pool[key], value)
         for key, value in own.items():
             pool[key] = pool[key].at[k].set(value)
-        best_score, best_k, best_grasp = best
+        best_score, best_k, best_kept = best
         own_score = jnp.max(placements["score"])
         better = (own_score > best_score) | (best_score == -jnp.inf)  # ties keep the first
         best = (jnp.where(better, own_score, best_score), jnp.where(better, k, best_k),
-                where_tree(better, grasp, best_grasp))
+                where_tree(better, (grasp, in_window), best_kept))
         return k + 1, tried, pool, best
 
     def distinct(pool):
@@ -354,23 +357,18 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                 & (jnp.sum(distinct(pool)[1]) < image.top_k))
 
     nothing_tried = jnp.zeros(candidate.shape, bool)
-    _, placements, own, grasp0 = jax.eval_shape(examine, 0, nothing_tried)
+    _, placements, own, grasp0, in_window0 = jax.eval_shape(examine, 0, nothing_tried)
     pool = {key: jax.tree.map(lambda x: jnp.zeros((n * per, *x.shape[1:]), x.dtype), value)
             for key, value in placements.items()}
     pool.update({key: jnp.zeros((n, *x.shape), x.dtype) for key, x in own.items()})
     pool["score"] = jnp.full(n * per, -jnp.inf, jnp.float32)
     pool["reasons"] = jnp.full(n, -1, jnp.int32)
     best = (jnp.float32(-jnp.inf), jnp.int32(0),
-            jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), grasp0))
-    attempts, _, pool, (_, best, best_grasp) = lax.while_loop(
+            jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), (grasp0, in_window0)))
+    attempts, _, pool, (_, best, (best_grasp, (window, window_camera, seed))) = lax.while_loop(
         more, lambda state: attempt(*state), attempt(0, nothing_tried, pool, best))
     chosen, ranked_ok = distinct(pool)
     pick = jnp.clip(chosen, 0)
-    window, slope, window_camera = detection_window(
-        fine, prep.fine_slope, fine_camera, fine_view, rotation, pool["points"][best],
-        image.crop_px)
-    seed = followed_surface(window, slope, window_camera, pool["points"][best], support, config,
-                            image.max_target_slope_deg) & pool["has_target"][best]
     alignment = align_tool(window, window_camera, config.align, jax.random.key(image.seed),
                            seed_mask=seed)
 

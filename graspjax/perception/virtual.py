@@ -59,13 +59,10 @@ def _sources(camera: Camera, view: Camera, rotation: jax.Array) -> tuple[jax.Arr
                       jnp.clip(iuv[..., 1], 0, camera.height - 1)], -1), inside
 
 
-def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Array) -> jax.Array:
-    """Depth `(H, W)` along the virtual optical axis, seen by `view` turned by `rotation`.
-
-    depth: metric depth (H, W) of `camera`, 0 or nan = invalid; 0 where the
-    virtual ray leaves the real image or meets an invalid pixel.
-    """
-    iuv, inside = _sources(camera, view, rotation)
+def _depth_along(depth: jax.Array, camera: Camera, rotation: jax.Array, iuv: jax.Array,
+                 inside: jax.Array) -> jax.Array:
+    """The depth along the virtual optical axis of the real pixels `iuv` (H', W', 2) (`_sources`);
+    0 where `inside` is False or the pixel is invalid."""
     z = depth[iuv[..., 1], iuv[..., 0]]
     ok = inside & valid_mask(z)
     points = camera.unproject(iuv.astype(jnp.float32), jnp.where(ok, z, 0.0))  # the real pixel's point
@@ -74,12 +71,29 @@ def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Arr
     return jnp.where(ok, along, 0.0)  # its depth along the virtual axis
 
 
+def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Array) -> jax.Array:
+    """Depth `(H, W)` along the virtual optical axis, seen by `view` turned by `rotation`.
+
+    depth: metric depth (H, W) of `camera`, 0 or nan = invalid; 0 where the
+    virtual ray leaves the real image or meets an invalid pixel.
+    """
+    return _depth_along(depth, camera, rotation, *_sources(camera, view, rotation))
+
+
 def warp_values(values: jax.Array, camera: Camera, view: Camera, rotation: jax.Array,
                 fill) -> jax.Array:
     """`values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation` (H', W'): each
     virtual pixel takes its real pixel's, as `warp_depth`; `fill` where the ray leaves the image."""
     iuv, inside = _sources(camera, view, rotation)
     return jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill)
+
+
+def warp_depth_and_values(depth: jax.Array, values: jax.Array, camera: Camera, view: Camera,
+                          rotation: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
+    """`warp_depth` and `warp_values` of one view (H', W') each, its rays traced once."""
+    iuv, inside = _sources(camera, view, rotation)
+    return (_depth_along(depth, camera, rotation, iuv, inside),
+            jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill))
 
 
 def _rotate(rotation: jax.Array, vectors: jax.Array) -> jax.Array:

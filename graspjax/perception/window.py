@@ -20,7 +20,7 @@ from graspjax.config import Config
 from graspjax.perception.placements import sample_nearest
 from graspjax.perception.support import SupportPlane
 from graspjax.perception.target import follow_target, standing_candidates
-from graspjax.perception.virtual import warp_depth, warp_values
+from graspjax.perception.virtual import warp_depth_and_values
 
 
 def in_view(support: SupportPlane, rotation: jax.Array) -> SupportPlane:
@@ -37,8 +37,9 @@ def detection_window(fine: jax.Array, slope: jax.Array, fine_camera: Camera, vie
     uv = view.project(point)
     origin = jnp.round(jnp.where(jnp.isfinite(uv), uv, 0.0)) - size // 2  # whole pixels
     camera = Camera(size, size, view.fx, view.fy, view.cx - origin[0], view.cy - origin[1])
-    return (warp_depth(fine, fine_camera, camera, rotation),
-            warp_values(slope, fine_camera, camera, rotation, jnp.inf), camera)
+    window, window_slope = warp_depth_and_values(fine, slope, fine_camera, camera, rotation,
+                                                 jnp.inf)
+    return window, window_slope, camera
 
 
 def followed_surface(window: jax.Array, slope: jax.Array, camera: Camera, point: jax.Array,

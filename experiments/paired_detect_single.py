@@ -1,0 +1,93 @@
+"""`graspjax detect`'s single-image latency, a git revision against the working tree, in one process.
+
+    python3 experiments/paired_detect_single.py REVISION [TOP_K] [ROUNDS]
+
+Separate processes on a shared 2-core machine differ by more than most changes (stop 71: the
+same code 15.5 and 17.6 ms in two processes). Here both versions are compiled in one process
+(REVISION's `graspjax/` exported by `git archive` and imported as `graspjax_rev`), and each of
+`graspjax bench detect`'s 64 scenes goes through both, in alternating order, ROUNDS times (3),
+top K = TOP_K (5). Prints whether every output array is identical, each side's median and the
+paired median difference. Run from the repository root; nothing is written.
+"""
+
+import dataclasses
+import importlib
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from graspjax.bench import detect_workload
+from graspjax.config import Config, RealImageConfig
+from graspjax.perception.real_image import detect_real_image
+
+
+def import_revision(revision: str, folder: Path):
+    """REVISION's `graspjax` package as the module `graspjax_rev` (its imports renamed)."""
+    archive = subprocess.run(["git", "archive", revision, "graspjax"], check=True,
+                             capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
+    package = folder / "graspjax_rev"
+    (folder / "graspjax").rename(package)
+    for path in package.rglob("*.py"):
+        path.write_text(re.sub(r"\bgraspjax(?=[. ])", "graspjax_rev", path.read_text()))
+    sys.path.insert(0, str(folder))
+    return importlib.import_module("graspjax_rev.perception.real_image"), importlib.import_module(
+        "graspjax_rev.config")
+
+
+def identical(first: list, second: list) -> bool:
+    """Two results' arrays (their pytrees' leaves) equal, nan where nan."""
+    return len(first) == len(second) and all(
+        np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+        for a, b in zip(first, second, strict=True))
+
+
+def main() -> None:
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    revision = sys.argv[1]
+    top = int(sys.argv[2]) if len(sys.argv) > 2 else 5
+    rounds = int(sys.argv[3]) if len(sys.argv) > 3 else 3
+    camera, workspace, scenes = detect_workload(640, 480)
+    image = dataclasses.replace(RealImageConfig(), top_k=top)
+    with tempfile.TemporaryDirectory() as folder:
+        old_module, old_config = import_revision(revision, Path(folder))
+        old_image = old_config.RealImageConfig(**{f.name: getattr(image, f.name)
+                                                  for f in dataclasses.fields(old_config.RealImageConfig)})
+        runs = {}
+        for name, detect, config, settings in ((revision, old_module.detect_real_image,
+                                                old_config.Config(), old_image),
+                                               ("working tree", detect_real_image, Config(), image)):
+            compiled = jax.jit(detect)
+            runs[name] = (lambda f, c, s: lambda depth: f(depth, workspace, camera, c, s))(
+                compiled, config, settings)
+            start = time.perf_counter()
+            jax.block_until_ready(runs[name](scenes[0]))
+            print(f"{name}: compiled in {time.perf_counter() - start:.1f} s", flush=True)
+        names = list(runs)
+        same = all(identical(*(jax.tree.leaves(runs[n](depth)) for n in names)) for depth in scenes)
+        times = {name: [] for name in names}
+        for r in range(rounds):
+            for i, depth in enumerate(scenes):
+                for name in (names if (i + r) % 2 else names[::-1]):
+                    start = time.perf_counter()
+                    jax.block_until_ready(runs[name](depth))
+                    times[name].append(time.perf_counter() - start)
+    print(f"{jax.devices()[0].device_kind}, top {top}, {len(scenes)} scenes x {rounds}; "
+          f"every output identical: {same}")
+    for name, seconds in times.items():
+        print(f"{name:>14}: median {1e3 * statistics.median(seconds):6.2f} ms, "
+              f"p90 {1e3 * np.percentile(seconds, 90):6.2f} ms")
+    difference = np.subtract(*(times[n] for n in names))
+    print(f"paired ({names[0]} - {names[1]}): median {1e3 * np.median(difference):.2f} ms")
+
+
+if __name__ == "__main__":
+    main()
