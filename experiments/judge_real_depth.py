@@ -6,10 +6,14 @@ A grasp "straddles a real object" when its centre stands at least 8 mm above the
 centre +/- closing axis x (width / 2 + 6 mm), lie at least 8 mm below the centre (measured
 along the plane's normal) or have no depth.
 
-    python experiments/judge_real_depth.py results/real_depth/*/results.json
+    python experiments/judge_real_depth.py [--column R] results/real_depth/*/results.json
 
 prints one line per ranked grasp and a summary per file. Reads the images named in the
-records (they are not part of the repository).
+records (they are not part of the repository). A finger place's depth is the surface seen at
+the pixel it projects to (a camera looking far to the side sees there a surface displaced
+from the place); with `--column R` (m) it is the highest surface point within R of the
+plane's normal through the place, from every pixel of the image (none: no depth), and each
+line also says what the pixel gave.
 """
 
 from __future__ import annotations
@@ -51,7 +55,7 @@ def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int
     return best
 
 
-def judge(rec: dict, candidate: dict) -> tuple[bool, str]:
+def judge(rec: dict, candidate: dict, column: float | None = None) -> tuple[bool, str]:
     depth = np.load(rec["image"]).astype(np.float64).squeeze()
     cam = rec["camera"]
     height, width = depth.shape
@@ -62,25 +66,55 @@ def judge(rec: dict, candidate: dict) -> tuple[bool, str]:
     centre = np.asarray(candidate["position"])
     axis = np.asarray(candidate["closing_axis"])
     h_centre = centre @ normal + offset
-    drops = []
-    for side in (1, -1):
-        place = centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET)
-        u, v = (np.array([cam["fx"] * place[0] / place[2] + cam["cx"],
-                          cam["fy"] * place[1] / place[2] + cam["cy"]])).round().astype(int)
-        z = depth[v, u] if (0 <= u < width and 0 <= v < height) else 0.0
-        if not (z > 0 and np.isfinite(z)):
-            drops.append(None)
-            continue
-        drops.append(h_centre - (_unproject(u, v, z, cam) @ normal + offset))
+    places = [centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET) for side in (1, -1)]
+    heights = [_seen_at_pixel(depth, cam, place, normal, offset) for place in places]
+    if column is not None:
+        v, u = np.nonzero((depth > 0) & np.isfinite(depth))
+        points = _unproject(u, v, depth[v, u], cam)
+        by_pixel = heights
+        heights = [_column_top(points, place, normal, offset, column) for place in places]
+    drops = [None if h is None else h_centre - h for h in heights]
     ok = h_centre >= MIN_HEIGHT and all(d is None or d >= MIN_DROP for d in drops)
-    text = ", ".join("no depth" if d is None else f"{1000 * d:.0f} mm" for d in drops)
-    return ok, f"centre {1000 * h_centre:.0f} mm up, fingers drop {text}"
+    text = f"centre {1000 * h_centre:.0f} mm up, fingers drop {_mm(drops)}"
+    if column is not None:
+        text += f" (at the pixel: {_mm([None if h is None else h_centre - h for h in by_pixel])})"
+    return ok, text
+
+
+def _mm(drops: list) -> str:
+    return ", ".join("no depth" if d is None else f"{1000 * d:.0f} mm" for d in drops)
+
+
+def _seen_at_pixel(depth, cam, place, normal, offset):
+    """The height above the plane of the surface seen at the pixel `place` projects to (None:
+    no depth or outside the image)."""
+    height, width = depth.shape
+    u, v = (np.array([cam["fx"] * place[0] / place[2] + cam["cx"],
+                      cam["fy"] * place[1] / place[2] + cam["cy"]])).round().astype(int)
+    z = depth[v, u] if (0 <= u < width and 0 <= v < height) else 0.0
+    if not (z > 0 and np.isfinite(z)):
+        return None
+    return _unproject(u, v, z, cam) @ normal + offset
+
+
+def _column_top(points, place, normal, offset, radius):
+    """The height above the plane of the highest of `points` (N, 3) within `radius` of the
+    plane's normal through `place` (None: none)."""
+    relative = points - place
+    along = relative @ normal
+    near = np.einsum("ij,ij->i", relative, relative) - along ** 2 <= radius ** 2
+    return float(np.max(points[near] @ normal) + offset) if np.any(near) else None
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("results", nargs="+", help="results.json files of graspjax detect")
+    parser.add_argument("--column", type=float, default=None, metavar="R",
+                        help="a finger place's depth: the highest point within R (m) of the "
+                             "plane's normal through it, not the surface seen at its pixel")
     args = parser.parse_args(argv)
+    if args.column is not None and not args.column > 0:
+        parser.error(f"--column must be > 0 (m), got {args.column}")
     for path in args.results:
         records = json.loads(Path(path).read_text())
         records = records if isinstance(records, list) else [records]
@@ -91,7 +125,7 @@ def main(argv=None) -> int:
                 print(f"{path} {name}: no grasp ({rec['reason']})")
                 continue
             for c in rec["candidates"]:
-                ok, text = judge(rec, c)
+                ok, text = judge(rec, c, args.column)
                 good += ok and c["rank"] == 1
                 print(f"{path} {name} rank {c['rank']}: {'straddles' if ok else 'QUESTIONABLE'}"
                       f" (width {100 * c['width']:.1f} cm, contact {100 * c['contact_width']:.1f}"
