@@ -13,8 +13,10 @@ the workspace box (and `--margin` rows below it: parts pushed past its edge) sta
 support plane (0 deg: approach x the camera's x, about the image's columns; 90: about its
 rows). Its band is close to the T-beam's rule: the stretch along the closing axis within
 `detect.surface_tolerance` of the centre pixel's height, sampled every millimetre at that
-level as the jaws' checks sample (unlike the detector's, a sample without depth ends it: the
-detector bridges holes up to `image.fill_gap_px` pixels). The grasp is centred on that band,
+level as the jaws' checks sample; samples without depth between two of the band's, no wider
+than `image.fill_gap_px` detection pixels and with heights on both sides within the tolerance
+of each other, are bridged, as the detector's working views bridge such holes along an image
+row or column (`workspace.fill_holes`). The grasp is centred on that band,
 across and in depth (the band's mean level, as the detector's centre stands at its band's
 mean depth), and checked at full resolution with the preset's settings (`check_jaws`, the
 same call the detector makes).
@@ -50,6 +52,7 @@ from graspjax.perception.jaws import _path_heights, check_jaws
 from graspjax.perception.support import plane_height
 
 BAND_REACH = 0.045  # how far each side of the centre a band may run (m): past half the opening
+SAMPLE = 0.001  # between a band's samples (m)
 CHUNK = 20000  # grasps per compiled call
 
 
@@ -127,19 +130,32 @@ def main() -> int:
     centre_index, axis_index = (g.ravel() for g in np.meshgrid(
         np.arange(len(points)), np.arange(len(axes)), indexing="ij"))
 
-    across = jnp.arange(0.0, BAND_REACH + 1e-6, 0.001, dtype=jnp.float32)
+    across = jnp.arange(0.0, BAND_REACH + 1e-6, SAMPLE, dtype=jnp.float32)
     tolerance = config.detect.surface_tolerance
+
+    detection_pixel = 1.0 / float(result.view.fx)  # a detection pixel's size per metre of depth
 
     def one(centre, axis):
         """The band through `centre` along `axis` (the T-beam's rule), and its jaws checked."""
         rise, _, _ = _path_heights(full, camera, centre, axis, approach, across,
                                    jnp.zeros(1, jnp.float32), jnp.float32(0.0))
-        inside = jnp.abs(rise[..., 0]) <= tolerance  # (2, A); no depth: inf, outside
-        ends = jnp.argmin(jnp.concatenate([inside, jnp.zeros((2, 1), bool)], 1), 1)
+        rise = rise[..., 0]  # (2, A) along each side; no depth: inf
+        inside = jnp.abs(rise) <= tolerance
+        index = jnp.arange(across.shape[0])
+        seen = jnp.isfinite(rise)
+        before = jax.lax.cummax(jnp.where(seen, index, -1), axis=1)  # the last seen sample
+        after = jax.lax.cummin(jnp.where(seen, index, across.shape[0]), axis=1, reverse=True)
+        ends_in = [jnp.take_along_axis(x, jnp.clip(i, 0, across.shape[0] - 1), 1)
+                   for x, i in ((inside, before), (inside, after), (rise, before), (rise, after))]
+        gap = image.fill_gap_px * centre[2] * detection_pixel  # the widest hole bridged (m)
+        bridged = (~seen & (before >= 0) & (after < across.shape[0]) & ends_in[0] & ends_in[1]
+                   & (jnp.abs(ends_in[2] - ends_in[3]) <= tolerance)
+                   & ((after - before - 1) * SAMPLE <= gap))
+        ends = jnp.argmin(jnp.concatenate([inside | bridged, jnp.zeros((2, 1), bool)], 1), 1)
         extent = jnp.where(ends > 0, across[jnp.maximum(ends - 1, 0)] + 0.0005, 0.0)  # (2,)
         width = extent[0] + extent[1]
-        band = inside & (jnp.arange(across.shape[0]) < ends[:, None])
-        level = jnp.sum(jnp.where(band, rise[..., 0], 0.0)) / jnp.maximum(jnp.sum(band), 1)
+        band = inside & (index < ends[:, None])
+        level = jnp.sum(jnp.where(band, rise, 0.0)) / jnp.maximum(jnp.sum(band), 1)
         centred = centre + (extent[0] - extent[1]) / 2 * axis + level * approach
         check = check_jaws(full, camera, centred, axis, approach, width, config.detect,
                            config.gripper, image)
