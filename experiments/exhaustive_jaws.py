@@ -15,8 +15,9 @@ rows). Its band is close to the T-beam's rule: the stretch along the closing axi
 `detect.surface_tolerance` of the centre pixel's height, sampled every millimetre at that
 level as the jaws' checks sample; samples without depth between two of the band's, no wider
 than `image.fill_gap_px` detection pixels and with heights on both sides within the tolerance
-of each other, are bridged, as the detector's working views bridge such holes along an image
-row or column (`workspace.fill_holes`). The grasp is centred on that band,
+of each other, are bridged, about as the detector's working views bridge holes
+(`workspace.fill_holes`: along an image row or column, inside the workspace box, by depth).
+The grasp is centred on that band,
 across and in depth (the band's mean level, as the detector's centre stands at its band's
 mean depth), and checked at full resolution with the preset's settings (`check_jaws`, the
 same call the detector makes).
@@ -137,22 +138,24 @@ def main() -> int:
 
     def one(centre, axis):
         """The band through `centre` along `axis` (the T-beam's rule), and its jaws checked."""
-        rise, _, _ = _path_heights(full, camera, centre, axis, approach, across,
-                                   jnp.zeros(1, jnp.float32), jnp.float32(0.0))
-        rise = rise[..., 0]  # (2, A) along each side; no depth: inf
+        rise, _, seen = _path_heights(full, camera, centre, axis, approach, across,
+                                      jnp.zeros(1, jnp.float32), jnp.float32(0.0))
+        rise, seen = rise[..., 0], seen[..., 0]  # (2, A) along each side; no depth: inf
         inside = jnp.abs(rise) <= tolerance
-        index = jnp.arange(across.shape[0])
-        seen = jnp.isfinite(rise)
+        count = across.shape[0]
+        index = jnp.arange(count)
         before = jax.lax.cummax(jnp.where(seen, index, -1), axis=1)  # the last seen sample
-        after = jax.lax.cummin(jnp.where(seen, index, across.shape[0]), axis=1, reverse=True)
-        ends_in = [jnp.take_along_axis(x, jnp.clip(i, 0, across.shape[0] - 1), 1)
-                   for x, i in ((inside, before), (inside, after), (rise, before), (rise, after))]
+        after = jax.lax.cummin(jnp.where(seen, index, count), axis=1, reverse=True)  # the next
+
+        def at(values, where):
+            return jnp.take_along_axis(values, jnp.clip(where, 0, count - 1), 1)
+
         gap = image.fill_gap_px * centre[2] * detection_pixel  # the widest hole bridged (m)
-        bridged = (~seen & (before >= 0) & (after < across.shape[0]) & ends_in[0] & ends_in[1]
-                   & (jnp.abs(ends_in[2] - ends_in[3]) <= tolerance)
+        bridged = (~seen & (before >= 0) & (after < count) & at(inside, before) & at(inside, after)
+                   & (jnp.abs(at(rise, before) - at(rise, after)) <= tolerance)
                    & ((after - before - 1) * SAMPLE <= gap))
         ends = jnp.argmin(jnp.concatenate([inside | bridged, jnp.zeros((2, 1), bool)], 1), 1)
-        extent = jnp.where(ends > 0, across[jnp.maximum(ends - 1, 0)] + 0.0005, 0.0)  # (2,)
+        extent = jnp.where(ends > 0, across[jnp.maximum(ends - 1, 0)] + SAMPLE / 2, 0.0)  # (2,)
         width = extent[0] + extent[1]
         band = inside & (index < ends[:, None])
         level = jnp.sum(jnp.where(band, rise, 0.0)) / jnp.maximum(jnp.sum(band), 1)

@@ -3,7 +3,9 @@
     python3 experiments/flood_fill_variants.py [BATCH]
 
 Variants of `cluster.surface_cluster` (every flood fill of the detector, the alignment and the
-real-image targets) and of `virtual.warp_depth`, swapped in by name:
+real-image targets) and of the views' warp (`virtual.warp_depth_and_values`, the support view's
+and every detection window's; before stop 71 the windows' warp was not swapped), swapped in by
+name:
 
 - before: bool images dilated 4 steps per loop iteration (unrolled), the warp's rotations as
   matrix products (the code before this change, kept here as the reference);
@@ -91,23 +93,22 @@ def warp_before(depth, camera, view, rotation):
     return jnp.where(ok, points @ rotation[:, 2], 0.0)
 
 
+def warps_before(depth, values, camera, view, rotation, fill):
+    return (warp_before(depth, camera, view, rotation),
+            virtual_module.warp_values(values, camera, view, rotation, fill))
+
+
 PACKED, WARPS = cluster_module.surface_cluster, virtual_module.warp_depth_and_values
-VARIANTS = {"before": (cluster_before, warp_before), "packed": (PACKED, None),
-            "packed-unrolled": (cluster_packed_unrolled, None)}
+VARIANTS = {"before": (cluster_before, warps_before), "packed": (PACKED, WARPS),
+            "packed-unrolled": (cluster_packed_unrolled, WARPS)}
 
 
 def use(name: str) -> None:
-    fill, warp = VARIANTS[name]
+    fill, warps = VARIANTS[name]
     cluster_module.surface_cluster = fill  # target_surface looks it up here
     align_module.surface_cluster = fill
-
-    def warps(depth, values, camera, view, rotation, fill_value):
-        return (warp(depth, camera, view, rotation),
-                virtual_module.warp_values(values, camera, view, rotation, fill_value))
-
-    # The support view's warp and every detection window's look it up by these names.
-    real_image_module.warp_depth_and_values = WARPS if warp is None else warps
-    window_module.warp_depth_and_values = WARPS if warp is None else warps
+    real_image_module.warp_depth_and_values = warps  # the support view's warp
+    window_module.warp_depth_and_values = warps  # every detection window's
 
 
 def main() -> None:

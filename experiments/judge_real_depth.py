@@ -67,18 +67,22 @@ def judge(rec: dict, candidate: dict, column: float | None = None) -> tuple[bool
     axis = np.asarray(candidate["closing_axis"])
     h_centre = centre @ normal + offset
     places = [centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET) for side in (1, -1)]
-    heights = [_seen_at_pixel(depth, cam, place, normal, offset) for place in places]
+    at_pixel = [_drop(h_centre, _seen_at_pixel(depth, cam, place, normal, offset))
+                for place in places]
+    drops = at_pixel
     if column is not None:
         v, u = np.nonzero((depth > 0) & np.isfinite(depth))
         points = _unproject(u, v, depth[v, u], cam)
-        by_pixel = heights
-        heights = [_column_top(points, place, normal, offset, column) for place in places]
-    drops = [None if h is None else h_centre - h for h in heights]
+        drops = [_drop(h_centre, _column_top(points, place, normal, offset, column))
+                 for place in places]
     ok = h_centre >= MIN_HEIGHT and all(d is None or d >= MIN_DROP for d in drops)
     text = f"centre {1000 * h_centre:.0f} mm up, fingers drop {_mm(drops)}"
-    if column is not None:
-        text += f" (at the pixel: {_mm([None if h is None else h_centre - h for h in by_pixel])})"
-    return ok, text
+    return ok, text + (f" (at the pixel: {_mm(at_pixel)})" if column is not None else "")
+
+
+def _drop(centre_height: float, height: float | None) -> float | None:
+    """How far a finger place lies below the centre (None: no depth there)."""
+    return None if height is None else centre_height - height
 
 
 def _mm(drops: list) -> str:

@@ -29,24 +29,33 @@ from graspjax.perception.real_image import detect_real_image
 
 
 def import_revision(revision: str, folder: Path):
-    """REVISION's `graspjax` package as the module `graspjax_rev` (its imports renamed)."""
+    """REVISION's `graspjax` package as `graspjax_rev` (its imports renamed): its
+    `perception.real_image`, `config` and `camera` modules. Fails if importing it loaded a
+    module of the working tree's `graspjax` (an import the renaming missed)."""
     archive = subprocess.run(["git", "archive", revision, "graspjax"], check=True,
                              capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
     package = folder / "graspjax_rev"
     (folder / "graspjax").rename(package)
     for path in package.rglob("*.py"):
-        path.write_text(re.sub(r"\bgraspjax(?=[. ])", "graspjax_rev", path.read_text()))
+        path.write_text(re.sub(r"\bgraspjax\b", "graspjax_rev", path.read_text()))
     sys.path.insert(0, str(folder))
-    return importlib.import_module("graspjax_rev.perception.real_image"), importlib.import_module(
-        "graspjax_rev.config")
+    loaded = {name for name in sys.modules if name.split(".")[0] == "graspjax"}
+    modules = [importlib.import_module(f"graspjax_rev.{name}")
+               for name in ("perception.real_image", "config", "camera")]
+    added = {name for name in sys.modules if name.split(".")[0] == "graspjax"} - loaded
+    if added:
+        raise RuntimeError(f"{revision} imported the working tree's {sorted(added)}")
+    return modules
 
 
-def identical(first: list, second: list) -> bool:
-    """Two results' arrays (their pytrees' leaves) equal, nan where nan."""
-    return len(first) == len(second) and all(
+def identical(first, second) -> bool:
+    """Two results with the same fields (by name) and equal arrays, nan where nan."""
+    paths = [jax.tree_util.tree_flatten_with_path(result)[0] for result in (first, second)]
+    names = [[jax.tree_util.keystr(path) for path, _ in leaves] for leaves in paths]
+    return names[0] == names[1] and all(
         np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-        for a, b in zip(first, second, strict=True))
+        for (_, a), (_, b) in zip(*paths, strict=True))
 
 
 def main() -> None:
@@ -58,21 +67,23 @@ def main() -> None:
     camera, workspace, scenes = detect_workload(640, 480)
     image = dataclasses.replace(RealImageConfig(), top_k=top)
     with tempfile.TemporaryDirectory() as folder:
-        old_module, old_config = import_revision(revision, Path(folder))
+        old_module, old_config, old_camera = import_revision(revision, Path(folder))
         old_image = old_config.RealImageConfig(**{f.name: getattr(image, f.name)
                                                   for f in dataclasses.fields(old_config.RealImageConfig)})
         runs = {}
-        for name, detect, config, settings in ((revision, old_module.detect_real_image,
-                                                old_config.Config(), old_image),
-                                               ("working tree", detect_real_image, Config(), image)):
+        for name, detect, cam, config, settings in (
+                (revision, old_module.detect_real_image,
+                 old_camera.Camera(camera.width, camera.height, camera.fx, camera.fy, camera.cx,
+                                   camera.cy), old_config.Config(), old_image),
+                ("working tree", detect_real_image, camera, Config(), image)):
             compiled = jax.jit(detect)
-            runs[name] = (lambda f, c, s: lambda depth: f(depth, workspace, camera, c, s))(
-                compiled, config, settings)
+            runs[name] = (lambda f, k, c, s: lambda depth: f(depth, workspace, k, c, s))(
+                compiled, cam, config, settings)
             start = time.perf_counter()
             jax.block_until_ready(runs[name](scenes[0]))
             print(f"{name}: compiled in {time.perf_counter() - start:.1f} s", flush=True)
         names = list(runs)
-        same = all(identical(*(jax.tree.leaves(runs[n](depth)) for n in names)) for depth in scenes)
+        same = all(identical(*(runs[n](depth) for n in names)) for depth in scenes)
         times = {name: [] for name in names}
         for r in range(rounds):
             for i, depth in enumerate(scenes):

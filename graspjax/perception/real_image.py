@@ -266,7 +266,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     def examine(k, tried):
         """Target k: the surfaces tried after it, its checked placements (`per` each), its own
         results, its detector result, and its window, the window's camera and its followed
-        surface there (`in_window`: where the tool is aligned if it is the best target)."""
+        surface there (where the tool is aligned if it is the best target)."""
         chosen, target = best_candidate(candidate & ~tried, score)
         has_target = jnp.any(chosen)
         point = jnp.where(has_target, points[target[1], target[0]], 0.0)  # view frame
@@ -332,7 +332,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     # every step) and one target's detector result, window and followed surface: the best
     # grasp's so far (the last target's while none passed), where the tool is aligned.
     def attempt(k, tried, pool, best):
-        tried, placements, own, grasp, in_window = examine(k, tried)
+        tried, placements, own, grasp, target_window = examine(k, tried)
         pool = dict(pool)
         for key, value in placements.items():
             pool[key] = jax.tree.map(
@@ -340,11 +340,11 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                 pool[key], value)
         for key, value in own.items():
             pool[key] = pool[key].at[k].set(value)
-        best_score, best_k, best_kept = best
+        best_score, best_k, best_result = best
         own_score = jnp.max(placements["score"])
         better = (own_score > best_score) | (best_score == -jnp.inf)  # ties keep the first
         best = (jnp.where(better, own_score, best_score), jnp.where(better, k, best_k),
-                where_tree(better, (grasp, in_window), best_kept))
+                where_tree(better, (grasp, target_window), best_result))
         return k + 1, tried, pool, best
 
     def distinct(pool):
@@ -357,14 +357,14 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                 & (jnp.sum(distinct(pool)[1]) < image.top_k))
 
     nothing_tried = jnp.zeros(candidate.shape, bool)
-    _, placements, own, grasp0, in_window0 = jax.eval_shape(examine, 0, nothing_tried)
+    _, placements, own, grasp0, window0 = jax.eval_shape(examine, 0, nothing_tried)
     pool = {key: jax.tree.map(lambda x: jnp.zeros((n * per, *x.shape[1:]), x.dtype), value)
             for key, value in placements.items()}
     pool.update({key: jnp.zeros((n, *x.shape), x.dtype) for key, x in own.items()})
     pool["score"] = jnp.full(n * per, -jnp.inf, jnp.float32)
     pool["reasons"] = jnp.full(n, -1, jnp.int32)
     best = (jnp.float32(-jnp.inf), jnp.int32(0),
-            jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), (grasp0, in_window0)))
+            jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), (grasp0, window0)))
     attempts, _, pool, (_, best, (best_grasp, (window, window_camera, seed))) = lax.while_loop(
         more, lambda state: attempt(*state), attempt(0, nothing_tried, pool, best))
     chosen, ranked_ok = distinct(pool)

@@ -80,20 +80,24 @@ def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Arr
     return _depth_along(depth, camera, rotation, *_sources(camera, view, rotation))
 
 
+def _values_at(values: jax.Array, iuv: jax.Array, inside: jax.Array, fill) -> jax.Array:
+    """`values` (H, W) at the real pixels `iuv` (H', W', 2) (`_sources`); `fill` where `inside`
+    is False."""
+    return jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill)
+
+
 def warp_values(values: jax.Array, camera: Camera, view: Camera, rotation: jax.Array,
                 fill) -> jax.Array:
     """`values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation` (H', W'): each
     virtual pixel takes its real pixel's, as `warp_depth`; `fill` where the ray leaves the image."""
-    iuv, inside = _sources(camera, view, rotation)
-    return jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill)
+    return _values_at(values, *_sources(camera, view, rotation), fill)
 
 
 def warp_depth_and_values(depth: jax.Array, values: jax.Array, camera: Camera, view: Camera,
                           rotation: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
     """`warp_depth` and `warp_values` of one view (H', W') each, its rays traced once."""
     iuv, inside = _sources(camera, view, rotation)
-    return (_depth_along(depth, camera, rotation, iuv, inside),
-            jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill))
+    return _depth_along(depth, camera, rotation, iuv, inside), _values_at(values, iuv, inside, fill)
 
 
 def _rotate(rotation: jax.Array, vectors: jax.Array) -> jax.Array:
