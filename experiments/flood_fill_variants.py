@@ -95,7 +95,7 @@ def warp_before(depth, camera, view, rotation):
 
 def warps_before(depth, values, camera, view, rotation, fill):
     return (warp_before(depth, camera, view, rotation),
-            virtual_module.warp_values(values, camera, view, rotation, fill))
+            WARPS(depth, values, camera, view, rotation, fill)[1])
 
 
 PACKED, WARPS = cluster_module.surface_cluster, virtual_module.warp_depth_and_values

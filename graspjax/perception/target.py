@@ -108,19 +108,12 @@ def _slope(normal, axis) -> jax.Array:
     return jnp.sqrt(jnp.maximum(1.0 - cos * cos, 0.0)) / jnp.maximum(cos, 1e-12)
 
 
-def slope_against(normals: jax.Array, axis) -> jax.Array:
-    """Tangent `(...)` of the angle between surfaces with unit `normals` `(..., 3)` (nan:
-    unknown) and a view's unit optical `axis` (3,) in their frame; inf where unknown."""
-    slope = _slope(jnp.moveaxis(normals, -1, 0), axis)
-    return jnp.where(jnp.isnan(slope), jnp.inf, slope)
-
-
 def surface_slope(depth: jax.Array, camera: Camera, step: int, axis=(0.0, 0.0, 1.0)) -> jax.Array:
     """Tangent `(H, W)` of the surface's slope against a view's unit optical `axis` (3,) in the
     camera frame (`surface_normals`; default the camera's own), true anywhere in the image: a
     vertical face seen far off the axis is steep, though its depth changes by about one
-    lateral pixel per pixel there; inf where unknown. The same as `slope_against` of the
-    normals, without their (H, W, 3) stack."""
+    lateral pixel per pixel there; inf where unknown. From the normals' planes, without their
+    (H, W, 3) stack."""
     normal, known = _normal_planes(depth, camera, step)
     return jnp.where(known, _slope(normal, axis), jnp.inf)
 

@@ -71,31 +71,18 @@ def _depth_along(depth: jax.Array, camera: Camera, rotation: jax.Array, iuv: jax
     return jnp.where(ok, along, 0.0)  # its depth along the virtual axis
 
 
-def warp_depth(depth: jax.Array, camera: Camera, view: Camera, rotation: jax.Array) -> jax.Array:
-    """Depth `(H, W)` along the virtual optical axis, seen by `view` turned by `rotation`.
-
-    depth: metric depth (H, W) of `camera`, 0 or nan = invalid; 0 where the
-    virtual ray leaves the real image or meets an invalid pixel.
-    """
-    return _depth_along(depth, camera, rotation, *_sources(camera, view, rotation))
-
-
 def _values_at(values: jax.Array, iuv: jax.Array, inside: jax.Array, fill) -> jax.Array:
     """`values` (H, W) at the real pixels `iuv` (H', W', 2) (`_sources`); `fill` where `inside`
     is False."""
     return jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill)
 
 
-def warp_values(values: jax.Array, camera: Camera, view: Camera, rotation: jax.Array,
-                fill) -> jax.Array:
-    """`values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation` (H', W'): each
-    virtual pixel takes its real pixel's, as `warp_depth`; `fill` where the ray leaves the image."""
-    return _values_at(values, *_sources(camera, view, rotation), fill)
-
-
 def warp_depth_and_values(depth: jax.Array, values: jax.Array, camera: Camera, view: Camera,
                           rotation: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
-    """`warp_depth` and `warp_values` of one view (H', W') each, its rays traced once."""
+    """`depth` and `values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation`:
+    the depth (H', W') along the virtual optical axis (0 where the virtual ray leaves the image
+    or meets an invalid pixel; `depth` 0 or nan = invalid), and each virtual pixel's real
+    pixel's value (H', W') (`fill` where the ray leaves the image); the rays traced once."""
     iuv, inside = _sources(camera, view, rotation)
     return _depth_along(depth, camera, rotation, iuv, inside), _values_at(values, iuv, inside, fill)
 
