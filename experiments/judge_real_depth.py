@@ -6,14 +6,15 @@ A grasp "straddles a real object" when its centre stands at least 8 mm above the
 centre +/- closing axis x (width / 2 + 6 mm), lie at least 8 mm below the centre (measured
 along the plane's normal) or have no depth.
 
-    python experiments/judge_real_depth.py [--column R] results/real_depth/*/results.json
+    python experiments/judge_real_depth.py [--column R] [--finger-offset M] results/real_depth/*/results.json
 
 prints one line per ranked grasp and a summary per file. Reads the images named in the
 records (they are not part of the repository). A finger place's depth is the surface seen at
 the pixel it projects to (a camera looking far to the side sees there a surface displaced
 from the place); with `--column R` (m) it is the highest surface point within R of the
 plane's normal through the place, from every pixel of the image (none: no depth), and each
-line also says what the pixel gave.
+line also says what the pixel gave. `--finger-offset M` (m) moves the finger places (default
+6 mm beyond the band's half width), to see how much the verdicts rest on that choice.
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int
     return best
 
 
-def judge(rec: dict, candidate: dict, column: float | None = None) -> tuple[bool, str]:
+def judge(rec: dict, candidate: dict, column: float | None = None,
+          finger_offset: float = FINGER_OFFSET) -> tuple[bool, str]:
     depth = np.load(rec["image"]).astype(np.float64).squeeze()
     cam = rec["camera"]
     height, width = depth.shape
@@ -66,7 +68,7 @@ def judge(rec: dict, candidate: dict, column: float | None = None) -> tuple[bool
     centre = np.asarray(candidate["position"])
     axis = np.asarray(candidate["closing_axis"])
     h_centre = centre @ normal + offset
-    places = [centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET) for side in (1, -1)]
+    places = [centre + side * axis * (candidate["width"] / 2 + finger_offset) for side in (1, -1)]
     at_pixel = [_drop(h_centre, _seen_at_pixel(depth, cam, place, normal, offset))
                 for place in places]
     drops = at_pixel
@@ -116,9 +118,14 @@ def main(argv=None) -> int:
     parser.add_argument("--column", type=float, default=None, metavar="R",
                         help="a finger place's depth: the highest point within R (m) of the "
                              "plane's normal through it, not the surface seen at its pixel")
+    parser.add_argument("--finger-offset", type=float, default=FINGER_OFFSET, metavar="M",
+                        help="finger places this far (m) beyond the band's half width "
+                             f"(default {FINGER_OFFSET})")
     args = parser.parse_args(argv)
     if args.column is not None and not args.column > 0:
         parser.error(f"--column must be > 0 (m), got {args.column}")
+    if not args.finger_offset >= 0:
+        parser.error(f"--finger-offset must be >= 0 (m), got {args.finger_offset}")
     for path in args.results:
         records = json.loads(Path(path).read_text())
         records = records if isinstance(records, list) else [records]
@@ -129,7 +136,7 @@ def main(argv=None) -> int:
                 print(f"{path} {name}: no grasp ({rec['reason']})")
                 continue
             for c in rec["candidates"]:
-                ok, text = judge(rec, c, args.column)
+                ok, text = judge(rec, c, args.column, args.finger_offset)
                 good += ok and c["rank"] == 1
                 print(f"{path} {name} rank {c['rank']}: {'straddles' if ok else 'QUESTIONABLE'}"
                       f" (width {100 * c['width']:.1f} cm, contact {100 * c['contact_width']:.1f}"
