@@ -231,7 +231,7 @@ def detect_request(args):
                      roi=roi(args.roi), mask=args.mask, depth_range=depth_range(args.range),
                      downsample=args.downsample, bin=args.bin,
                      overrides=detect_settings(args.preset, args.top, args.set, args.method))
-    return inputs, outputs, args.batch or 16, many
+    return inputs, outputs, args.batch, many
 
 
 def bench_request(args) -> dict:

@@ -246,7 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the record (a list for several images) to this JSON file")
     p.add_argument("--figure", help="write the debug figure of the one image to this PNG file")
     p.add_argument("--figures", metavar="DIR", help="write one debug figure per image into DIR")
-    p.add_argument("--batch", type=int, help="images per compiled call (default 16)")
+    p.add_argument("--batch", type=int, help="images per compiled call (default 16 on a GPU, 1 "
+                                             "on a CPU: one image at a time runs faster there)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10 or "

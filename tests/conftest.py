@@ -103,6 +103,16 @@ def world_to_camera(point):
     return rotation.T @ (np.asarray(point, float) - eye)
 
 
+def detect_one(depth, workspace, camera, config=None, image=None):
+    """`graspjax detect` on one image (`imagefiles.batches.detect_single`, the CLI's program on a
+    CPU: one compile shared with the CLI's tests), its result as NumPy."""
+    from graspjax.config import Config, RealImageConfig
+    from graspjax.imagefiles.batches import detect_single
+
+    result = detect_single(depth, workspace, camera, config or Config(), image or RealImageConfig())
+    return jax.tree.map(np.asarray, result)
+
+
 def assert_trees_close(a, b, rtol=1e-4, atol=1e-5):
     """Integers and booleans equal exactly, floats to float32 reordering noise."""
     def check(x, y):

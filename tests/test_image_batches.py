@@ -2,15 +2,15 @@
 
 Tilted table with a robot finger nearer than the table, holes and outlier
 specks, a bin with walls and a rim: the grasp must land on the object, with
-the geometry of the analytic scene. Runs through `imagefiles.batches.detect_batch`
-(batched), the function `graspjax detect` uses, so that the compiles are
-shared with the CLI tests.
+the geometry of the analytic scene. One image runs through
+`imagefiles.batches.detect_single`, as `graspjax detect` on a CPU (the compiles
+are shared with the CLI tests); several through `detect_batch`.
 """
 
 import jax
 import numpy as np
 import pytest
-from conftest import assert_trees_close
+from conftest import assert_trees_close, detect_one
 from real_scenes import HEIGHT, WIDTH, bin_scene, steep_table_scene, table_scene, with_holes_and_specks
 
 from graspjax.codes import SupportReason, TargetReason
@@ -22,7 +22,10 @@ PIXEL = 0.73 / 525.0  # a detection pixel (full resolution) on the table, metres
 
 
 def detect(scenes):
-    """Results of `detect_batch` for scenes sharing one workspace, as NumPy, one per scene."""
+    """Results of `detect_batch` for scenes sharing one workspace, as NumPy, one per scene (one
+    scene alone: `detect_single`, as `graspjax detect` on a CPU)."""
+    if len(scenes) == 1:
+        return [detect_one(scenes[0].depth, scenes[0].workspace, scenes[0].camera)]
     depth = np.stack([s.depth for s in scenes])
     result = detect_batch(depth, scenes[0].workspace, stack_cameras([s.camera for s in scenes]),
                            Config(), RealImageConfig())
@@ -261,9 +264,7 @@ def test_the_baselines_on_a_real_looking_image(table, method):
     from graspjax.config import override
 
     config = override(Config(), [f"method={method}"])
-    result = detect_batch(table.depth[None], table.workspace, stack_cameras([table.camera]),
-                          config, RealImageConfig())
-    r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+    r = detect_one(table.depth, table.workspace, table.camera, config)
     assert bool(r.found), GraspReason(int(r.grasp.reason)).name
     top = table.to_camera(table.top)
     sides = [table.direction([np.cos(table.yaw), np.sin(table.yaw), 0.0]),
@@ -403,9 +404,7 @@ def test_the_jaws_see_a_bins_walls_outside_its_workspace():
     axes = {}
     for hidden in (False, True):
         seen_by_jaws = np.where(interior, depth, 0.0) if hidden else depth
-        result = detect_batch(seen_by_jaws[None], interior, stack_cameras([camera]), Config(),
-                              RealImageConfig())
-        r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+        r = detect_one(seen_by_jaws, interior, camera)
         assert bool(r.found)
         axes[hidden] = rotation @ r.closing_axis  # world
     assert abs(axes[False][0]) > np.cos(np.deg2rad(5.0))  # along the wall (world x)

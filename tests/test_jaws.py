@@ -6,10 +6,10 @@ grasped."""
 import jax
 import numpy as np
 import pytest
+from conftest import detect_one
 from real_scenes import table_centre, table_with
 
 from graspjax.config import Config, RealImageConfig, preset
-from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
 from graspjax.perception.jaws import check_jaws
 from graspjax.synthetic import box, prism, regular_prism, rot_x, rot_y
@@ -218,8 +218,7 @@ def test_a_top_falling_gently_past_the_band_is_grasped_on_its_followed_surface()
     depth, camera, workspace, rotation, eye = table_with(_ridged_top())
 
     def detect(image):
-        result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(), image)
-        return jax.tree.map(lambda x: np.asarray(x)[0], result)
+        return detect_one(depth, workspace, camera, Config(), image)
 
     tbeam_only = detect(RealImageConfig(contour_search=False, max_targets=1))
     assert not bool(tbeam_only.found)
@@ -284,9 +283,7 @@ def test_only_the_graspable_part_of_a_workspace_is_returned():
     solids = [box((0.12, 0.12, 0.08), _at(x=-0.1)), box((0.1, 0.1, 0.05), _at(x=0.1, y=0.06)),
               box((0.03, 0.05, 0.03), _at(x=0.07, y=-0.08))]
     depth, camera, workspace, rotation, eye = table_with(solids)
-    result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(),
-                          RealImageConfig())
-    r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+    r = detect_one(depth, workspace, camera, Config(), RealImageConfig())
     assert bool(r.found)
     assert int(r.attempts) >= 2
     assert r.attempt_reasons[0] == GraspReason.TOO_WIDE
@@ -306,9 +303,7 @@ def test_a_target_given_up_gives_up_its_object():
     wedge = prism(profile, 0.12).moved(rot_x(np.pi / 2), _at(x=-0.05, y=0.06))
     part = box((0.03, 0.04, 0.015), _at(x=0.09, y=-0.05))
     depth, camera, workspace, rotation, eye = table_with([wedge, part])
-    result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(),
-                          RealImageConfig(max_targets=3))
-    r = jax.tree.map(lambda x: np.asarray(x)[0], result)
+    r = detect_one(depth, workspace, camera, Config(), RealImageConfig(max_targets=3))
     assert bool(r.found)
     assert int(r.attempts) == 2
     assert r.attempt_reasons[0] != GraspReason.FOUND and r.attempt_reasons[1] == GraspReason.FOUND
@@ -323,9 +318,7 @@ def test_ranked_grasps_are_distinct_and_best_first(top_k):
     """On one 4 x 7 x 4 cm box: several distinct grasps, scores falling, none a mirror of
     another (the same centre and axis)."""
     depth, camera, workspace, rotation, eye = table_with([box((0.04, 0.07, 0.04), _at())])
-    result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(),
-                          RealImageConfig(top_k=top_k))
-    ranked = jax.tree.map(lambda x: np.asarray(x)[0], result.ranked)
+    ranked = detect_one(depth, workspace, camera, Config(), RealImageConfig(top_k=top_k)).ranked
     assert ranked.valid.sum() >= 2
     scores = ranked.score[ranked.valid]
     assert np.all(np.diff(scores) <= 1e-6)
@@ -354,8 +347,7 @@ def test_a_blocked_bar_is_grasped_where_its_contour_is_free(beside, tbeam_reason
     depth, camera, workspace, rotation, eye = table_with([bar, *sides])
 
     def detect(image):
-        result = detect_batch(depth[None], workspace, stack_cameras([camera]), Config(), image)
-        return jax.tree.map(lambda x: np.asarray(x)[0], result)
+        return detect_one(depth, workspace, camera, Config(), image)
 
     tbeam_only = detect(RealImageConfig(contour_search=False))
     assert tbeam_only.attempt_reasons[0] == tbeam_reason  # the bar, highest, first (with the

@@ -25,6 +25,16 @@ from graspjax.perception.real_image import RealImageDetection, detect_real_image
 detect_batch = jax.jit(jax.vmap(detect_real_image, in_axes=(0, None, 0, None, None)))
 #: The same with a workspace (B, H, W) of each image's own (`graspjax detect --bin`).
 detect_batch_own_workspaces = jax.jit(jax.vmap(detect_real_image, in_axes=(0, 0, 0, None, None)))
+#: One image per call, not batched: under `vmap` a `lax.cond` runs both of its branches (the
+#: contour search, a given-up target's surface), one image runs only the one it takes.
+detect_single = jax.jit(detect_real_image)
+
+
+def default_image_batch() -> int:
+    """`graspjax detect`'s images per call: 16 on a GPU or TPU, where a batch fills the device;
+    1 on a CPU, where an image of a batch takes longer than one alone (a batch runs both
+    branches of every `lax.cond`; results/benchmarks/detect_single_calls)."""
+    return 1 if jax.default_backend() == "cpu" else 16
 
 
 def stack_cameras(cameras: Sequence[Camera]) -> Camera:
@@ -51,14 +61,24 @@ class Detection:
 
 def detect_files(inputs: Inputs, batch: int = 16, progress: Callable[[int], None] = lambda n: None,
                  log: Callable[[str], None] = lambda m: None) -> Iterator[Detection]:
-    """Every image's `Detection`, in order, `batch` images per compiled call.
+    """Every image's `Detection`, in order, `batch` images per compiled call (1: `detect_single`).
 
     progress(n): n more images done; log: a line about the first call's compile.
     """
     batch = max(1, min(batch, len(inputs.paths)))
     own = inputs.bins is not None
-    detect = detect_batch_own_workspaces if own else detect_batch
     settings = (inputs.config, inputs.image)
+
+    def detect(depths, workspace, cameras):
+        """depths (B, H, W), the workspace (H, W) or each image's (B, H, W), B `Camera`s: the
+        results as NumPy (B, ...)."""
+        if batch == 1:
+            result = detect_single(depths[0], workspace[0] if own else workspace, cameras[0],
+                                   *settings)
+            return jax.tree.map(lambda x: np.asarray(x)[None], result)  # on the host
+        call = detect_batch_own_workspaces if own else detect_batch
+        return jax.tree.map(np.asarray, call(depths, workspace, stack_cameras(cameras), *settings))
+
     compiled = False
     for start in range(0, len(inputs.paths), batch):
         chunk = inputs.paths[start:start + batch]
@@ -73,15 +93,15 @@ def detect_files(inputs: Inputs, batch: int = 16, progress: Callable[[int], None
             loads.append(time.perf_counter() - t0)
         pad = batch - len(chunk)  # one compiled size: repeat the last image
         stacked = np.stack(depths + [depths[-1]] * pad)
-        args = (np.stack(workspaces + [workspaces[-1]] * pad) if own else inputs.workspace,)
-        camera = stack_cameras(cameras + [cameras[-1]] * pad)
+        workspace = np.stack(workspaces + [workspaces[-1]] * pad) if own else inputs.workspace
+        padded_cameras = cameras + [cameras[-1]] * pad
         if not compiled:
             t0 = time.perf_counter()
-            jax.block_until_ready(detect(stacked, *args, camera, *settings))
+            detect(stacked, workspace, padded_cameras)
             log(f"compiled and ran the first {batch} image(s) in {time.perf_counter() - t0:.1f} s")
             compiled = True
         t0 = time.perf_counter()
-        result = jax.tree.map(np.asarray, detect(stacked, *args, camera, *settings))
+        result = detect(stacked, workspace, padded_cameras)
         per_image = (time.perf_counter() - t0) / batch
         for i, path in enumerate(chunk):
             yield Detection(index=start + i, path=path, depth=depths[i],
