@@ -21,7 +21,14 @@ def main(argv: list[str]) -> int:
     if len(argv) < 2:
         print(__doc__.strip().splitlines()[2].strip(), file=sys.stderr)
         return 2
-    offsets = [float(x) for x in argv[0].split(",")]
+    try:
+        offsets = [float(x) for x in argv[0].split(",")]
+    except ValueError:
+        print(f"offsets must be numbers (m), comma-separated: got {argv[0]!r}", file=sys.stderr)
+        return 2
+    if not all(x >= 0 for x in offsets):
+        print(f"offsets must be >= 0 (m): got {argv[0]!r}", file=sys.stderr)
+        return 2
     grasps = []  # (file, image, rank, record, candidate)
     for path in argv[1:]:
         records = json.loads(Path(path).read_text())

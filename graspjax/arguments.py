@@ -206,7 +206,8 @@ def experiment_request(args, grid_items):
 
 
 def detect_request(args):
-    """`graspjax detect`'s checked request: (inputs, outputs, batch, several images)."""
+    """`graspjax detect`'s checked request: (inputs, outputs, batch (None: the device's
+    default, `batches.default_image_batch`), several images)."""
     from graspjax.experiment import DetectOutputs
     from graspjax.imagefiles.inputs import expand_images, prepare
 

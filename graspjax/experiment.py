@@ -325,14 +325,12 @@ class DetectOutputs:
 def detect_images(inputs, outputs: DetectOutputs, batch: int | None = None, quiet: bool = False
                   ) -> list[dict]:
     """`graspjax detect`: every image of `inputs` (`imagefiles.inputs.prepare`) through the
-    detector, `batch` images per call (None: `default_image_batch`); its records (JSON values),
+    detector, `batch` images per call (None: `batches.default_image_batch`); its records (JSON values),
     with the files of `outputs` written atomically once everything has run (figures as each
     image is done)."""
     from graspjax.imagefiles import records as rec
-    from graspjax.imagefiles.batches import default_image_batch, detect_files
+    from graspjax.imagefiles.batches import detect_files
     from graspjax.viz import real_image_figure
-
-    batch = batch or default_image_batch()
 
     many = len(inputs.paths) > 1
     names = figure_names(inputs.paths)

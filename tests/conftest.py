@@ -104,12 +104,13 @@ def world_to_camera(point):
 
 
 def detect_one(depth, workspace, camera, config=None, image=None):
-    """`graspjax detect` on one image (`imagefiles.batches.detect_single`, the CLI's program on a
-    CPU: one compile shared with the CLI's tests), its result as NumPy."""
+    """`graspjax detect`'s program on a CPU (`imagefiles.batches.detect_single`: one image, not
+    vmapped) on one image, its result as NumPy; `Config()` and `RealImageConfig()` by default."""
     from graspjax.config import Config, RealImageConfig
     from graspjax.imagefiles.batches import detect_single
 
-    result = detect_single(depth, workspace, camera, config or Config(), image or RealImageConfig())
+    result = detect_single(depth, workspace, camera, Config() if config is None else config,
+                           RealImageConfig() if image is None else image)
     return jax.tree.map(np.asarray, result)
 
 

@@ -3,8 +3,8 @@
 Tilted table with a robot finger nearer than the table, holes and outlier
 specks, a bin with walls and a rim: the grasp must land on the object, with
 the geometry of the analytic scene. One image runs through
-`imagefiles.batches.detect_single`, as `graspjax detect` on a CPU (the compiles
-are shared with the CLI tests); several through `detect_batch`.
+`imagefiles.batches.detect_single`, as `graspjax detect` on a CPU; several
+through `detect_batch`.
 """
 
 import jax
@@ -330,11 +330,13 @@ def test_a_tote_whose_walls_lie_in_the_box(tmp_path):
     assert min(abs(rec["grasp"]["width"] - w) for w in scene.size) < 3 * PIXEL
 
 
-def test_every_image_gets_its_own_bin(tmp_path):
+@pytest.mark.parametrize("batch", [1, 2])
+def test_every_image_gets_its_own_bin(tmp_path, batch):
     """`--bin` over two images of the tote, the second with the bin 40 columns further right
     (the scene's planes stay planes when the image is shifted): each image's workspace is its
     own bin's interior, and each grasp is on its own image's 6 cm box (the first image's bin
-    would cut the second's box off at the right and keep the left wall in)."""
+    would cut the second's box off at the right and keep the left wall in). One image per call
+    (a CPU's default) and both in one batch."""
     from graspjax.imagefiles.batches import detect_files
     from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
     from graspjax.imagefiles.records import record
@@ -349,7 +351,7 @@ def test_every_image_gets_its_own_bin(tmp_path):
     moved = np.roll(first, shift, axis=1)
     assert (second & moved).sum() > 0.97 * max(second.sum(), moved.sum())
     assert (second != first).sum() > 0.05 * first.sum()
-    records = [record(d, inputs) for d in detect_files(inputs, batch=2)]
+    records = [record(d, inputs) for d in detect_files(inputs, batch=batch)]
     pixels = [np.asarray(r["grasp"]["pixel"]) for r in records]
     assert all(r["found"] and r["workspace"]["bin"] for r in records)
     assert records[1]["workspace"]["pixels"] == int(second.sum())

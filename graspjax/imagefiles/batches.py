@@ -1,8 +1,9 @@
-"""Batched detection on real depth images: `detect_real_image` over chunks of files.
+"""Detection on real depth images: `detect_real_image` over chunks of files.
 
 The images go through one compiled call per chunk of `batch` images (the last chunk padded
-to the same size), each with its own intrinsics; every image's result comes back with the
-views its steps worked on, so a figure never recomputes them.
+to the same size; a chunk of one is not vmapped: `detect_single`), each with its own
+intrinsics; every image's result comes back with the views its steps worked on, so a figure
+never recomputes them.
 """
 
 from __future__ import annotations
@@ -59,13 +60,15 @@ class Detection:
     compute_s: float  # its share of the compiled call
 
 
-def detect_files(inputs: Inputs, batch: int = 16, progress: Callable[[int], None] = lambda n: None,
+def detect_files(inputs: Inputs, batch: int | None = None,
+                 progress: Callable[[int], None] = lambda n: None,
                  log: Callable[[str], None] = lambda m: None) -> Iterator[Detection]:
-    """Every image's `Detection`, in order, `batch` images per compiled call (1: `detect_single`).
+    """Every image's `Detection`, in order, `batch` images per compiled call (None:
+    `default_image_batch`; 1: `detect_single`).
 
     progress(n): n more images done; log: a line about the first call's compile.
     """
-    batch = max(1, min(batch, len(inputs.paths)))
+    batch = max(1, min(batch or default_image_batch(), len(inputs.paths)))
     own = inputs.bins is not None
     settings = (inputs.config, inputs.image)
 
