@@ -10,6 +10,7 @@ from conftest import detect_one
 from real_scenes import table_centre, table_with
 
 from graspjax.config import Config, RealImageConfig, preset
+from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
 from graspjax.perception.jaws import check_jaws
 from graspjax.synthetic import box, prism, regular_prism, rot_x, rot_y
@@ -293,16 +294,20 @@ def test_only_the_graspable_part_of_a_workspace_is_returned():
     assert bool(r.ranked.valid[0]) and np.isfinite(r.ranked.score[0])
 
 
+def _wedge_and_box():
+    """A 12 x 12 cm wedge sloping from 6.4 to 2 cm high and a 3 x 4 x 1.5 cm box."""
+    profile = [(-0.06, 0.0), (0.06, 0.0), (0.06, 0.064), (-0.06, 0.02)]
+    wedge = prism(profile, 0.12).moved(rot_x(np.pi / 2), _at(x=-0.05, y=0.06))
+    return [wedge, box((0.03, 0.04, 0.015), _at(x=0.09, y=-0.05))]
+
+
 def test_a_target_given_up_gives_up_its_object():
     """A 12 x 12 cm wedge, its top sloping 20 degrees from 6.4 cm down to 2 cm (too wide to
     grasp across either way; every band of it a strip whose jaws land on the slope below), and
     a 3 x 4 x 1.5 cm box. Its bands are the highest targets, one after another (the old rule,
     giving up a band at a time, spends three targets on them); once the first is given up, its
     whole followed surface (the wedge's top) is, so the second target is the box."""
-    profile = [(-0.06, 0.0), (0.06, 0.0), (0.06, 0.064), (-0.06, 0.02)]
-    wedge = prism(profile, 0.12).moved(rot_x(np.pi / 2), _at(x=-0.05, y=0.06))
-    part = box((0.03, 0.04, 0.015), _at(x=0.09, y=-0.05))
-    depth, camera, workspace, rotation, eye = table_with([wedge, part])
+    depth, camera, workspace, rotation, eye = table_with(_wedge_and_box())
     r = detect_one(depth, workspace, camera, Config(), RealImageConfig(max_targets=3))
     assert bool(r.found)
     assert int(r.attempts) == 2
@@ -311,6 +316,32 @@ def test_a_target_given_up_gives_up_its_object():
     top = rotation.T @ (np.array(_at(x=0.09, y=-0.05, z=0.015)) - eye)
     assert np.linalg.norm(r.position - top) < 0.02
     assert np.linalg.norm(r.target_point - top) < 0.03  # the second target is on the box
+
+
+def test_a_batch_gives_each_image_what_it_gets_alone():
+    """vmap at the edge, where a batch runs both branches of the target loop's conds (a GPU's
+    `graspjax detect` batches, a CPU's runs one image at a time): the wedge and box (its first
+    target given up) and the ridged part (rescued by the contour search), in one batch, get
+    the targets, reasons and ranked grasps they get alone."""
+    scenes = [table_with(_wedge_and_box()), table_with(_ridged_top())]
+    camera, workspace = scenes[0][1], scenes[0][2]  # the same table view
+    image = RealImageConfig(max_targets=3)
+    depths = np.stack([scene[0] for scene in scenes])
+    batch = jax.tree.map(np.asarray, detect_batch(depths, workspace, stack_cameras([camera] * 2),
+                                                  Config(), image))
+    alone = [detect_one(depth, workspace, camera, Config(), image) for depth in depths]
+    assert int(alone[0].attempts) == 2 and bool(alone[1].ranked.contour[0])  # both branches
+    for i, single in enumerate(alone):
+        got = jax.tree.map(lambda x, i=i: x[i], batch)
+        assert bool(got.found) and bool(single.found)
+        assert int(got.attempts) == int(single.attempts)
+        np.testing.assert_array_equal(got.attempt_reasons, single.attempt_reasons)
+        np.testing.assert_array_equal(got.ranked.valid, single.ranked.valid)
+        np.testing.assert_array_equal(got.ranked.contour, single.ranked.contour)
+        valid = single.ranked.valid
+        np.testing.assert_allclose(got.ranked.position[valid], single.ranked.position[valid],
+                                   atol=1e-4)
+        np.testing.assert_allclose(got.ranked.width[valid], single.ranked.width[valid], atol=1e-4)
 
 
 @pytest.mark.parametrize("top_k", [3])
