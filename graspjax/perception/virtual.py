@@ -71,12 +71,6 @@ def _depth_along(depth: jax.Array, camera: Camera, rotation: jax.Array, iuv: jax
     return jnp.where(ok, along, 0.0)  # its depth along the virtual axis
 
 
-def _values_at(values: jax.Array, iuv: jax.Array, inside: jax.Array, fill) -> jax.Array:
-    """`values` (H, W) at the real pixels `iuv` (H', W', 2) (`_sources`); `fill` where `inside`
-    is False."""
-    return jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill)
-
-
 def warp_depth_and_values(depth: jax.Array, values: jax.Array, camera: Camera, view: Camera,
                           rotation: jax.Array, fill) -> tuple[jax.Array, jax.Array]:
     """`depth` and `values` (H, W) of `camera`'s pixels seen by `view` turned by `rotation`:
@@ -84,7 +78,8 @@ def warp_depth_and_values(depth: jax.Array, values: jax.Array, camera: Camera, v
     or meets an invalid pixel; `depth` 0 or nan = invalid), and each virtual pixel's real
     pixel's value (H', W') (`fill` where the ray leaves the image); the rays traced once."""
     iuv, inside = _sources(camera, view, rotation)
-    return _depth_along(depth, camera, rotation, iuv, inside), _values_at(values, iuv, inside, fill)
+    return (_depth_along(depth, camera, rotation, iuv, inside),
+            jnp.where(inside, values[iuv[..., 1], iuv[..., 0]], fill))
 
 
 def _rotate(rotation: jax.Array, vectors: jax.Array) -> jax.Array:
