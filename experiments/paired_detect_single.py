@@ -6,10 +6,12 @@ Separate processes on a shared 2-core machine differ by more than most changes (
 same code 15.5 and 17.6 ms in two processes). Here both versions are compiled in one process
 (REVISION's `graspjax/` exported by `git archive` and imported as `graspjax_rev`), and each of
 `graspjax bench detect`'s 64 scenes goes through both, in alternating order, ROUNDS times (3),
-top K = TOP_K (5). Prints whether every output array is identical, each side's median and the
-paired median difference. Run from the repository root; nothing is written.
+top K = TOP_K (5). Prints whether every output array is identical (else which fields differ,
+on how many scenes), each side's median and the paired median difference. Run from the
+repository root; nothing is written.
 """
 
+import collections
 import dataclasses
 import importlib
 import re
@@ -49,13 +51,14 @@ def import_revision(revision: str, folder: Path):
     return modules
 
 
-def identical(first, second) -> bool:
-    """Two results with the same fields (by name) and equal arrays, nan where nan."""
+def differing(first, second) -> set[str]:
+    """The fields (by name) of two results whose arrays differ, nan where nan equal."""
     paths = [jax.tree_util.tree_flatten_with_path(result)[0] for result in (first, second)]
     names = [[jax.tree_util.keystr(path) for path, _ in leaves] for leaves in paths]
-    return names[0] == names[1] and all(
-        np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-        for (_, a), (_, b) in zip(*paths, strict=True))
+    if names[0] != names[1]:
+        return set(names[0]) ^ set(names[1])
+    return {name for name, (_, a), (_, b) in zip(names[0], *paths, strict=True)
+            if not np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)}
 
 
 def main() -> None:
@@ -83,7 +86,8 @@ def main() -> None:
             jax.block_until_ready(runs[name](scenes[0]))
             print(f"{name}: compiled in {time.perf_counter() - start:.1f} s", flush=True)
         names = list(runs)
-        same = all(identical(*(runs[n](depth) for n in names)) for depth in scenes)
+        differ = collections.Counter(name for depth in scenes
+                                     for name in differing(*(runs[n](depth) for n in names)))
         times = {name: [] for name in names}
         for r in range(rounds):
             for i, depth in enumerate(scenes):
@@ -92,7 +96,9 @@ def main() -> None:
                     jax.block_until_ready(runs[name](depth))
                     times[name].append(time.perf_counter() - start)
     print(f"{jax.devices()[0].device_kind}, top {top}, {len(scenes)} scenes x {rounds}; "
-          f"every output identical: {same}")
+          f"every output identical: {not differ}")
+    for field, count in sorted(differ.items()):
+        print(f"  {field} differs on {count} scenes")
     for name, seconds in times.items():
         print(f"{name:>14}: median {1e3 * statistics.median(seconds):6.2f} ms, "
               f"p90 {1e3 * np.percentile(seconds, 90):6.2f} ms")

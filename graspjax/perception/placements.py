@@ -29,7 +29,7 @@ class TBeams:
     pixel: jax.Array  # (M, 2) G in pixel coordinates (u, v)
     axis: jax.Array  # (M, 2) closing axis in the image plane (outward normal of edge i)
     width: jax.Array  # (M,) distance c between the two antipodal edges (m)
-    depth: jax.Array  # (M,) reachable finger-tip depth below the surface (m)
+    depth: jax.Array  # (M,) reachable finger-tip depth below the surface (m; nan: not admissible)
     reason: jax.Array  # (M,) int32 GraspReason of this placement
     valid: jax.Array  # (M,) bool, reason == FOUND
 
@@ -118,13 +118,46 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
     whether the method's own test passed (`admissible`, else NO_ANTIPODAL).
 
     Returns each placement's `GraspReason` `(...)` (the first check it fails, in stage order)
-    and the finger-tip depth it can reach below the surface `(...)` (m).
+    and the finger-tip depth it can reach below the surface `(...)` (m; nan where not
+    admissible). Only the admissible placements are checked, `_CHECK_CHUNK` at a time (most of
+    a T-beam's edge pairs do not face each other).
     """
+    below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
+    edge = jnp.max(jnp.where(cluster, depth, -jnp.inf)) - z_s  # the band's edge below its mean
+    shape, flat_ok = c.shape, admissible.reshape(-1)
+    g_flat, axis_flat, c_flat = g_xy.reshape(-1, 2), axis.reshape(-1, 2), c.reshape(-1)
+    n = flat_ok.shape[0]
+    chunk = min(n, _CHECK_CHUNK)
+    order = jnp.nonzero(flat_ok, size=n, fill_value=n)[0]  # the admissible first, then n
+    count = jnp.sum(flat_ok)
+
+    def check_chunk(state):
+        start, reason, reach = state
+        index = jax.lax.dynamic_slice_in_dim(order, start, chunk)
+        safe = jnp.minimum(index, n - 1)
+        part_reason, part_reach = _check(below_surface, edge, cluster, z_s, camera,
+                                         g_flat[safe], axis_flat[safe], c_flat[safe], config,
+                                         gripper)
+        return (start + chunk, reason.at[index].set(part_reason, mode="drop"),
+                reach.at[index].set(part_reach, mode="drop"))
+
+    _, reason, reach = jax.lax.while_loop(
+        lambda state: state[0] < count, check_chunk,
+        (jnp.int32(0), jnp.full(n, GraspReason.NO_ANTIPODAL, jnp.int32),
+         jnp.full(n, jnp.nan, jnp.float32)))
+    return reason.reshape(shape), reach.reshape(shape)
+
+
+_CHECK_CHUNK = 64  # admissible placements checked per loop step (`check_placements`)
+
+
+def _check(below_surface, edge, cluster, z_s, camera: Camera, g_xy, axis, c,
+           config: DetectorConfig, gripper: GripperConfig) -> tuple[jax.Array, jax.Array]:
+    """`check_placements` on admissible placements `(N, ...)`: their reasons and reach (N,)."""
     wide_enough = c >= config.min_width
     fits = c <= gripper.opening - 2 * config.clearance
     corners, footprint = _finger_points(g_xy, axis, gripper, config.finger_samples)
     corner_in_cluster, corner_inside = sample_nearest(cluster, _to_pixels(corners, camera, z_s), False)
-    below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
     free, foot_inside = sample_nearest(below_surface, _to_pixels(footprint, camera, z_s), jnp.inf)
     in_view = jnp.all(corner_inside, -1) & jnp.all(foot_inside, -1)
     collision = jnp.any(corner_in_cluster, -1)
@@ -140,7 +173,6 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
     # the band's lowest point, `run` counted from the band's last pixel centre (half a pixel
     # inside the fitted edge line).
     slope = 1.0 / gripper.friction
-    edge = jnp.max(jnp.where(cluster, depth, -jnp.inf)) - z_s  # the band's edge below its mean
     half_pixel = 0.5 * z_s * (jnp.abs(axis[..., 0]) / camera.fx + jnp.abs(axis[..., 1]) / camera.fy)
     beyond = jnp.clip(jnp.minimum(reach / slope, (gripper.opening - c) / 2), 0.0, None)
     wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
@@ -149,10 +181,9 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
     walls = ~config.wall_check | jnp.all(wall_free >= needed[..., None], -1)
 
     reason = jnp.select(
-        [~admissible, ~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],
-        [GraspReason.NO_ANTIPODAL, GraspReason.TOO_NARROW, GraspReason.TOO_WIDE,
-         GraspReason.OUT_OF_VIEW, GraspReason.COLLISION, GraspReason.NO_ROOM,
-         GraspReason.NO_WALL],
+        [~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],
+        [GraspReason.TOO_NARROW, GraspReason.TOO_WIDE, GraspReason.OUT_OF_VIEW,
+         GraspReason.COLLISION, GraspReason.NO_ROOM, GraspReason.NO_WALL],
         GraspReason.FOUND).astype(jnp.int32)
     return reason, reach
 
