@@ -1,5 +1,5 @@
-"""Pytree helpers shared by every layer: dataclasses of arrays, selection between trees, and the
-dotted names of a nested dataclass's fields."""
+"""Pytree helpers shared by every layer: dataclasses of arrays, selection between trees, a function
+mapped over the kept entries only, and the dotted names of a nested dataclass's fields."""
 
 from __future__ import annotations
 
@@ -32,6 +32,27 @@ def where_tree(flag: jax.Array, a, b):
 def concat_trees(*trees):
     """Pytrees of one structure joined along their leaves' leading axis."""
     return jax.tree.map(lambda *parts: jnp.concatenate(parts), *trees)
+
+
+def map_where(fn, where: jax.Array, chunk: int, fill, *xs):
+    """`fn` over the entries of `xs` (each (N, ...)) where `where` (N,) bool holds, `chunk` at a
+    time, and `fill` (a tree of (N, ...) arrays shaped as `fn`'s result) elsewhere: for a costly
+    check most entries skip, the work follows the entries kept, not N. `fn` maps (chunk, ...)
+    inputs to a tree of (chunk, ...) results; a loop over chunks of the kept entries' indices
+    while any is left (one image's count; a batch's loop lasts as long as its longest)."""
+    n = where.shape[0]
+    chunk = min(n, chunk)
+    order = jnp.nonzero(where, size=-(-n // chunk) * chunk, fill_value=n)[0]  # kept first, then n
+    count = jnp.sum(where)
+
+    def step(state):
+        start, out = state
+        index = jax.lax.dynamic_slice_in_dim(order, start, chunk)
+        part = fn(*(x[jnp.minimum(index, n - 1)] for x in xs))
+        return start + chunk, jax.tree.map(
+            lambda whole, new: whole.at[index].set(new, mode="drop"), out, part)
+
+    return jax.lax.while_loop(lambda state: state[0] < count, step, (jnp.int32(0), fill))[1]
 
 
 def named_fields(obj: Any, prefix: str = "") -> dict[str, Any]:

@@ -397,3 +397,40 @@ def test_a_blocked_bar_is_grasped_where_its_contour_is_free(beside, tbeam_reason
     tbeams = r.grasp.candidates.valid.shape[0] - 2 * Config().baseline.antipodal_contacts
     assert int(r.grasp.index) >= tbeams and bool(r.grasp.found)
     assert np.allclose(r.rotation @ r.grasp.position, r.position, atol=1e-5)
+
+
+def test_only_the_placed_grasps_are_checked_each_as_alone():
+    """`check_jaws_where` (the target loop's checks, a chunk at a time): 20 grasps over a step
+    and a plain block, 13 of them placed (two chunks); each placed one gets what `check_jaws`
+    gives it alone (the float work may round in another order: 1e-7 m), the rest reason -1 and
+    nan."""
+    from graspjax.perception import jaws
+
+    solids = [box((0.065, 0.04, 0.04), _at()), box((0.025, 0.04, 0.006), _at(z=0.04)),
+              box((0.025, 0.04, 0.046), _at(x=0.09))]
+    depth, camera, workspace, rotation, eye = table_with(solids, tilt_deg=13.0)
+    depth = np.where(workspace, depth, 0.0).astype(np.float32)
+    rng = np.random.default_rng(3)
+    tops = [_at(z=0.046), _at(x=0.09, z=0.046)] * 10
+    shift = rng.uniform(-0.004, 0.004, (20, 2))
+    centre = np.stack([rotation.T @ (np.asarray(t) + (s[0], s[1], 0.0) - eye)
+                       for t, s in zip(tops, shift, strict=True)]).astype(np.float32)
+    angle = rng.uniform(-0.6, 0.6, 20)
+    axis = np.stack([rotation.T @ (np.cos(a), np.sin(a), 0.0) for a in angle]).astype(np.float32)
+    approach = (rotation.T @ np.array([0.0, 0.0, -1.0])).astype(np.float32)
+    width = rng.uniform(0.02, 0.03, 20).astype(np.float32)
+    placed = rng.random(20) < 0.65
+    config, image = Config(), RealImageConfig()
+    assert int(placed.sum()) > jaws._JAW_CHUNK  # two chunks
+    got = jax.tree.map(np.asarray, jax.jit(jaws.check_jaws_where)(
+        placed, depth, camera, centre, axis, approach, width, config.detect, config.gripper, image))
+    alone = [jax.tree.map(np.asarray, check(depth, camera, centre[i], axis[i], approach, width[i],
+                                            config.detect, config.gripper, image))
+             for i in np.flatnonzero(placed)]
+    np.testing.assert_array_equal(got.reason[placed], [a.reason for a in alone])
+    for field in ("depth", "clearance", "landing", "contact_width", "unknown"):
+        np.testing.assert_allclose(getattr(got, field)[placed], [getattr(a, field) for a in alone],
+                                   rtol=0, atol=1e-7)
+        assert np.all(np.isnan(getattr(got, field)[~placed]))
+    assert np.all(got.reason[~placed] == -1)
+    assert {GraspReason.FOUND, GraspReason.JAWS_BLOCKED} <= set(got.reason[placed].tolist())

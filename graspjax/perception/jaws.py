@@ -50,14 +50,15 @@ from graspjax.codes import GraspReason
 from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
 from graspjax.perception.placements import sample_nearest
-from graspjax.tree import pytree_dataclass
+from graspjax.tree import map_where, pytree_dataclass
 
 
 @pytree_dataclass
 class JawCheck:
     """The full-resolution verdict on one grasp (metres)."""
 
-    reason: jax.Array  # () int32 GraspReason: FOUND, TOO_NARROW, JAWS_BLOCKED or NO_WALL
+    reason: jax.Array  # () int32 GraspReason: FOUND, TOO_NARROW, JAWS_BLOCKED or NO_WALL (-1: not
+    # checked, `check_jaws_where`; its numbers nan)
     depth: jax.Array  # () finger-tip depth below the grasp centre the jaws can reach
     clearance: jax.Array  # () free height below the finger tips in the checked path (inf: all free)
     landing: jax.Array  # () how far the part falls beside the band, at the worst of both jaws'
@@ -192,6 +193,26 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
                         GraspReason.FOUND).astype(jnp.int32)
     return JawCheck(reason=reason, depth=reach, clearance=free - reach, landing=landing,
                     contact_width=contact_width, unknown=jnp.mean(~seen))
+
+
+_JAW_CHUNK = 8  # grasps checked per loop step (`check_jaws_where`)
+
+
+def check_jaws_where(placed: jax.Array, depth: jax.Array, camera: Camera, center: jax.Array,
+                     axis: jax.Array, approach: jax.Array, width: jax.Array,
+                     detect: DetectorConfig, gripper: GripperConfig, image: RealImageConfig
+                     ) -> JawCheck:
+    """`check_jaws` on the grasps (centres, axes (N, 3), widths (N,)) where `placed` (N,) bool,
+    `_JAW_CHUNK` at a time (a target often has fewer placements than are checked); elsewhere
+    reason -1 and nan."""
+    n = placed.shape[0]
+    nan = jnp.full(n, jnp.nan, jnp.float32)
+    return map_where(
+        jax.vmap(lambda c, a, w: check_jaws(depth, camera, c, a, approach, w, detect, gripper, image)),
+        placed, _JAW_CHUNK,
+        JawCheck(reason=jnp.full(n, -1, jnp.int32), depth=nan, clearance=nan, landing=nan,
+                 contact_width=nan, unknown=nan),
+        center, axis, width)
 
 
 def grasp_score(check: JawCheck, width, centre_distance, detect, gripper, image) -> jax.Array:

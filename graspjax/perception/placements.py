@@ -18,7 +18,7 @@ from graspjax.codes import GraspReason
 from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.contour import Edges
 from graspjax.perception.reasons import furthest_reason
-from graspjax.tree import pytree_dataclass
+from graspjax.tree import map_where, pytree_dataclass
 
 
 @pytree_dataclass
@@ -124,28 +124,13 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
     """
     below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
     edge = jnp.max(jnp.where(cluster, depth, -jnp.inf)) - z_s  # the band's edge below its mean
-    shape, flat_ok = c.shape, admissible.reshape(-1)
-    g_flat, axis_flat, c_flat = g_xy.reshape(-1, 2), axis.reshape(-1, 2), c.reshape(-1)
-    n = flat_ok.shape[0]
-    chunk = min(n, _CHECK_CHUNK)
-    order = jnp.nonzero(flat_ok, size=n, fill_value=n)[0]  # the admissible first, then n
-    count = jnp.sum(flat_ok)
-
-    def check_chunk(state):
-        start, reason, reach = state
-        index = jax.lax.dynamic_slice_in_dim(order, start, chunk)
-        safe = jnp.minimum(index, n - 1)
-        part_reason, part_reach = _check(below_surface, edge, cluster, z_s, camera,
-                                         g_flat[safe], axis_flat[safe], c_flat[safe], config,
-                                         gripper)
-        return (start + chunk, reason.at[index].set(part_reason, mode="drop"),
-                reach.at[index].set(part_reach, mode="drop"))
-
-    _, reason, reach = jax.lax.while_loop(
-        lambda state: state[0] < count, check_chunk,
-        (jnp.int32(0), jnp.full(n, GraspReason.NO_ANTIPODAL, jnp.int32),
-         jnp.full(n, jnp.nan, jnp.float32)))
-    return reason.reshape(shape), reach.reshape(shape)
+    n = c.size
+    reason, reach = map_where(
+        lambda g, a, w: _check(below_surface, edge, cluster, z_s, camera, g, a, w, config, gripper),
+        admissible.reshape(-1), _CHECK_CHUNK,
+        (jnp.full(n, GraspReason.NO_ANTIPODAL, jnp.int32), jnp.full(n, jnp.nan, jnp.float32)),
+        g_xy.reshape(-1, 2), axis.reshape(-1, 2), c.reshape(-1))
+    return reason.reshape(c.shape), reach.reshape(c.shape)
 
 
 _CHECK_CHUNK = 64  # admissible placements checked per loop step (`check_placements`)

@@ -55,7 +55,7 @@ from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_method
 from graspjax.perception.cluster import target_surface, valid_mask
-from graspjax.perception.jaws import check_jaws, grasp_score
+from graspjax.perception.jaws import check_jaws_where, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.reasons import further_reason, furthest_reason
 from graspjax.perception.support import SupportPlane, no_support, support_plane
@@ -222,7 +222,6 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     full = jnp.where(in_range, jnp.asarray(depth, jnp.float32), 0.0)  # in the workspace or not
     approach = rotation[:, 2]  # the view's optical axis, camera frame
     n, per = image.max_targets, image.candidates_per_target
-    check = jax.vmap(check_jaws, in_axes=(None, None, 0, 0, None, 0, None, None, None))
     factor = fine.shape[1] // view_depth.shape[1]  # detection pixels per support pixel
 
     # Targets in order of height, each outside the surfaces already tried; each detected in
@@ -246,8 +245,8 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         placed = cands.valid[index] & found & real
         position = cands.center[index] @ rotation.T
         axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
-        jaws = check(full, camera, position, axis, approach, cands.width[index], config.detect,
-                     config.gripper, image)
+        jaws = check_jaws_where(placed, full, camera, position, axis, approach,
+                                cands.width[index], config.detect, config.gripper, image)
         passed = placed & (jaws.reason == GraspReason.FOUND)
         rank = jnp.where(passed, grasp_score(jaws, cands.width[index], offset[index],
                                              config.detect, config.gripper, image), -jnp.inf)
