@@ -36,7 +36,7 @@ def concat_trees(*trees):
 
 def map_where(fn, where: jax.Array, chunk: int | None, fill, *xs):
     """`fn` over the entries of `xs` (each (N, ...)) where `where` (N,) bool holds, and `fill` (a
-    tree of (N, ...) arrays shaped as `fn`'s result) elsewhere. `fn` maps (M, ...) inputs to a
+    tree of (N, ...) arrays of `fn`'s result's shapes and dtypes) elsewhere. `fn` maps (M, ...) inputs to a
     tree of (M, ...) results. With a `chunk` (`cpu_chunk`), only the kept entries are computed,
     `chunk` at a time: a loop over chunks of their indices while any is left (one image's count;
     a batch's loop lasts as long as its longest); with None, every entry at once, no loop."""
@@ -59,10 +59,11 @@ def map_where(fn, where: jax.Array, chunk: int | None, fill, *xs):
 
 
 def cpu_chunk(chunk: int) -> int | None:
-    """`map_where`'s chunk for the backend a function is traced for: `chunk` on a CPU, where the
-    work skipped is time saved; None elsewhere (a GPU computes every entry at once, and each loop
-    step costs a launch and a host sync: an H200's batch of 1,024 images ran 4-7 % slower with
-    the loop; results/benchmarks/detect_checked_only)."""
+    """`map_where`'s chunk for JAX's default backend (where a function is jitted and run unless
+    placed elsewhere): `chunk` on a CPU, where the work skipped is time saved; None elsewhere (a
+    GPU computes every entry at once, and each loop step costs a launch and a host sync: an
+    H200's batch of 1,024 images ran 4-7 % slower with the loop;
+    results/benchmarks/detect_checked_only)."""
     return chunk if jax.default_backend() == "cpu" else None
 
 

@@ -18,7 +18,7 @@ def test_map_where_maps_the_kept_entries_and_fills_the_rest(chunk):
     all kept; the fill elsewhere."""
     x = jnp.arange(10, dtype=jnp.float32) * 1.5
     fill = {"twice": jnp.full(10, -1.0), "next": jnp.full(10, -7, jnp.int32)}
-    rng = np.random.default_rng(chunk)
+    rng = np.random.default_rng(0)
     for kept in (np.zeros(10, bool), rng.random(10) < 0.5, np.ones(10, bool)):
         got = jax.jit(lambda k: map_where(_twice_and_next, k, chunk, fill, x))(jnp.asarray(kept))
         np.testing.assert_array_equal(got["twice"], np.where(kept, 2.0 * np.asarray(x), -1.0))
@@ -37,3 +37,18 @@ def test_map_where_under_vmap_gives_each_row_its_own(chunk):
         jnp.asarray(kept), x)
     np.testing.assert_array_equal(got["twice"], np.where(kept, 2.0 * np.asarray(x), 0.0))
     np.testing.assert_array_equal(got["next"], np.where(kept, np.asarray(x) + 1, 0).astype(int))
+
+
+@pytest.mark.parametrize("chunk, seen", [(4, (4,)), (None, (10,))])
+def test_map_where_computes_a_chunk_at_a_time(chunk, seen):
+    """With a chunk, `fn` is traced on chunk-sized inputs (only the kept entries are computed);
+    with None, on all N at once."""
+    shapes = []
+
+    def recorded(x):
+        shapes.append(x.shape)
+        return _twice_and_next(x)
+
+    fill = {"twice": jnp.zeros(10), "next": jnp.zeros(10, jnp.int32)}
+    jax.jit(lambda k: map_where(recorded, k, chunk, fill, jnp.arange(10.0)))(jnp.arange(10) < 6)
+    assert shapes == [seen]

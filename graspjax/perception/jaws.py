@@ -195,7 +195,7 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
                     contact_width=contact_width, unknown=jnp.mean(~seen))
 
 
-_JAW_CHUNK = 8  # grasps checked per loop step (`check_jaws_where`)
+_JAW_CHUNK = 8  # grasps checked per loop step on a CPU (`check_jaws_where`)
 
 
 def check_jaws_where(placed: jax.Array, depth: jax.Array, camera: Camera, center: jax.Array,

@@ -108,6 +108,9 @@ def surface_xy(camera: Camera, z_s: jax.Array) -> jax.Array:
                       (uv[..., 1] - camera.cy) * z_s / camera.fy], -1)
 
 
+_CHECK_CHUNK = 64  # admissible placements checked per loop step on a CPU (`check_placements`)
+
+
 def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s: jax.Array,
                       camera: Camera, g_xy: jax.Array, axis: jax.Array, c: jax.Array,
                       admissible: jax.Array, config: DetectorConfig, gripper: GripperConfig
@@ -115,7 +118,8 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
     """Check open-hand placements on the target surface (the band `cluster` at depth `z_s`),
     for any grasp method: centres `g_xy` `(..., 2)` (metric, on the surface plane), unit
     closing axes `axis` `(..., 2)`, widths `c` `(...)` between the two contacts (m), and
-    whether the method's own test passed (`admissible`, else NO_ANTIPODAL).
+    whether the method's own test passed (`admissible` `(...)`, else NO_ANTIPODAL); the same
+    leading shape `(...)` for all.
 
     Returns each placement's `GraspReason` `(...)` (the first check it fails, in stage order)
     and the finger-tip depth it can reach below the surface `(...)` (m; nan where not
@@ -133,12 +137,11 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
     return reason.reshape(c.shape), reach.reshape(c.shape)
 
 
-_CHECK_CHUNK = 64  # admissible placements checked per loop step (`check_placements`)
-
-
 def _check(below_surface, edge, cluster, z_s, camera: Camera, g_xy, axis, c,
            config: DetectorConfig, gripper: GripperConfig) -> tuple[jax.Array, jax.Array]:
-    """`check_placements` on admissible placements `(N, ...)`: their reasons and reach (N,)."""
+    """`check_placements` on N admissible placements (centres, axes (N, 2), widths (N,)), given
+    the free depth under the top `below_surface` (H, W) and the band's `edge` (): their reasons
+    and reach (N,)."""
     wide_enough = c >= config.min_width
     fits = c <= gripper.opening - 2 * config.clearance
     corners, footprint = _finger_points(g_xy, axis, gripper, config.finger_samples)

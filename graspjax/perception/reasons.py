@@ -25,9 +25,10 @@ BY_STAGE = np.array(sorted(CANDIDATE_STAGE, key=CANDIDATE_STAGE.get), np.int32) 
 
 
 def furthest_reason(reasons, among=None):
-    """The `GraspReason` of the furthest candidate stage that `reasons` (int array) reached,
-    counting only those where `among` (bool, same shape) when it is given."""
-    stage = jnp.asarray(STAGE)[reasons]
+    """The `GraspReason` of the furthest candidate stage that `reasons` (int array; -1, not
+    checked, reaches none) reached, counting only those where `among` (bool, same shape) when it
+    is given."""
+    stage = jnp.where(reasons >= 0, jnp.asarray(STAGE)[reasons], 0)
     if among is not None:
         stage = jnp.where(among, stage, 0)
     return jnp.asarray(BY_STAGE)[jnp.max(stage)]
