@@ -103,11 +103,12 @@ class Camera:
         uv = self.pixel_grid()
         return self.unproject(uv, jnp.ones(uv.shape[:-1], jnp.float32))
 
-    def d_p(self, z, footprint: bool = False):
-        """Metric size of one pixel at depth `z` (paper Eq. 2).
+    def d_p(self, z, footprint: bool = True):
+        """Metric size of one pixel at depth `z` (paper Eq. 2): its footprint `z / fx`, as the
+        text around Eq. 2 asks ("the units of each axis must be set identical").
 
-        As written, Eq. 2 is `z * tan(theta/2) / res_x = z / (2 fx)`, half the
-        true footprint of a pixel; `footprint=True` gives the true `z / fx`.
+        As printed, Eq. 2 is `z * tan(theta/2) / res_x = z / (2 fx)`, half the footprint
+        (`footprint=False`).
         """
         return z / self.fx if footprint else z / (2.0 * self.fx)
 

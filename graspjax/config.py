@@ -177,7 +177,10 @@ class AlignConfig:
     # points close to the center (point A in Fig. 5)"), or around each triangle's centroid
     # (ours, in the realistic preset: each plane judged where it lies)
     distance_threshold: float = traced(0.3)  # max point-to-plane distance of an inlier (pixel units)
-    pixel_scale: Literal["paper", "footprint"] = "paper"  # Eq. 2 as written, or the true footprint
+    pixel_scale: Literal["footprint", "printed"] = "footprint"  # Eq. 2's d_p: one pixel's
+    # footprint z / fx, what the text around it asks for ("the units of each axis must be set
+    # identical"), or the formula as printed, z tan(theta/2) / res_x, half of it (a departure:
+    # every plane in pixel units twice as steep; docs/departures.md)
     turn_normal: Literal["pixel", "metric"] = "pixel"  # the tool turns to the winning plane's
     # normal in the pixel units (u, v, z / d_p) the paper computes it in, read as a camera-frame
     # direction, or to its metric normal in the camera frame (ours, in the realistic preset:
@@ -196,8 +199,8 @@ class AlignConfig:
         _require(self.anchor in ("nearest", "centre"),
                  f"AlignConfig.anchor must be 'nearest' or 'centre', got {self.anchor!r}")
         _require(self.anchor_band > 0, f"AlignConfig.anchor_band must be > 0, got {self.anchor_band!r}")
-        _require(self.pixel_scale in ("paper", "footprint"),
-                 f"AlignConfig.pixel_scale must be 'paper' or 'footprint', got {self.pixel_scale!r}")
+        _require(self.pixel_scale in ("footprint", "printed"),
+                 f"AlignConfig.pixel_scale must be 'footprint' or 'printed', got {self.pixel_scale!r}")
         _in_range(self, "num_triangles", 3, 64)
         _in_range(self, "num_random", 1, 4096)
         _in_range(self, "window_px", 1, MAX_WINDOW_PX)

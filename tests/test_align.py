@@ -51,9 +51,9 @@ def eq3_reference(depth, camera, config: AlignConfig):
         u_a, v_a = _band_centre(depth, config.anchor_band)
     z_a = depth[v_a, u_a]
     tan_half = np.tan(camera.fov_x / 2)
-    d_p = z_a * tan_half / camera.width  # Eq. 2 as written
-    if config.pixel_scale == "footprint":
-        d_p *= 2
+    d_p = 2 * z_a * tan_half / camera.width  # a pixel's footprint at A
+    if config.pixel_scale == "printed":
+        d_p /= 2  # Eq. 2 as printed
     counts = []
     n = config.num_triangles
     for k in range(n):
@@ -96,31 +96,57 @@ def test_tilted_plane_normal_is_recovered(camera, align, render, tilt_deg, azimu
     assert int(a.inliers) >= AlignConfig().min_inliers
 
 
+@pytest.mark.parametrize("scale", ["footprint", "printed"])
 @pytest.mark.parametrize("tilt_deg, azimuth_deg", [(10, 0), (30, 45), (50, 200)])
 def test_the_paper_unit_normal_is_the_triangles_normal_in_pixel_units(camera, render, tilt_deg,
-                                                                    azimuth_deg):
-    """turn_normal="pixel": the tool turns to the winning triangle's normal in (u, v, z / d_p)
-    (Eq. 2 as written), computed here with NumPy from the depth at its corners; on a tilted
-    plane it is steeper than the metric normal (d_p is half a pixel's footprint)."""
+                                                                    azimuth_deg, scale):
+    """turn_normal="pixel": the tool turns to the winning triangle's normal in (u, v, z / d_p),
+    computed here with NumPy from the depth at its corners. With d_p a pixel's footprint it is
+    the plane's normal seen through the pixel grid at A: (n_x, n_y, n_z + (x n_x + y n_y) / z)
+    for A at (x, y, z) (the grid shears depth along A's ray), by hand; with Eq. 2 as printed
+    (half the footprint) it is steeper than the plane."""
     normal_world = rot_z(np.deg2rad(azimuth_deg)) @ rot_y(np.deg2rad(tilt_deg)) @ [0, 0, 1.0]
     depth = render([half_space(normal_world, [0, 0, 0.1])], ground=None)
-    cfg = AlignConfig(turn_normal="pixel")
+    cfg = AlignConfig(turn_normal="pixel", pixel_scale=scale)
     a = jax.jit(align_tool)(jnp.asarray(depth), camera, cfg)
     assert bool(a.found), AlignReason(int(a.reason))
     (u_a, v_a), (u_b, v_b), (u_c, v_c) = np.asarray(a.corners)[int(a.best)]
-    d_p = depth[v_a, u_a] * np.tan(camera.fov_x / 2) / camera.width  # Eq. 2 at A
+    footprint = 2 * depth[v_a, u_a] * np.tan(camera.fov_x / 2) / camera.width  # at A
+    d_p = footprint if scale == "footprint" else footprint / 2
     p = np.array([[u, v, depth[v, u] / d_p] for u, v in ((u_a, v_a), (u_b, v_b), (u_c, v_c))])
     expected = np.cross(p[1] - p[0], p[2] - p[0])
     expected *= -np.sign(expected[2]) / np.linalg.norm(expected)  # toward the camera
     np.testing.assert_allclose(np.asarray(a.normal), expected, atol=1e-4)
     metric = _camera_normal(normal_world)
-    assert np.degrees(np.arccos(-expected[2])) > np.degrees(np.arccos(-metric[2])) + 1.0
+    tilt = np.degrees(np.arccos(-expected[2]))
+    if scale == "printed":
+        assert tilt > np.degrees(np.arccos(-metric[2])) + 1.0
+    else:
+        z = depth[v_a, u_a]
+        x, y = (u_a - camera.cx) * z / camera.fx, (v_a - camera.cy) * z / camera.fy
+        seen = metric + np.array([0.0, 0.0, (x * metric[0] + y * metric[1]) / z])
+        seen /= np.linalg.norm(seen)
+        assert np.degrees(np.arccos(np.clip(seen @ expected, -1, 1))) < 1.0
 
 
-@pytest.mark.parametrize("scale, anchor, window", [("paper", "centre", "triangle"),
+def test_the_paper_presets_d_p_is_one_pixels_footprint(camera):
+    """Eq. 2 by its stated aim: at 0.5 m a Kinect pixel at 160 px across (57 deg) is
+    2 * 0.5 * tan(28.5 deg) / 160 = 3.3935 mm (by hand); the printed formula gives half."""
+    from graspjax.config import preset
+    from graspjax.perception.align import _pixel_scale
+
+    for name in ("paper", "realistic"):
+        cfg = preset(name).align
+        assert cfg.pixel_scale == "footprint"
+        assert float(1 / _pixel_scale(camera, 0.5, cfg)) == pytest.approx(3.3935e-3, rel=1e-4)
+    printed = AlignConfig(pixel_scale="printed")
+    assert float(1 / _pixel_scale(camera, 0.5, printed)) == pytest.approx(1.69675e-3, rel=1e-4)
+
+
+@pytest.mark.parametrize("scale, anchor, window", [("printed", "centre", "triangle"),
                                                    ("footprint", "centre", "triangle"),
-                                                   ("paper", "nearest", "triangle"),
-                                                   ("paper", "centre", "anchor")])
+                                                   ("footprint", "nearest", "triangle"),
+                                                   ("footprint", "centre", "anchor")])
 def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor, window):
     """Patch-based scoring equals Eq. 3 evaluated pixel by pixel over the image, the window
     around each triangle's centroid (ours) or around A (the paper's words)."""
@@ -135,10 +161,10 @@ def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor, wi
     assert int(mask.sum()) == int(a.inliers)
 
 
-def test_paper_scale_is_stricter_than_the_true_footprint_on_a_tilted_plane(camera, render):
-    """Eq. 2 as written halves d_p, doubling z in pixel units: fewer points fit the window."""
+def test_the_printed_scale_is_stricter_than_the_footprint_on_a_tilted_plane(camera, render):
+    """Eq. 2 as printed halves d_p, doubling z in pixel units: fewer points fit the window."""
     depth = jnp.asarray(render([half_space(rot_y(0.6) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
-    paper = align_tool(depth, camera, AlignConfig(pixel_scale="paper", turn_normal="metric"))
+    paper = align_tool(depth, camera, AlignConfig(pixel_scale="printed", turn_normal="metric"))
     true = align_tool(depth, camera, AlignConfig(pixel_scale="footprint", turn_normal="metric"))
     assert int(true.inliers) > int(paper.inliers)
     np.testing.assert_allclose(np.asarray(paper.normal), np.asarray(true.normal), atol=1e-5)

@@ -32,13 +32,14 @@ def test_image_corner_ray_points_along_the_field_of_view():
     assert float(x[0]) == pytest.approx(-1.0)
 
 
-def test_paper_pixel_size_is_half_the_footprint():
+def test_d_p_is_a_pixels_footprint_and_printed_eq2_half_of_it():
     cam = Camera.kinect()
     z = 0.5
     footprint = 2 * z * math.tan(math.radians(57) / 2) / 160  # width of the view / pixels
-    assert cam.d_p(z, footprint=True) == pytest.approx(footprint)
-    assert cam.d_p(z) == pytest.approx(z * math.tan(math.radians(57) / 2) / 160)  # Eq. 2
-    assert cam.d_p(z) == pytest.approx(footprint / 2)
+    assert cam.d_p(z) == pytest.approx(footprint)
+    printed = z * math.tan(math.radians(57) / 2) / 160  # Eq. 2 as printed
+    assert cam.d_p(z, footprint=False) == pytest.approx(printed)
+    assert printed == pytest.approx(footprint / 2)
 
 
 def test_scaled_keeps_the_field_of_view():

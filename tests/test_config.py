@@ -25,7 +25,7 @@ from graspjax.tree import named_fields
 def test_paper_defaults():
     a = AlignConfig()
     assert (a.window_px, a.distance_threshold, a.num_triangles) == (15, 0.3, 8)
-    assert a.pixel_scale == "paper" and a.hypotheses == "triangles" and not a.refit
+    assert a.pixel_scale == "footprint" and a.hypotheses == "triangles" and not a.refit
 
 
 def test_traced_values_are_leaves_and_static_values_the_structure():
@@ -76,11 +76,11 @@ class Root:  # a nested config, as the experiment's is
 
 def test_override_by_dotted_name():
     root = override(Root(), ["align.window_px=10", "align.distance_threshold=0.5",
-                             "align.refit=true", "align.pixel_scale=footprint"])
+                             "align.refit=true", "align.pixel_scale=printed"])
     assert root.align.window_px == 10 and root.align.distance_threshold == 0.5
-    assert root.align.refit is True and root.align.pixel_scale == "footprint"
+    assert root.align.refit is True and root.align.pixel_scale == "printed"
     assert differences(root, Root()) == {"align.window_px": 10, "align.distance_threshold": 0.5,
-                                         "align.refit": True, "align.pixel_scale": "footprint"}
+                                         "align.refit": True, "align.pixel_scale": "printed"}
     with pytest.raises(ConfigError, match="did you mean align.window_px"):
         override(Root(), {"align.windw_px": "3"})
     with pytest.raises(ConfigError, match="must be int"):
@@ -138,7 +138,7 @@ def test_max_geom_pairs_reaches_the_model_only_when_set():
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_no_preset_hands_the_method_the_labels(name):
-    """`perception.oracle` is an ablation: false in every preset, and the paper's protocol
+    """`perception.oracle` is an ablation: false in every preset, and the protocol as we read the paper
     takes a failed object out in both."""
     config = preset(name)
     assert config.perception.oracle is False
@@ -158,6 +158,7 @@ def test_the_paper_preset_reads_the_paper_literally():
     assert paper.align.anchor == "nearest"  # Fig. 4: A, B, C at z_min
     assert paper.align.window_centre == "anchor"  # "only points close to ... point A"
     assert paper.align.turn_normal == "pixel"  # the normal of Eq. 2's pixel-unit plane
+    assert paper.align.pixel_scale == "footprint"  # "the units of each axis ... identical"
     assert (paper.align.num_triangles, paper.align.window_px, paper.align.distance_threshold,
             paper.procedure.max_reorientations) == (8, 15, 0.3, 1)
     assert paper.layout.bin is False  # Setup 3: overlapping clutter on the table (Fig. 7)

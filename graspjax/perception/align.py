@@ -3,7 +3,8 @@
 Around the point A (z_min, the paper's Fig. 4, or the centre of z_min's surface band:
 `anchor`), `num_triangles` triangles (A, A + r(cos phi_k, sin phi_k),
 A + r(cos phi_k+1, sin phi_k+1)) with phi_k = k * 360deg / N each define a plane. The image
-becomes a point cloud in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at A's depth, and a
+becomes a point cloud in pixel units, (u, v, z / d_p) with d_p from Eq. 2 at A's depth (a
+pixel's footprint, as the text asks; `pixel_scale="printed"`: the printed half of it), and a
 point is an inlier of plane k (Eq. 3) when its distance to the plane is below
 `distance_threshold` and it lies within `window_px` of A (the paper's words, for every plane)
 or of the triangle's centroid (`window_centre`) in u, v and the converted z. The plane with
@@ -12,7 +13,8 @@ one; the tool then looks along its negative normal. Normals are reported in the 
 frame (from the triangle's back-projected corners, or a least-squares fit to the inliers when
 `refit`), pointing from the surface toward the camera; the turn follows the normal in the
 pixel units of Eq. 2, as the paper computes it, read as a camera-frame direction
-(`turn_normal="pixel"`), or the metric one.
+(`turn_normal="pixel"`: with the footprint, the plane's normal near A up to perspective), or
+the metric one.
 
 Scoring only looks at a `(2 * MAX_WINDOW_PX + 3)^2` patch around each
 centroid, which holds every pixel the window admits; the window itself and
@@ -89,7 +91,7 @@ def _eq3(u, v, zs, centre, normal, origin, config: AlignConfig):
 
 
 def _pixel_scale(camera: Camera, z_min, config: AlignConfig):
-    """1 / d_p at z_min (Eq. 2 as written, or the true footprint)."""
+    """1 / d_p at z_min (Eq. 2: one pixel's footprint, or the formula as printed, half of it)."""
     return 1.0 / camera.d_p(z_min, footprint=config.pixel_scale == "footprint")
 
 
