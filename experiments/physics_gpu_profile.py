@@ -39,15 +39,18 @@ def measure(out: pathlib.Path, batch: int, variant: str, profile: bool) -> dict:
     work = physics_workload("abcdef", 3, batch, config)
     idle, zero, spec = work.idle, work.zero, work.spec
     t0 = time.perf_counter()
-    data, _ = jax.block_until_ready(work.simulate(work.data, spec, idle, zero, zero + 1, False))
+    nothing = work.no_drops
+    jax.block_until_ready(work.simulate(work.data, spec, nothing, idle, zero, zero + 1, False))
     compile_s = time.perf_counter() - t0
-    data, _ = jax.block_until_ready(
-        work.simulate(data, spec, idle, zero, zero + s.segments(s.pile_settle_time), False))
+    data, _ = jax.block_until_ready(work.simulate(
+        work.data, spec, work.drops, idle, zero, zero + s.segments(s.settle_time + s.pile_settle_time),
+        False))
     second = s.segments(1.0)
     times = []
     for _ in range(3):
         t0 = time.perf_counter()
-        data, _ = jax.block_until_ready(work.simulate(data, spec, idle, zero, zero + second, False))
+        data, _ = jax.block_until_ready(work.simulate(data, spec, nothing, idle, zero, zero + second,
+                                                      False))
         times.append(time.perf_counter() - t0)
     internals = impl(data)
     touching = np.sum(np.asarray(internals.contact.dist) < 0, axis=-1)
@@ -59,9 +62,9 @@ def measure(out: pathlib.Path, batch: int, variant: str, profile: bool) -> dict:
     print(row, flush=True)
     if profile:
         def run(d):
-            return work.simulate(d, spec, idle, zero, zero + 2, False)
+            return work.simulate(d, spec, nothing, idle, zero, zero + 2, False)
 
-        hlo = work.simulate.lower(data, spec, idle, zero, zero + 2, False).compile().as_text()
+        hlo = work.simulate.lower(data, spec, nothing, idle, zero, zero + 2, False).compile().as_text()
         (out / "physics_hlo.txt.gz").write_bytes(gzip.compress(hlo.encode()))
         jax.block_until_ready(run(data))
         print_profile(run, (data,), hlo, out / "trace",

@@ -12,6 +12,7 @@ a batch's loop runs until its last world is done, so a stop at rest saves segmen
 every world of the chunk is at rest.
 """
 
+import dataclasses
 import sys
 
 import jax
@@ -47,9 +48,12 @@ def main() -> None:
           f"{segments} segments of {s.segment_steps * s.timestep:.2f} s", flush=True)
     head = "  ".join(f"<{v:g} m/s,{w:g} rad/s" for v, w in THRESHOLDS)
     print(f"segment  t (s)  at rest: {head}  slowest world: m/s rad/s")
-    for k in range(segments):
+    for k in range(segments):  # one segment a call: the drops' segments count from each call
+        late = work.drops.segment - k
+        drops = dataclasses.replace(work.drops, segment=jnp.where(late >= 0, late, -1),
+                                    push_until=work.drops.push_until - k)
         data, _ = jax.block_until_ready(
-            work.simulate(data, work.spec, work.idle, work.zero, work.zero + 1, False))
+            work.simulate(data, work.spec, drops, work.idle, work.zero, work.zero + 1, False))
         lin, ang = fastest_object(work.scene, data)
         rest = "  ".join(f"{np.mean((lin < v) & (ang < w)):>{len(f'<{v:g} m/s,{w:g} rad/s')}.4f}"
                          for v, w in THRESHOLDS)

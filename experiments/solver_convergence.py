@@ -43,8 +43,8 @@ def states(worlds: int, config: Config):
     s = config.sim
     work = physics_workload("abcdef", 3, worlds, config)
     scene, spec, zero = work.scene, work.spec, work.zero
-    pile, _ = work.simulate(work.data, spec, work.idle, zero, zero + s.segments(s.pile_settle_time),
-                            False)
+    pile, _ = work.simulate(work.data, spec, work.drops, work.idle, zero,
+                            zero + s.segments(s.settle_time + s.pile_settle_time), False)
     first = jnp.asarray(np.asarray(spec.order)[:, 0])
     kin = jax.vmap(lambda d: mjx.kinematics(scene.model, d))(pile)
     centre = kin.xpos[jnp.arange(worlds), jnp.asarray(scene.object_body)[first]]

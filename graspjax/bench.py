@@ -211,8 +211,11 @@ class PhysicsWorkload:
 
     scene: object  # sim.scene.Scene
     spec: object  # procedure.WorldSpec (batch,)
-    data: object  # mjx.Data (batch,): the layouts placed, not yet settled
-    simulate: object  # jitted (data, spec, grasp, target, segments, execute) -> (data, Execution)
+    data: object  # mjx.Data (batch,): the layouts placed, not yet settled (a pile's objects wait)
+    drops: object  # world.Drops (batch,): what the first settle drops (Setup 3's pile)
+    no_drops: object  # world.Drops (batch,): nothing (every later call)
+    simulate: object  # jitted (data, spec, drops, grasp, target, segments, execute) -> (data,
+    # Execution)
     idle: object  # GraspPose (batch,) that is never executed
     zero: jax.Array  # (batch,) int32 zeros
 
@@ -235,16 +238,17 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
                      trial=np.arange(batch, dtype=np.int32), order=order,
                      members=np.ones((batch, n), bool), config=stack_configs([config] * batch))
     template = mjx.make_data(scene.mj_model)
-    data = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, (setup,)).data))(spec)
+    state = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, (setup,))))(spec)
 
-    def run(d, w, grasp, target, segments, execute):
+    def run(d, w, drops, grasp, target, segments, execute):
         return world.simulate(scene, physics_model(scene, w.config), d, grasp, target, segments,
-                              execute, w.config)
+                              execute, w.config, drops=drops)
 
-    simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, None), axis_name=WORLDS),
-                       static_argnums=5)
+    simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, 0, None), axis_name=WORLDS),
+                       static_argnums=6)
     nan = jnp.full((batch, 3), jnp.nan)
-    return PhysicsWorkload(scene, spec, data, simulate,
+    nothing = jax.vmap(lambda _: world.no_drops(n))(jnp.arange(batch))
+    return PhysicsWorkload(scene, spec, state.data, state.drops, nothing, simulate,
                            GraspPose(nan, nan, nan, jnp.zeros(batch, bool)),
                            jnp.zeros(batch, jnp.int32))
 
@@ -264,18 +268,21 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
     work = physics_workload(letters, setup, batch, config)
     scene, spec, data, simulate, idle, zero = (work.scene, work.spec, work.data, work.simulate,
                                                work.idle, work.zero)
+    nothing = work.no_drops
     s, order = config.sim, np.asarray(spec.order)
     settle = s.segments(seconds)
     progress(f"compiling the physics of {letters} (batch {batch}) ...")
     t0 = time.perf_counter()
-    data, _ = jax.block_until_ready(simulate(data, spec, idle, zero, zero + 1, False))
+    jax.block_until_ready(simulate(data, spec, nothing, idle, zero, zero + 1, False))
     compile_s = time.perf_counter() - t0
-    drop = s.segments(s.pile_settle_time)  # the drop settles first: a pile at rest has its contacts
-    data, _ = jax.block_until_ready(simulate(data, spec, idle, zero, zero + drop, False))
+    # The layouts settle first, dropped as a run drops them: a pile at rest has its contacts.
+    extra = {1: s.drop_settle_time, 2: s.group_settle_time, 3: s.pile_settle_time}[setup]
+    drop = s.segments(s.settle_time + extra)
+    data, _ = jax.block_until_ready(simulate(data, spec, work.drops, idle, zero, zero + drop, False))
 
     progress("timing settling ...")
     t0 = time.perf_counter()
-    data, _ = jax.block_until_ready(simulate(data, spec, idle, zero, zero + settle, False))
+    data, _ = jax.block_until_ready(simulate(data, spec, nothing, idle, zero, zero + settle, False))
     settle_s = time.perf_counter() - t0
 
     # A top-down grasp over each world's first object (physics with finger contacts).
@@ -286,9 +293,9 @@ def physics_benchmark(letters: str = "abcdef", setup: int = 3, batch: int = 1024
                       approach=jnp.broadcast_to(jnp.array([0.0, 0.0, -1.0]), (batch, 3)),
                       closing=jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0]), (batch, 3)),
                       valid=jnp.ones(batch, bool))
-    jax.block_until_ready(simulate(data, spec, grasp, first, zero, True))  # compile
+    jax.block_until_ready(simulate(data, spec, nothing, grasp, first, zero, True))  # compile
     t0 = time.perf_counter()
-    _, done = jax.block_until_ready(simulate(data, spec, grasp, first, zero, True))
+    _, done = jax.block_until_ready(simulate(data, spec, nothing, grasp, first, zero, True))
     execute_s = time.perf_counter() - t0
     execute_steps = s.segment_steps * sum(s.segments(t) for t in (s.approach_time, s.close_time,
                                                                    s.lift_time, s.hold_time))

@@ -32,6 +32,8 @@ import numpy as np
 from graspjax.tree import named_fields
 
 MAX_WINDOW_PX = 32  # largest Eq. 3 window (and triangle radius): the static size of the scored patch
+MAX_WALL_HEIGHT = 0.15  # the walls' modelled height (m); a bin or box of lower walls sinks them
+# into the table, so its wall height is a traced value
 
 
 class ConfigError(ValueError):
@@ -306,7 +308,14 @@ class SimConfig:
     settle_time: float = 0.4  # settling before each attempt's overview (s)
     drop_settle_time: float = 0.8  # Setup 1: extra settling of a dropped object: it topples (s)
     group_settle_time: float = 0.4  # Setup 2: extra settling of a freshly placed group (s)
-    pile_settle_time: float = 1.6  # Setup 3: extra settling of a pile dropped into the bin (s)
+    drop_interval: float = 0.2  # Setup 3: the objects are dropped one at a time, this far apart (s)
+    pile_settle_time: float = 2.2  # Setup 3: extra settling of a pile, from its first drop (s):
+    # the push ends at push_time, and a pile pressed together needs 0.8 s free (with settle_time)
+    # to come back out of the table (at 0.2 s free, 8 % of the piles were still 2-8 mm in it)
+    push_time: float = 1.8  # Setup 3 on the table: the push together ends this long after the
+    # first drop (s; `layout.pile_push`); the pile then settles free before the first overview
+    push_fade_time: float = 0.6  # ... fading out over its last this long (s): let go gently, the
+    # parts leaning on each other settle back instead of springing apart
     approach_time: float = 0.3  # pre-grasp to grasp pose along the approach axis (s)
     close_time: float = 0.4  # closing the jaws: the servo target ramps from open to closed (s)
     lift_time: float = 0.4  # lifting by lift_height (s)
@@ -322,7 +331,8 @@ class SimConfig:
                   "max_contact_points_alone",
                   "object_friction", "hand_mass", "finger_mass", "finger_armature", "finger_kp",
                   "finger_damping", "grip_timeconst", "segment_steps", "settle_time",
-                  "drop_settle_time", "group_settle_time", "pile_settle_time",
+                  "drop_settle_time", "group_settle_time", "pile_settle_time", "drop_interval",
+                  "push_time", "push_fade_time",
                   "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
                   "min_lift", "approach_tolerance", "approach_force_limit")
         _require(self.max_geom_pairs >= 0, "SimConfig.max_geom_pairs must be >= 0 (0: every pair)")
@@ -333,6 +343,9 @@ class SimConfig:
                  "SimConfig.condim=1 (frictionless) needs sim.cone=pyramidal (MJX has no elliptic condim 1)")
         _require(self.pregrasp_distance >= 0, "SimConfig.pregrasp_distance must be >= 0")
         _require(self.min_lift <= self.lift_height, "SimConfig.min_lift must be <= lift_height")
+        _require(self.push_time <= self.pile_settle_time + self.settle_time,
+                 "SimConfig.push_time must end before the pile's first overview "
+                 "(<= pile_settle_time + settle_time)")
 
     def segments(self, seconds: float) -> int:
         """Whole segments covering `seconds` of simulated time."""
@@ -350,18 +363,33 @@ class LayoutConfig:
     bin: bool = traced(False)  # Setup 3: the pile lies on the open table, as the paper's "dense
     # cluttered scenes with multiple overlapping objects" (Fig. 7); true: it is dropped into the
     # bin below instead (our named variant, `--set layout.bin=true`; the paper shows no bin)
-    pile_spread: float = traced(0.13)  # Setup 3 on the table: object centres uniform over a
-    # square of this side (m), whose area is a-f's total footprint (0.0167 m^2): laid side by
-    # side they must touch or lie on each other
-    bin_size: float = 0.18  # Setup 3 in the bin: inner side of the square bin (m): floor = 2x a-f's footprint
-    bin_wall_height: float = 0.05  # Setup 3 in the bin: height of the bin's walls above the table (m)
-    bin_wall_thickness: float = 0.01  # Setup 3 in the bin: thickness of the walls (m)
+    pile_gap_min: float = traced(-0.02)  # Setup 3 on the table: the group of Setup 2 placed
+    pile_gap_max: float = traced(0.0)  # "within minimal distance and sometimes even [...]
+    # overlapping": each object's outline touches (0) or overlaps by up to 2 cm (half the
+    # hexagon d's 4.5 cm across flats; about half of any of a-f's narrowest side) the member it
+    # is placed beside, and overlaps no other member by more (m). An overlapping object is
+    # dropped onto what it overlaps (docs/simulation.md)
+    pile_push: float = traced(0.7)  # Setup 3 on the table: once dropped, each object is pushed
+    # toward the group's centre with this fraction of its weight until `sim.push_time`, then let
+    # go: more than the table's friction (0.5), so it slides until another part stops it (the
+    # experimenter closing the gaps: "within minimal distance"); 0: no push
+    bin_size: float = traced(0.18)  # Setup 3 in the bin: inner side of the square bin (m): its
+    # floor is 2x a-f's footprint
+    bin_wall_height: float = traced(0.05)  # Setup 3 in the bin: its walls above the table (m)
+    wall_thickness: float = 0.01  # the bin's walls (m)
+    wall_length: float = 0.30  # each wall's length (m): the bin is four walls that cross at the
+    # corners, so its inner side is at most wall_length - 2 wall_thickness
     drop_clearance: float = traced(0.003)  # Setups 2, 3: lowest point above its support (m)
-    stack_gap: float = traced(0.005)  # Setup 3: vertical gap between objects stacked for the drop (m)
+    stack_gap: float = traced(0.005)  # Setup 3: a dropped object's lowest point above the highest
+    # point of what it overlaps (m)
 
     def __post_init__(self):
-        _positive(self, "workspace", "gap_max", "pile_spread", "bin_size", "bin_wall_height",
-                  "bin_wall_thickness")
+        _positive(self, "workspace", "gap_max", "wall_thickness", "wall_length")
+        _in_range(self, "bin_size", 0.02, self.wall_length - 2 * self.wall_thickness)
+        _in_range(self, "bin_wall_height", 0.0, MAX_WALL_HEIGHT)
+        _require(self.pile_push >= 0, f"LayoutConfig.pile_push must be >= 0, got {self.pile_push!r}")
+        _require(-0.04 <= self.pile_gap_min <= self.pile_gap_max,
+                 "LayoutConfig needs -0.04 <= pile_gap_min <= pile_gap_max")
         _require(self.stack_gap >= 0, "LayoutConfig.stack_gap must be >= 0")
         _require(0 <= self.gap_min <= self.gap_max, "LayoutConfig needs 0 <= gap_min <= gap_max")
         _require(self.drop_clearance >= 0, "LayoutConfig.drop_clearance must be >= 0")
@@ -405,7 +433,8 @@ class ProcedureConfig:
     camera_height: float = traced(0.5)  # overview and centred views: camera height above the table (m)
     min_view_height: float = traced(0.05)  # a re-aligned camera must stay this high above the table (m)
     centre: bool = traced(True)  # move the camera over the target before detecting (paper: yes)
-    remove_failed: bool = traced(True)  # the paper's protocol (round_attempts = 0), Setups 2
+    remove_failed: bool = traced(True)  # the protocol as we read the paper (a reading: it does not
+    # say what became of a failed object; round_attempts = 0), Setups 2
     # and 3: after a failed attempt the experimenter takes its object out by hand, so each
     # object gets one attempt per round; false leaves it where it ends up (clutter removal,
     # round_attempts > 0, always leaves it)

@@ -21,7 +21,8 @@ from graspjax.codes import Reason, Surface
 FIRST_COLUMNS = ["run_id", "point", "method", "setup", "object", "trial", "round", "attempt",
                  "seed", "success", "outcome", "reason", "reorientations", "lifted_object"]
 SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
-LAYOUT_COLUMNS = ("touching_fraction", "stacked", "min_face_gap_m", "spread_m")  # rounds.csv:
+LAYOUT_COLUMNS = ("touching_fraction", "near_fraction", "stacked", "min_face_gap_m",
+                  "spread_m")  # rounds.csv:
 # the settled layout's statistics (`rows.round_rows`)
 TIMINGS_COLUMNS = (
     "chunk",  # the chunk's index in the run

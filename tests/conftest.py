@@ -139,14 +139,15 @@ class Worlds:
         from graspjax.sim.world import physics_model, reset, simulate
 
         self.scene, config = scene, Config()
+        self._start = None
         model = physics_model(scene, config)
         template = mjx.make_data(scene.mj_model)
 
-        def one(data, grasp, target, segments, execute, take_out):
+        def one(data, grasp, target, segments, execute, take_out, drops):
             return simulate(scene, model, data, grasp, target, segments, execute, config,
-                            take_out=take_out)
+                            take_out=take_out, drops=drops)
 
-        self._reset = jax.jit(jax.vmap(lambda p, q, a, b: reset(scene, template, p, q, a, b)))
+        self._reset = jax.jit(jax.vmap(lambda p, q, a, w: reset(scene, template, p, q, a, w)))
         self._kinematics = jax.jit(jax.vmap(lambda d: mjx.kinematics(scene.model, d)))
         # The physics program is compiled ahead of time, right after JAX's caches are cleared.
         # Its lowered text, and so its persistent-cache key, then does not depend on what the
@@ -158,21 +159,28 @@ class Worlds:
                               np.zeros((SIM_BATCH, n, 4), np.float32),
                               np.zeros((SIM_BATCH, n), bool))
         steps = jnp.zeros(SIM_BATCH, jnp.int32)
-        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None, 0), axis_name=WORLDS)).lower(
-            data, self.no_grasp(), steps, steps, jnp.array(False), jnp.zeros(SIM_BATCH, bool)
-        ).compile()
+        self._play = jax.jit(jax.vmap(one, in_axes=(0, 0, 0, 0, None, 0, 0), axis_name=WORLDS)).lower(
+            data, self.no_grasp(), steps, steps, jnp.array(False), jnp.zeros(SIM_BATCH, bool),
+            self.no_drops()).compile()
 
-    def reset(self, pos, quat, active, bin_in_place=False):
-        """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n); the bin in
-        place (Setup 3) or parked."""
-        bins = jnp.full(SIM_BATCH, bin_in_place, bool)
-        return self._reset(*map(jnp.asarray, (pos, quat, active)), bins)
+    def reset(self, pos, quat, active, walls=None):
+        """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n); the walls
+        (`world.Walls` (side, height, present), one for every world) standing or parked."""
+        from graspjax.sim.world import NO_WALLS, Walls
 
-    def settle(self, data, seconds: float):
+        walls = NO_WALLS if walls is None else walls
+        batched = Walls(*(jnp.full(SIM_BATCH, x, dtype) for x, dtype in (
+            (walls.side, jnp.float32), (walls.height, jnp.float32), (walls.present, bool))))
+        return self._reset(*map(jnp.asarray, (pos, quat, active)), batched)
+
+    def settle(self, data, seconds: float, drops=None):
+        """Settle every world for `seconds`, dropping `drops` (`world.Drops`, batched; None:
+        nothing) as their segments come."""
         segments = self.scene.sim.segments(seconds)
+        drops = self.no_drops() if drops is None else jax.tree.map(jnp.asarray, drops)
         return self._play(data, self.no_grasp(), jnp.zeros(SIM_BATCH, jnp.int32),
                           jnp.full(SIM_BATCH, segments, jnp.int32), jnp.array(False),
-                          jnp.zeros(SIM_BATCH, bool))[0]
+                          jnp.zeros(SIM_BATCH, bool), drops)[0]
 
     def execute(self, data, grasp, target, take_out=None):
         """Approach, close, lift, hold, judge: (data, Execution) per world; `take_out` (B,)
@@ -182,10 +190,37 @@ class Worlds:
                             jnp.asarray(grasp.valid, bool))  # the compiled program's types
         take_out = jnp.zeros(SIM_BATCH, bool) if take_out is None else jnp.asarray(take_out, bool)
         return self._play(data, grasp, jnp.asarray(target, jnp.int32),
-                          jnp.zeros(SIM_BATCH, jnp.int32), jnp.array(True), take_out)
+                          jnp.zeros(SIM_BATCH, jnp.int32), jnp.array(True), take_out,
+                          self.no_drops())
 
     def kinematics(self, data):
         return self._kinematics(data)
+
+    def start_rounds(self, setup: int, config=None, seed: int = 0, first: int = 0):
+        """`procedure.start_round` of `SIM_BATCH` worlds of one setup (trials or rounds first,
+        first + 1, ...; Setup 1: world i holds object i): their `RoundState`s, not settled."""
+        from graspjax.config import Config, stack_configs
+        from graspjax.procedure import WorldSpec, start_round
+        from graspjax.sim.scene import mjx
+
+        scene, config = self.scene, Config() if config is None else config
+        n = scene.num_objects
+        order = np.tile(np.arange(n, dtype=np.int32), (SIM_BATCH, 1))
+        order[:, 0] = np.arange(SIM_BATCH) % n
+        spec = WorldSpec(seed=np.full(SIM_BATCH, seed, np.int32),
+                         setup=np.full(SIM_BATCH, setup, np.int32),
+                         trial=np.arange(first, first + SIM_BATCH, dtype=np.int32), order=order,
+                         members=np.ones((SIM_BATCH, n), bool),
+                         config=stack_configs([config] * SIM_BATCH))
+        if self._start is None:
+            template = mjx.make_data(scene.mj_model)
+            self._start = jax.jit(jax.vmap(lambda w: start_round(scene, template, w, (1, 2, 3))))
+        return self._start(spec)
+
+    def no_drops(self):
+        from graspjax.sim.world import no_drops
+
+        return jax.vmap(lambda _: no_drops(self.scene.num_objects))(jnp.arange(SIM_BATCH))
 
     @staticmethod
     def no_grasp():

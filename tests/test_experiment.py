@@ -340,7 +340,7 @@ def test_rounds_attempt_every_object_once(rounds_runs):
 
 def test_rounds_csv_says_how_dense_the_layouts_were(rounds_runs):
     """One row per Setup 2/3 round: Setup 2's face-to-face gaps in their configured range, Setup
-    3's bin pile denser than the groups (closer than any group may be placed, in some round:
+    3's pile denser than the groups (closer than any group may be placed, in some round:
     which round is the physics' float-level luck, it differs between CPUs and between
     float-equal forms of the step, so two rounds' means do not order reliably; whether two of
     the three objects touch in either round is that luck too, so the touching count is checked
@@ -349,7 +349,8 @@ def test_rounds_csv_says_how_dense_the_layouts_were(rounds_runs):
 
     rounds = pd.read_csv(rounds_runs[1] / "rounds.csv")
     assert sorted(zip(rounds.setup, rounds["round"], strict=True)) == [(2, 0), (2, 1), (3, 0), (3, 1)]
-    assert set(rounds.columns) >= {"touching_fraction", "stacked", "min_face_gap_m", "spread_m"}
+    assert set(rounds.columns) >= {"touching_fraction", "near_fraction", "stacked", "min_face_gap_m",
+                                   "spread_m"}
     cfg = LayoutConfig()
     group = rounds[rounds.setup == 2]
     assert ((group.min_face_gap_m >= cfg.gap_min - 0.002)
@@ -362,7 +363,7 @@ def test_rounds_csv_says_how_dense_the_layouts_were(rounds_runs):
 
 def test_rounds_csv_measures_clutter_removal(rounds_runs):
     """VGN's metrics per round, from the round's own attempt rows: grasp success rate and
-    declutter rate; the paper's protocol attempts each object once."""
+    declutter rate; the protocol as we read the paper attempts each object once."""
     attempts = pd.read_csv(rounds_runs[1] / "attempts.csv", keep_default_na=False)
     rounds = pd.read_csv(rounds_runs[1] / "rounds.csv")
     for row in rounds.itertuples():

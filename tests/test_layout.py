@@ -29,18 +29,21 @@ def _outline(points, rotation, xy):
     return flat[ConvexHull(flat).vertices]
 
 
+def _inside(p, poly, margin=0.0):
+    """Point p (2,) inside the convex polygon poly (K, 2), `margin` (m) clear of its edges."""
+    edges = np.roll(poly, -1, 0) - poly
+    cross = (edges[:, 0] * (p[1] - poly[:, 1]) - edges[:, 1] * (p[0] - poly[:, 0])) / np.linalg.norm(
+        edges, axis=1)
+    return (cross >= margin).all() or (cross <= -margin).all()
+
+
 def _polygon_distance(a, b):
     """Distance between two disjoint convex polygons (0 if they overlap): brute force."""
     def point_segment(p, s0, s1):
         t = np.clip(np.dot(p - s0, s1 - s0) / np.dot(s1 - s0, s1 - s0), 0, 1)
         return np.linalg.norm(p - (s0 + t * (s1 - s0)))
 
-    def inside(p, poly):
-        edges = np.roll(poly, -1, 0) - poly
-        cross = edges[:, 0] * (p[1] - poly[:, 1]) - edges[:, 1] * (p[0] - poly[:, 0])
-        return (cross >= 0).all() or (cross <= 0).all()
-
-    if any(inside(p, b) for p in a) or any(inside(p, a) for p in b):
+    if any(_inside(p, b) for p in a) or any(_inside(p, a) for p in b):
         return 0.0
     return min(point_segment(p, s, t) for poly, other in ((a, b), (b, a))
                for p in poly for s, t in zip(other, np.roll(other, -1, 0), strict=True))
@@ -69,8 +72,8 @@ def test_same_seed_same_layout_other_trial_other_layout():
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
     assert not np.allclose(a[1], c[1])
-    assert not np.allclose(layout.pile(layout.layout_key(7, 3, 0), RESTING, PADDED, CFG)[0],
-                           layout.pile(layout.layout_key(8, 3, 0), RESTING, PADDED, CFG)[0])
+    assert not np.allclose(layout.grouped(layout.layout_key(7, 3, 0), RESTING, PADDED, CFG)[0],
+                           layout.grouped(layout.layout_key(8, 3, 0), RESTING, PADDED, CFG)[0])
 
 
 def test_setup1_drops_one_object_from_any_orientation():
@@ -90,7 +93,7 @@ def test_setup1_drops_one_object_from_any_orientation():
 
 def test_setup2_members_keep_their_face_to_face_gaps():
     for r in range(10):
-        pos, quat, active = layout.grouped(layout.layout_key(0, 2, r), RESTING, PADDED, CFG)
+        pos, quat, active, _ = layout.grouped(layout.layout_key(0, 2, r), RESTING, PADDED, CFG)
         assert np.asarray(active).all()
         rotations, xy = _rotations(quat), np.asarray(pos[:, :2])
         outlines = [_outline(POINTS[i], rotations[i], xy[i]) for i in range(6)]
@@ -104,56 +107,59 @@ def test_setup2_members_keep_their_face_to_face_gaps():
             assert lowest == pytest.approx(CFG.drop_clearance, abs=1e-6)
 
 
-def _check_stacked(pos, quat):
-    """Each object of a pile starts above everything dropped before it, nothing in the table.
-    Returns the objects' vertices in the world (6, V, 3)."""
-    rotations = _rotations(quat)
-    world = [POINTS[i] @ rotations[i].T + np.asarray(pos[i]) for i in range(6)]
-    spans = sorted((w[:, 2].min(), w[:, 2].max()) for w in world)
-    assert spans[0][0] >= CFG.drop_clearance - 1e-6  # nothing starts in the table
-    for (_, top), (bottom, _) in zip(spans[:-1], spans[1:], strict=True):
-        assert bottom > top  # each object starts above everything dropped before it
-    return world
+def _apart(pos, quat):
+    """Brute-force outline distances (6, 6) of a layout (inf on the diagonal), and whether a
+    vertex of one outline lies 1 mm or more inside another (6,) (the outlines overlap)."""
+    rotations, xy = _rotations(quat), np.asarray(pos[:, :2])
+    outlines = [_outline(POINTS[i], rotations[i], xy[i]) for i in range(6)]
+    apart = np.array([[_polygon_distance(outlines[i], outlines[j]) if i != j else np.inf
+                       for j in range(6)] for i in range(6)])
+    overlaps = [any(_inside(p, outlines[j], 0.001) or any(_inside(q, outlines[i], 0.001)
+                                                          for q in outlines[j])
+                    for j in range(6) if j != i for p in outlines[i]) for i in range(6)]
+    return apart, np.array(overlaps)
 
 
-def test_setup3_pile_starts_over_one_small_square_of_the_table():
-    """The paper's Setup 3 (default): every centre within the pile's square; objects whose
-    outlines overlap start one above the other (nothing starts inside another), the others on
-    the table; the bin plays no part."""
-    assert CFG.bin is False
-    on_table = {}
-    for spread in (CFG.pile_spread, 0.3):
-        config = LayoutConfig(pile_spread=spread)
-        on_table[spread] = 0
-        for r in range(10):
-            pos, quat, _ = layout.pile(layout.layout_key(0, 3, r), RESTING, PADDED, config)
-            assert (np.abs(np.asarray(pos)[:, :2]) <= spread / 2 + 1e-6).all()
-            rotations = _rotations(quat)
-            world = [POINTS[i] @ rotations[i].T + np.asarray(pos[i]) for i in range(6)]
-            for i in range(6):
-                for j in range(i):
-                    a, b = world[i], world[j]
-                    reach = (np.linalg.norm(a[:, :2] - pos[i, :2], axis=1).max()
-                             + np.linalg.norm(b[:, :2] - pos[j, :2], axis=1).max())
-                    if np.linalg.norm(pos[i, :2] - pos[j, :2]) < reach:  # one above the other
-                        assert a[:, 2].min() > b[:, 2].max() or b[:, 2].min() > a[:, 2].max()
-            lowest = np.array([w[:, 2].min() for w in world])
-            assert lowest.min() == pytest.approx(CFG.drop_clearance, abs=1e-6)
-            on_table[spread] += int(np.sum(np.abs(lowest - CFG.drop_clearance) < 1e-6))
-    assert 10 <= on_table[CFG.pile_spread] < on_table[0.3]  # spread out: more on the table
-    assert on_table[CFG.pile_spread] < 50  # the default pile: some laid on others in most rounds
-
-
-def test_setup3_pile_in_the_bin_starts_inside_its_walls():
-    in_bin = LayoutConfig(bin=True)
+def test_setup3_places_setup2s_group_touching_or_overlapping():
+    """The paper's Setup 3 (default): Setup 2's group with gaps U(pile_gap_min, pile_gap_max)
+    <= 0, so each object's outline touches or overlaps another's (brute force: distance 0);
+    resting poses on the table, as Setup 2's; for one key the same objects, poses and order as
+    any other gaps give (the paired density sweep), the gaps alone differ."""
+    assert CFG.bin is False and CFG.pile_gap_max <= 0
+    overlapping = 0
     for r in range(10):
-        pos, quat, _ = layout.pile(layout.layout_key(0, 3, r), RESTING, PADDED, in_bin)
-        for world in _check_stacked(pos, quat):
+        key = layout.layout_key(0, 3, r)
+        pos, quat, active, order = layout.grouped(key, RESTING, PADDED, CFG, CFG.pile_gap_min,
+                                                  CFG.pile_gap_max)
+        assert np.asarray(active).all() and sorted(np.asarray(order).tolist()) == list(range(6))
+        apart, overlaps = _apart(pos, quat)
+        assert (apart.min(1) <= 5e-4).all()  # every object meets another's outline
+        overlapping += int(overlaps.sum())
+        sparse = layout.grouped(key, RESTING, PADDED, CFG)  # Setup 2's gaps, the same key
+        np.testing.assert_array_equal(np.asarray(sparse[1]), np.asarray(quat))
+        np.testing.assert_array_equal(np.asarray(sparse[3]), np.asarray(order))
+        assert _apart(*sparse[:2])[0].min(1).min() >= CFG.gap_min - 5e-4
+    assert overlapping >= 30  # of 60: most outlines overlap a neighbour's as placed
+
+
+def test_setup3_in_the_bin_drops_from_random_orientations_inside_its_walls():
+    in_bin = LayoutConfig(bin=True)
+    ups = []
+    for r in range(10):
+        pos, quat, active, order = layout.in_bin(layout.layout_key(0, 3, r), PADDED, in_bin)
+        assert np.asarray(active).all() and sorted(np.asarray(order).tolist()) == list(range(6))
+        rotations = _rotations(quat)
+        for i in range(6):
+            world = POINTS[i] @ rotations[i].T + np.asarray(pos[i])
             assert (np.abs(world[:, :2]) <= in_bin.bin_size / 2 + 1e-6).all()  # inside the walls
+            assert world[:, 2].min() == pytest.approx(in_bin.drop_clearance, abs=1e-6)
+        ups.append(rotations[:, :, 2])
+    ups = np.concatenate(ups)
+    assert (ups[:, 2] < -0.5).any() and (ups[:, 2] > 0.5).any()  # any orientation
 
 
 def test_the_bin_floor_is_at_most_twice_the_objects_footprint():
-    """The paper's dense clutter: objects a-f cover about half the bin's floor."""
+    """The bin variant's clutter: objects a-f cover about half the bin's floor."""
     mean_area = sum(np.mean([ConvexHull((POINTS[i] @ r.T)[:, :2]).volume
                              for r in np.asarray(RESTING[i])]) for i in range(6))
     assert CFG.bin_size ** 2 <= 2.0 * mean_area
@@ -161,7 +167,10 @@ def test_the_bin_floor_is_at_most_twice_the_objects_footprint():
 
 def test_samplers_vmap_over_keys():
     keys = jax.vmap(lambda i: layout.layout_key(1, 3, i))(jnp.arange(4))
-    pos, quat, active = jax.vmap(lambda k: layout.pile(k, RESTING, PADDED, CFG))(keys)
+    pos, quat, active, order = jax.vmap(lambda k: layout.grouped(
+        k, RESTING, PADDED, CFG, CFG.pile_gap_min, CFG.pile_gap_max))(keys)
     assert pos.shape == (4, 6, 3) and quat.shape == (4, 6, 4) and active.shape == (4, 6)
-    np.testing.assert_allclose(pos[2], layout.pile(layout.layout_key(1, 3, 2), RESTING, PADDED, CFG)[0],
-                               rtol=1e-6)
+    assert order.shape == (4, 6)
+    one = layout.grouped(layout.layout_key(1, 3, 2), RESTING, PADDED, CFG, CFG.pile_gap_min,
+                         CFG.pile_gap_max)
+    np.testing.assert_allclose(pos[2], one[0], rtol=1e-6, atol=1e-7)

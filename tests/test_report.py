@@ -207,7 +207,8 @@ def test_a_sweeps_comparison_says_in_how_many_rounds_every_point_settled_the_sam
             for rnd in (0, 1):
                 spread = 0.2 + (0.01 * point if (setup, rnd) == (3, 1) else 0.0)
                 rows.append({"point": point, "setup": setup, "round": rnd, "touching_fraction": 0.5,
-                             "stacked": 1, "min_face_gap_m": 0.01, "spread_m": spread})
+                             "near_fraction": 0.5, "stacked": 1, "min_face_gap_m": 0.01,
+                             "spread_m": spread})
     lines = shared_layouts(pd.DataFrame(rows))
     assert lines[-2:] == ["- Setup 2: 2 of 2 rounds", "- Setup 3: 1 of 2 rounds"]
     assert shared_layouts(pd.DataFrame(rows)[lambda r: r.point == 0]) == []  # one point: nothing

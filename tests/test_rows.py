@@ -11,6 +11,7 @@ from graspjax.procedure import (
     PlaneTruth,
     Record,
     RoundState,
+    TargetClutter,
     WorldSpec,
     eligible_objects,
     round_goes_on,
@@ -39,7 +40,9 @@ def _record(target, aimed, reason, lifted=(-1, -1), under=(-1, -1)):
         tcp=np.zeros((b, 3), np.float32), approach=np.zeros((b, 3), np.float32),
         closing=np.zeros((b, 3), np.float32), realign=truth,
         grasp_object=np.array(under, np.int32), segment_precision=nan, segment_recall=nan,
-        layout=LayoutStats(*(np.zeros(b, np.int32),) * 3, nan, nan))
+        layout=LayoutStats(*(np.zeros(b, np.int32),) * 4, nan, nan),
+        clutter=TargetClutter(touching=np.zeros(b, bool), resting=np.zeros(b, bool),
+                              covered=np.zeros(b, bool), gap=nan, finger_clearance=nan))
 
 
 def test_rows_credit_the_object_the_target_point_lay_on():
@@ -79,11 +82,11 @@ def test_a_chunks_dtypes_do_not_depend_on_its_unattempted_rows():
 
 def _state(removed, attempted, failures=0):
     return RoundState(data=None, attempted=np.array(attempted), failures=np.int32(failures),
-                      removed=np.array(removed), key=None)
+                      removed=np.array(removed), key=None, drops=None)
 
 
 def test_the_protocol_uses_identity_and_the_method_does_not():
-    """The paper's protocol goes on while an object is in the scene (one attempt per object is
+    """The protocol as we read the paper goes on while an object is in the scene (one attempt per object is
     the experimenter's doing: a failed object is taken out); the oracle's identity skip leaves
     out the objects already tried. A continued round stops once stuck."""
     spec = WorldSpec(seed=0, setup=2, trial=0, order=np.arange(3), members=np.ones(3, bool),

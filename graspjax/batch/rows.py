@@ -92,6 +92,13 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[WorldKey, ...], records
         frame["grasp_object"] = letters[r.grasp_object[keep]]
         frame["segment_precision"] = r.segment_precision[keep]
         frame["segment_recall"] = r.segment_recall[keep]
+        crowd = jax.tree.map(lambda x, rows=keep: x[rows], r.clutter)  # the target's, before
+        # 1.0 / 0.0 (floats: an object never attempted has none of them, nan)
+        frame["target_touching"] = crowd.touching.astype(float)
+        frame["target_resting"] = crowd.resting.astype(float)
+        frame["target_covered"] = crowd.covered.astype(float)
+        frame["target_gap_m"] = crowd.gap
+        frame["finger_clearance_m"] = crowd.finger_clearance
         frame["rise_m"] = r.rise[keep]
         frame["jaw_opening_m"] = 2 * r.opening[keep]
         for name in ("tcp", "approach", "closing"):
@@ -129,6 +136,7 @@ def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     frame.insert(1, "method", [run.points[p].method for p in frame["point"]])
     return frame.assign(
         touching_fraction=stats.touching[keep] / np.maximum(stats.objects[keep], 1),
+        near_fraction=stats.near[keep] / np.maximum(stats.objects[keep], 1),
         stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep],
         attempts=attempts[keep], successes=successes[keep],
         grasp_success_rate=successes[keep] / np.where(attempts[keep] > 0, attempts[keep], np.nan),
@@ -140,7 +148,7 @@ def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
 
 def _round_end(tried: np.ndarray, success: np.ndarray, removed: int, placed: int,
                config: Config) -> str:
-    """How a round ended: every object attempted once (the paper's protocol), or, continued,
+    """How a round ended: every object attempted once (the protocol as we read the paper), or, continued,
     `empty` (everything removed), `stuck` (its last `stuck_after` attempts failed) or `limit`
     (its `round_attempts` used up, or no object left in view)."""
     if config.procedure.round_attempts == 0:

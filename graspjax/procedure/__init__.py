@@ -33,8 +33,8 @@ k = 0, 1, ... (the k-th grasp attempt of the round). One attempt:
    for the next attempt.
 
 The protocol between attempts is the experimenter's and may use identity
-(docs/method.md): in the paper's protocol each object of a Setup 2/3 round
-gets one attempt, so a failed object is taken out by hand
+(docs/method.md): in the protocol as we read the paper (a reading, docs/departures.md) each
+object of a Setup 2/3 round gets one attempt, so a failed object is taken out by hand
 (`procedure.remove_failed`; false leaves it where it ends up); with
 `procedure.round_attempts` the round goes on until the scene is empty or
 `stuck_after` attempts in a row fail. `perception.oracle` (an ablation,
@@ -65,7 +65,7 @@ from graspjax.procedure.protocol import (
     settle,
     start_round,
 )
-from graspjax.procedure.state import PlaneTruth, Record, RoundState, Views, WorldSpec
+from graspjax.procedure.state import PlaneTruth, Record, RoundState, TargetClutter, Views, WorldSpec
 from graspjax.procedure.steps import (
     attempt,
     centred_pose,
@@ -78,10 +78,10 @@ from graspjax.procedure.steps import (
 from graspjax.procedure.truth import plane_truth, target_faces, target_pixels, with_oracle
 
 __all__ = [
-    "PlaneTruth", "Record", "RoundState", "Views", "WorldSpec", "attempt", "attempt_keys",
-    "centred_pose", "eligible_objects", "first_look", "in_bin", "overview_pose", "plane_truth",
-    "round_goes_on", "select_target", "settle", "start_round", "target_faces", "target_pixels",
-    "view", "view_keys", "with_oracle",
+    "PlaneTruth", "Record", "RoundState", "TargetClutter", "Views", "WorldSpec", "attempt",
+    "attempt_keys", "centred_pose", "eligible_objects", "first_look", "in_bin", "overview_pose",
+    "plane_truth", "round_goes_on", "select_target", "settle", "start_round", "target_faces",
+    "target_pixels", "view", "view_keys", "with_oracle",
 ]
 
 

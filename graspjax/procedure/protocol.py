@@ -14,7 +14,10 @@ from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
 from graspjax.sim.scene import Scene, mjx
 from graspjax.sim.world import (
+    Drops,
     GraspPose,
+    Walls,
+    no_drops,
     physics_model,
     reset,
     simulate,
@@ -38,27 +41,52 @@ def _layout_key(scene: Scene, spec: WorldSpec) -> jax.Array:
 def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec,
                 setups: tuple[int, ...] = (1, 2, 3)) -> RoundState:
     """Place the round's layout (not yet settled): one object dropped alone (Setup 1), a group
-    of resting objects (Setup 2) or a pile dropped on the table or into the bin (Setup 3). `setups` (static)
-    are those the batch's worlds may play: only their layouts are built."""
+    of resting objects (Setup 2) or a pile whose objects wait to be dropped one at a time as
+    it settles (Setup 3: `RoundState.drops`; the bin's walls standing in its variant). `setups`
+    (static) are those the batch's worlds may play: only their layouts are built."""
     config = spec.config
     key = jax.random.wrap_key_data(_layout_key(scene, spec))
     n = scene.num_objects
     points = jnp.asarray(scene.object_points, jnp.float32)
+    resting = jnp.asarray(scene.resting, jnp.float32)
+    cfg = config.layout
     samplers = {
-        1: lambda: layout.single(key, spec.order[0], points, config.layout),
-        2: lambda: layout.grouped(key, jnp.asarray(scene.resting, jnp.float32), points,
-                                  config.layout),
-        3: lambda: layout.pile(key, jnp.asarray(scene.resting, jnp.float32), points,
-                               config.layout)}
+        1: lambda: layout.single(key, spec.order[0], points, cfg),
+        2: lambda: layout.grouped(key, resting, points, cfg)[:3],
+        3: lambda: jax.tree.map(
+            lambda *both: jnp.where(cfg.bin, *both), layout.in_bin(key, points, cfg),
+            layout.grouped(key, resting, points, cfg, cfg.pile_gap_min, cfg.pile_gap_max))}
     placed = {s: samplers[s]() for s in sorted(set(setups))}
     others = list(placed)[:-1]  # each picked where the world plays it; else the last
     pos, quat = jax.tree.map(
         lambda *poses: jnp.select([spec.setup == s for s in others], poses[:-1], poses[-1])
         if others else poses[0], *(placed[s][:2] for s in placed))
     active = jnp.where(spec.setup == 1, placed[1][2], spec.members) if 1 in placed else spec.members
-    data = reset(scene, data, pos, quat, active, bin_in_place=in_bin(spec))
+    pile = spec.setup == 3
+    drops = _drops(pos, quat, placed[3][3], spec) if 3 in placed else no_drops(n)
+    drops = dataclasses.replace(drops, segment=jnp.where(pile, drops.segment, -1))
+    walls = Walls(cfg.bin_size, cfg.bin_wall_height, pile & cfg.bin)
+    data = reset(scene, data, pos, quat, active & ~pile, walls)  # a pile's objects wait to drop
     return RoundState(data=data, attempted=jnp.zeros(n, bool), failures=jnp.int32(0),
-                      removed=jnp.zeros(n, bool), key=key)
+                      removed=jnp.zeros(n, bool), key=key, drops=drops)
+
+
+def _drops(pos: jax.Array, quat: jax.Array, order: jax.Array, spec: WorldSpec) -> Drops:
+    """Setup 3: the layout's members dropped one at a time in `order`, one every
+    `sim.drop_interval` seconds, each at its layout's place and orientation; on the table
+    pushed together toward their centre until `sim.push_time`, the push fading out over its
+    last `sim.push_fade_time` (`world.Drops`)."""
+    n = order.shape[0]
+    config = spec.config
+    turn = jnp.cumsum(spec.members[order]) - 1  # the i-th member of the layout dropped
+    interval = config.sim.segments(config.sim.drop_interval)
+    segment = jnp.zeros(n, jnp.int32).at[order].set((turn * interval).astype(jnp.int32))
+    members = spec.members[:, None]
+    centre = jnp.sum(jnp.where(members, pos[:, :2], 0.0), 0) / jnp.maximum(jnp.sum(members), 1)
+    return Drops(segment=jnp.where(spec.members, segment, -1), xy=pos[:, :2], quat=quat,
+                 centre=centre, push=jnp.where(config.layout.bin, 0.0, config.layout.pile_push),
+                 push_until=jnp.int32(config.sim.segments(config.sim.push_time)),
+                 push_fade=jnp.int32(config.sim.segments(config.sim.push_fade_time)))
 
 
 def settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array:
@@ -71,15 +99,21 @@ def settle_segments(spec: WorldSpec, k: jax.Array, config: Config) -> jax.Array:
     return jnp.where(k < 0, s.segments(s.settle_time) + extra, between).astype(jnp.int32)
 
 
+def drops_of(state: RoundState, k: jax.Array) -> Drops:
+    """What call k drops while it settles: the pile's objects in call -1, else nothing."""
+    return dataclasses.replace(state.drops, segment=jnp.where(k < 0, state.drops.segment, -1))
+
+
 def settle(scene: Scene, state: RoundState, spec: WorldSpec) -> RoundState:
     """Call -1 alone, for studies that look without grasping: the freshly placed layout settles
     exactly as `attempt(..., k=-1)` settles it, without compiling the search."""
     config = spec.config
     zero3 = jnp.zeros(3, jnp.float32)
+    k = jnp.int32(-1)
     data, _ = simulate(scene, physics_model(scene, config), state.data,
                        GraspPose(zero3, zero3, zero3, jnp.array(False)), jnp.int32(0),
-                       settle_segments(spec, jnp.int32(-1), config), jnp.array(False), config,
-                       reachable=jnp.array(False))
+                       settle_segments(spec, k, config), jnp.array(False), config,
+                       reachable=jnp.array(False), drops=drops_of(state, k))
     return dataclasses.replace(state, data=data)
 
 

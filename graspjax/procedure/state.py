@@ -14,6 +14,7 @@ from graspjax.perception import (
 )
 from graspjax.sim.scene import mjx
 from graspjax.sim.world import (
+    Drops,
     LayoutStats,
     PhysicsState,
 )
@@ -41,6 +42,7 @@ class RoundState:
     failures: jax.Array  # () int32 attempts in a row that lifted nothing (a stuck round)
     removed: jax.Array  # (n,) bool objects lifted out of the scene
     key: jax.Array  # the round's PRNG key (its layout key)
+    drops: Drops  # the objects the first call drops as it settles (Setup 3's pile); none after
 
 
 @pytree_dataclass
@@ -52,6 +54,25 @@ class PlaneTruth:
     normal_error_deg: jax.Array  # () angle from the plane's normal to the nearest true face
     # normal of the target at its current pose (deg; nan: no plane)
     view_tilt_deg: jax.Array  # () the re-aligned view's optical axis from straight down (deg)
+
+
+@pytree_dataclass
+class TargetClutter:
+    """How crowded the attempt's target was when the robot looked (ground truth, to attribute
+    success to clutter; `world.object_clutter` before the attempt)."""
+
+    touching: jax.Array  # () bool in contact with another object
+    resting: jax.Array  # () bool resting on another object
+    covered: jax.Array  # () bool another object rests on it
+    gap: jax.Array  # () nearest outline distance seen from above to another object (m;
+    # negative: overlapping; inf: alone; nan: no target)
+    finger_clearance: jax.Array  # () free space around the open fingers at the executed grasp
+    # pose to anything but the target and the table (m; `world.finger_clearance`; nan: none)
+
+
+NO_CLUTTER = TargetClutter(touching=np.bool_(False), resting=np.bool_(False),
+                           covered=np.bool_(False), gap=np.float32(np.nan),
+                           finger_clearance=np.float32(np.nan))
 
 
 @pytree_dataclass
@@ -80,6 +101,7 @@ class Record:
     # was taken) on the credited object (ground truth; nan: empty)
     segment_recall: jax.Array  # () share of the credited object's visible pixels in that surface
     layout: LayoutStats  # the scene's density after this call's settling
+    clutter: TargetClutter  # the target's clutter before the attempt (ground truth)
 
 
 @pytree_dataclass
@@ -98,8 +120,9 @@ class Views:
     state: PhysicsState  # the world before the attempt (a replay starts here: sim/replay.py)
 
 
-NO_LAYOUT = LayoutStats(objects=np.int32(-1), touching=np.int32(-1), stacked=np.int32(-1),
-                         gap=np.float32(np.nan), spread=np.float32(np.nan))  # not measured
+NO_LAYOUT = LayoutStats(objects=np.int32(-1), touching=np.int32(-1), near=np.int32(-1),
+                        stacked=np.int32(-1), gap=np.float32(np.nan),
+                        spread=np.float32(np.nan))  # not measured
 
 
 NO_PLANE = PlaneTruth(surface=np.int32(Surface.NONE), on_target=np.float32(np.nan),  # numpy: no

@@ -25,8 +25,25 @@ from graspjax.perception.cluster import nearest_pixel
 from graspjax.perception.support import known_support
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.workspace import box_workspace
-from graspjax.procedure.protocol import attempt_keys, eligible_objects, in_bin, round_goes_on, settle_segments
-from graspjax.procedure.state import NO_LAYOUT, NO_PLANE, PlaneTruth, Record, RoundState, Views, WorldSpec
+from graspjax.procedure.protocol import (
+    attempt_keys,
+    drops_of,
+    eligible_objects,
+    in_bin,
+    round_goes_on,
+    settle_segments,
+)
+from graspjax.procedure.state import (
+    NO_CLUTTER,
+    NO_LAYOUT,
+    NO_PLANE,
+    PlaneTruth,
+    Record,
+    RoundState,
+    TargetClutter,
+    Views,
+    WorldSpec,
+)
 from graspjax.procedure.truth import plane_truth, surfaces, target_faces, target_pixels, with_oracle
 from graspjax.sim.raycast import render_depth_and_piece
 from graspjax.sim.scene import Scene, mjx
@@ -35,9 +52,11 @@ from graspjax.sim.world import (
     GraspPose,
     LayoutStats,
     Outcome,
+    finger_clearance,
     hand_clear,
     hand_waypoints,
     layout_stats,
+    object_clutter,
     physics_model,
     physics_state,
     simulate,
@@ -321,7 +340,9 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
         waypoints, _ = hand_waypoints(scene, reached, config)
         rotation = frame_from_axes(reached.approach, reached.closing)
         clear = hand_clear(scene, kin, waypoints[0], rotation)
-        out = target, aimed, pose, reached, clear, progress, views
+        room = jnp.where(reached.valid, finger_clearance(scene, kin, waypoints[1], rotation, target),
+                         jnp.nan)
+        out = target, aimed, pose, reached, clear, room, progress, views
         searched.append(jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), out))
         return out
 
@@ -331,7 +352,8 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
         shapes = searched[-1] if searched else jax.eval_shape(search, None)
         return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
-    target, aimed, pose, reached, clear, progress, views = jax.lax.cond(k >= 0, search, idle, None)
+    target, aimed, pose, reached, clear, room, progress, views = jax.lax.cond(k >= 0, search, idle,
+                                                                             None)
     blocked, turns, detect_reason, align_reason, lost, realign, under, first = progress
     realign = where_tree(k >= 0, realign, jax.tree.map(
         lambda x: jnp.broadcast_to(x, (MAX_REORIENTATIONS,)), NO_PLANE))
@@ -339,13 +361,14 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
     target = jnp.where(aimed, target, -1)
     valid = pose.valid & finite & aimed
     pose = dataclasses.replace(pose, valid=valid)
-    # The paper's protocol: the experimenter takes a failed object out before the next attempt.
+    # The protocol as we read the paper: the experimenter takes a failed object out before the
+    # next attempt.
     take_out = aimed & (target >= 0) & config.procedure.remove_failed
     if config.procedure.round_attempts > 0:  # clutter removal leaves it
         take_out = jnp.array(False)
     data, done = simulate(scene, model, state.data, dataclasses.replace(reached, valid=valid),
                           target, settle_segments(spec, k, config), k >= 0, config,
-                          reachable=clear, take_out=take_out)
+                          reachable=clear, take_out=take_out, drops=drops_of(state, k))
 
     mine = (jnp.arange(n) == target) & (target >= 0)
     attempted = state.attempted | mine
@@ -353,16 +376,21 @@ def attempt(scene: Scene, state: RoundState, spec: WorldSpec, k: jax.Array,
                                           state.failures + 1), state.failures)
     lifted = (jnp.arange(n) == done.lifted_object) & (done.lifted_object >= 0)
     removed = state.removed | lifted | (mine & take_out)
+    crowd = object_clutter(scene, state.data)  # as the robot found the scene (the state before)
+    t = jnp.maximum(target, 0)
+    clutter = where_tree(target >= 0, TargetClutter(
+        touching=crowd.touching[t], resting=crowd.resting[t], covered=crowd.covered[t],
+        gap=crowd.gap[t], finger_clearance=room.astype(jnp.float32)), NO_CLUTTER)
     state = RoundState(data=data, attempted=attempted, failures=failures.astype(jnp.int32),
-                       removed=removed, key=state.key)
+                       removed=removed, key=state.key, drops=drops_of(state, jnp.int32(0)))
     density = layout_stats(scene, data) if {2, 3} & set(setups) else NO_LAYOUT
     return state, _record(target, aimed, pose, done, finite, blocked, turns, detect_reason,
-                          align_reason, lost, realign, under, first, density), views
+                          align_reason, lost, realign, under, first, density, clutter), views
 
 
 def _record(target, aimed, pose: GraspPose, done: Execution, finite, blocked, turns,
             detect_reason, align_reason, lost, realign: PlaneTruth, under, first,
-            stats: LayoutStats) -> Record:
+            stats: LayoutStats, clutter: TargetClutter) -> Record:
     """The attempt's record, with its one reason (precedence: module docstring)."""
     stopped_by_alignment = blocked & (align_reason >= 0) & (align_reason != AlignReason.FOUND)
     reason = jnp.select(
@@ -382,4 +410,5 @@ def _record(target, aimed, pose: GraspPose, done: Execution, finite, blocked, tu
         closing=jnp.where(pose.valid, pose.closing, nan3), realign=realign,
         grasp_object=jnp.where(pose.valid, under, -1).astype(jnp.int32),
         segment_precision=jnp.where(aimed, precision, jnp.nan).astype(jnp.float32),
-        segment_recall=jnp.where(aimed, recall, jnp.nan).astype(jnp.float32), layout=stats)
+        segment_recall=jnp.where(aimed, recall, jnp.nan).astype(jnp.float32), layout=stats,
+        clutter=clutter)

@@ -175,11 +175,14 @@ def layout_lines(rounds: pd.DataFrame | None) -> list[str]:
     if rounds is None or rounds.empty:
         return []
     lines = ["", "Layouts once settled (`rounds.csv`), per setup: objects touching another, "
-             "objects resting on another per round, median nearest face-to-face gap, spread "
-             "(median over rounds).", ""]
+             "objects within 2 mm of another's outline seen from above (near), objects resting "
+             "on another per round, median nearest face-to-face gap, spread (median over "
+             "rounds).", ""]
     for setup, part in rounds.groupby("setup"):
+        near = (f"near {100 * part.near_fraction.mean():.0f} %, "
+                if "near_fraction" in part.columns else "")  # older runs' rounds.csv lack it
         lines.append(f"- Setup {setup} ({len(part)} rounds): touching "
-                     f"{100 * part.touching_fraction.mean():.0f} %, stacked "
+                     f"{100 * part.touching_fraction.mean():.0f} %, {near}stacked "
                      f"{part.stacked.mean():.2f} per round, gap "
                      f"{100 * part.min_face_gap_m.median():.1f} cm, "
                      f"spread {100 * part.spread_m.median():.1f} cm")

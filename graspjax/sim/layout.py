@@ -15,10 +15,13 @@ lets the physics finish the layout.
   U(gap_min, gap_max) measured between footprints (the objects' outlines
   seen from above), never nearer than gap_min to any other member.
 - Setup 3: the paper's "dense cluttered scenes with multiple overlapping
-  objects": each object in a resting pose with a random yaw, centred in a
-  small square of the table and laid on the objects placed before it where
-  their outlines overlap. With `layout.bin`: dropped from random orientations
-  into the bin, each starting above everything dropped before it.
+  objects", "positioned close to each other within minimal distance and
+  sometimes even have overlapping": Setup 2's group with gaps
+  U(pile_gap_min, pile_gap_max) <= 0, so each object touches or overlaps the
+  member placed beside; the objects are dropped one at a time in their
+  placement order (`world.Drops`), an overlapping one onto what it overlaps.
+  With `layout.bin`: dropped one at a time from random orientations into the
+  bin.
 
 Footprints are convex outlines handled through their support functions on
 `DIRECTIONS` fixed directions: the distance between two convex outlines is
@@ -125,20 +128,33 @@ def single(key: jax.Array, target, points: jax.Array, config: LayoutConfig):
     return pos, quat, jnp.arange(n) == target
 
 
-def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: LayoutConfig):
-    """Setup 2: every object in a resting pose, in a group with face-to-face gaps.
+def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: LayoutConfig,
+            gap_min=None, gap_max=None):
+    """Setups 2 and 3: every object in a resting pose, in a group with face-to-face gaps
+    U(gap_min, gap_max) (default: Setup 2's `config.gap_min`, `gap_max`; Setup 3's are
+    `pile_gap_min` <= 0 and `pile_gap_max`: touching or overlapping outlines).
 
     resting: resting rotations (n, R, 3, 3) of each object; points:
     vertices (n, V, 3). Returns positions (n, 3), quaternions (n, 4), the
-    active mask (n,).
+    active mask (n,) and the placement order (n,) int32 (object indices).
+    For one key, groups of other gaps place the same objects in the same poses,
+    order and directions (a paired density sweep).
     """
+    gap_min = config.gap_min if gap_min is None else gap_min
+    gap_max = config.gap_max if gap_max is None else gap_max
     n, poses = resting.shape[:2]
     k_pose, k_yaw, k_order, k_place, k_offset = jax.random.split(key, 5)
     # resting pose of each object: uniform over its recorded drops; yaw: U(-pi, pi)
     which = jax.random.randint(k_pose, (n,), 0, poses)
     yaw = jax.random.uniform(k_yaw, (n,), minval=-jnp.pi, maxval=jnp.pi)
     rotations = jax.vmap(lambda r, a: _yaw(a) @ r)(resting[jnp.arange(n), which], yaw)
+    # Each footprint is placed by a point well inside it (its Steiner point, the support
+    # function's mean direction-weighted value), not by its object's origin, which may lie
+    # near or outside its edge: a wanted overlap is then reached moving along the direction
+    # (`_offset_for_gap`'s widths stay positive).
     supports = footprints(points, rotations)
+    inner = 2.0 * supports @ jnp.asarray(UNIT) / DIRECTIONS  # (n, 2) from each origin
+    supports = supports - inner @ jnp.asarray(UNIT).T
     # placement order: a uniform random permutation
     order = jax.random.permutation(k_order, n)
     xy = jnp.zeros((n, 2))
@@ -150,8 +166,7 @@ def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: Layou
         # gap U(gap_min, gap_max)
         neighbour = order[jax.random.randint(k_nb, (_CANDIDATES,), 0, step)]
         angle = jax.random.uniform(k_dir, (_CANDIDATES,), minval=-jnp.pi, maxval=jnp.pi)
-        wanted = jax.random.uniform(k_gap, (_CANDIDATES,), minval=config.gap_min,
-                                    maxval=config.gap_max)
+        wanted = jax.random.uniform(k_gap, (_CANDIDATES,), minval=gap_min, maxval=gap_max)
 
         def candidate(nb, a, g, obj=obj, xy=xy, placed=placed):
             direction = jnp.stack([jnp.cos(a), jnp.sin(a)])
@@ -160,56 +175,39 @@ def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: Layou
             return spot, jnp.min(jnp.where(placed, others, jnp.inf))
 
         spots, nearest = jax.vmap(candidate)(neighbour, angle, wanted)
-        ok = nearest >= config.gap_min - 1e-6
+        ok = nearest >= gap_min - 1e-6
         best = jnp.where(jnp.any(ok), jnp.argmax(ok), jnp.argmax(nearest))
         xy = xy.at[obj].set(spots[best])
         placed = placed.at[obj].set(True)
     # the group: centred, then moved by U(-workspace/2, workspace/2)^2
     offset = jax.random.uniform(k_offset, (2,), minval=-config.workspace / 2,
                                 maxval=config.workspace / 2)
-    xy = xy - (jnp.max(xy, 0) + jnp.min(xy, 0)) / 2 + offset
+    xy = xy - (jnp.max(xy, 0) + jnp.min(xy, 0)) / 2 + offset - inner  # the origins
     z = jax.vmap(_lift, in_axes=(0, 0, None))(points, rotations, config.drop_clearance)
     return (jnp.concatenate([xy, z[:, None]], -1), jax.vmap(matrix_to_quat)(rotations),
-            jnp.ones(n, bool))
+            jnp.ones(n, bool), order.astype(jnp.int32))
 
 
-def pile(key: jax.Array, resting: jax.Array, points: jax.Array, config: LayoutConfig):
-    """Setup 3, in a random order. On the table: every object in one of its resting poses with
-    a random yaw, its centre in a `pile_spread` square, starting `stack_gap` above the earlier
-    objects whose outlines (circles around the centres) overlap its own: it is laid on them
-    and comes to rest on or against them. In the bin (`bin`): every object dropped from a
-    random orientation over the bin's floor, starting above everything dropped before it.
-    Both centred at the origin.
+def in_bin(key: jax.Array, points: jax.Array, config: LayoutConfig):
+    """Setup 3's bin variant: every object dropped from a random orientation into the bin
+    (`bin_size`) centred at the origin, its centre uniform over the floor clear of the walls,
+    one at a time in a random order (`world.Drops`).
 
-    resting: resting rotations (n, R, 3, 3) of each object; points: vertices (n, V, 3).
-    Returns positions (n, 3), quaternions (n, 4), the active mask (n,).
+    points: vertices (n, V, 3). Returns positions (n, 3) (each lowest point `drop_clearance`
+    above the table: the drop lifts it onto what lies there), quaternions (n, 4), the active
+    mask (n,) and the drop order (n,) int32 (object indices, first dropped first).
     """
-    n, poses = resting.shape[:2]
+    n = points.shape[0]
     k_rot, k_xy, k_order = jax.random.split(key, 3)
-    k_pose, k_yaw = jax.random.split(jax.random.fold_in(key, 1))
-    # in the bin, object orientation: uniform over all rotations; on the table, a resting pose
-    # uniform over the object's recorded drops, turned by a yaw U(-pi, pi)
-    dropped = jax.vmap(_random_rotation)(jax.random.split(k_rot, n))
-    which = jax.random.randint(k_pose, (n,), 0, poses)
-    yaw = jax.random.uniform(k_yaw, (n,), minval=-jnp.pi, maxval=jnp.pi)
-    laid = jax.vmap(lambda r, a: _yaw(a) @ r)(resting[jnp.arange(n), which], yaw)
-    rotations = jnp.where(config.bin, dropped, laid)
+    # object orientation: uniform over all rotations
+    rotations = jax.vmap(_random_rotation)(jax.random.split(k_rot, n))
     rotated = jnp.einsum("nij,nvj->nvi", rotations, points)
     reach = jnp.max(jnp.linalg.norm(rotated[..., :2], axis=-1), axis=1)
-    # object centre: uniform over the pile's square, or over the bin floor clear of the walls
-    room = jnp.where(config.bin, jnp.maximum(config.bin_size / 2 - reach, 0.0),
-                     config.pile_spread / 2)[:, None]
+    # object centre: uniform over the floor, clear of the walls
+    room = jnp.maximum(config.bin_size / 2 - reach, 0.0)[:, None]
     xy = jax.random.uniform(k_xy, (n, 2), minval=-1.0, maxval=1.0) * room
-    lowest, height = rotated[..., 2].min(1), rotated[..., 2].max(1) - rotated[..., 2].min(1)
     # drop order: a uniform random permutation
-    order = jax.random.permutation(k_order, n)
-    overlap = (jnp.linalg.norm(xy[:, None] - xy[None], axis=-1) < reach[:, None] + reach[None])
-    start, top = jnp.zeros(n), jnp.zeros(n)  # the lowest point's rise above the drop clearance,
-    for k in range(n):  # the highest point's; n is static
-        i, earlier = order[k], order[:k]
-        under = jnp.where(config.bin, True, overlap[i, earlier])
-        floor = jnp.max(jnp.where(under, top[earlier] + config.stack_gap, 0.0), initial=0.0)
-        start, top = start.at[i].set(floor), top.at[i].set(floor + height[i])
-    z = config.drop_clearance - lowest + start
+    order = jax.random.permutation(k_order, n).astype(jnp.int32)
+    z = config.drop_clearance - rotated[..., 2].min(1)
     return (jnp.concatenate([xy, z[:, None]], -1), jax.vmap(matrix_to_quat)(rotations),
-            jnp.ones(n, bool))
+            jnp.ones(n, bool), order)

@@ -1,11 +1,13 @@
-"""Scene models: a table, a set of objects, a bin, and a floating parallel-jaw gripper.
+"""Scene models: a table, a set of objects, four walls (a bin, or a pile's box), and a floating
+parallel-jaw gripper.
 
 One compiled model serves every layout of its objects: an object that is not
 in the current layout is *parked*, at rest in the air far from the workspace
 with gravity compensated (`world.physics_model` sets its `body_gravcomp` per
 world), so it makes no contacts and adds no constraint to the solver. The
-a-f scene with object-object contacts and the bin serves Setups 2 and 3 (the
-bin is a mocap body, moved into place in Setup 3 worlds and parked far away
+a-f scene with object-object contacts and four walls serves Setups 2 and 3
+(each wall is a mocap body: in Setup 3 worlds they stand around the pile as
+the bin, or as the pile's box until it is lifted away, and wait far away
 otherwise); scenes without them (one object at a time, fewer contact slots)
 serve Setup 1.
 
@@ -31,7 +33,7 @@ import jax
 import mujoco
 import numpy as np
 
-from graspjax.config import GripperConfig, LayoutConfig, SimConfig
+from graspjax.config import MAX_WALL_HEIGHT, GripperConfig, LayoutConfig, SimConfig
 from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses_of
 from graspjax.sim.physics import HAND, STATIC
 from graspjax.sim.raycast import Solids, solids_of
@@ -43,7 +45,7 @@ with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend w
 _TABLE, _OBJECT, _GRIPPER = 1, 2, 4
 PARK_HEIGHT = 1.0  # parked objects hang this high above the table (m), far outside the view
 _PARK_X = 3.0  # first parking spot (m); objects park 0.5 m apart along x
-BIN_PARK = np.array([-3.0, 0.0, 0.0])  # where the bin waits outside Setup 3 (m)
+WALL_PARK = np.array([-3.0, 0.0, 0.0])  # where the walls wait when not around a pile (m)
 GRIPPER_HOME = np.array([0.0, 0.0, 1.5])  # the gripper waits here, above the camera's view
 PALM_HALF = np.array([0.10, 0.04, 0.03])  # palm half extents (m): a Franka Hand's envelope
 HOUSING_HALF = np.array([0.045, 0.0125, 0.0125])  # wrist camera housing half extents (m)
@@ -62,8 +64,9 @@ class Scene:
     object_qpos: np.ndarray  # (n,) qpos address of each object's free joint
     object_qvel: np.ndarray  # (n,) qvel address of each object's free joint
     park_pos: np.ndarray  # (n, 3) parking position of each object
-    has_bin: bool  # the scene holds the bin
-    bin_mocap: int  # mocap index of the bin (-1 without one)
+    has_walls: bool  # the scene holds the four walls of the bin and the pile's box
+    wall_mocap: np.ndarray  # (4,) mocap indices of the walls at +x, -x, +y, -y (empty without)
+    wall_thickness: float  # the walls' thickness (m)
     hand_mocap: int  # mocap index of the hand's target
     hand_qpos: int  # qpos address of the hand's free joint
     hand_qvel: int
@@ -72,12 +75,13 @@ class Scene:
     gripper_geom: np.ndarray  # (ngeom,) bool: palm, housing and fingers (their friction: the pads')
     geom_object: np.ndarray  # (ngeom,) int32 object index of each geom, -1 for others
     hand_points: np.ndarray  # (P, 3) corners and face centres of the open hand's boxes, hand frame
+    finger_points: np.ndarray  # (F, 3) the same of the open fingers alone, hand frame
     tcp_offset: float  # hand-frame z of the point between the finger tips (m)
     object_com: np.ndarray  # (n, 3) centre of mass of each object in its frame (m)
     object_points: np.ndarray  # (n, V, 3) piece vertices in the object frame, padded by repeats
     resting: np.ndarray  # (n, R, 3, 3) rotations in which drops of each object came to rest
-    solids: Solids  # half-spaces of the table, the bin walls and every object piece
-    piece_object: np.ndarray  # (G,) object index of each rendered piece, -1 for table and bin
+    solids: Solids  # half-spaces of the table, the walls and every object piece
+    piece_object: np.ndarray  # (G,) object index of each rendered piece, -1 for table and walls
     gripper: GripperConfig
     sim: SimConfig
 
@@ -91,11 +95,11 @@ class Scene:
         (`sim.skip_far_pairs`, in scenes whose objects do not touch each other: in piles the
         hand's pairs are the only ones to skip, a few per cent of a step for a much longer
         compile)."""
-        return self.sim.skip_far_pairs and not self.has_bin
+        return self.sim.skip_far_pairs and not self.has_walls
 
     @property
     def geom_owner(self) -> np.ndarray:
-        """Who owns each geom (ngeom,) int: STATIC (table, bin), HAND or the object index; the
+        """Who owns each geom (ngeom,) int: STATIC (table, walls), HAND or the object index; the
         physics step's broad phase skips pairs by owner (`collision.parts`)."""
         return np.where(self.gripper_geom, HAND, np.where(self.geom_object >= 0, self.geom_object,
                                                           STATIC)).astype(np.int32)
@@ -108,24 +112,27 @@ def _box_points(half: np.ndarray, centre) -> np.ndarray:
     return grid * half + np.asarray(centre, float)
 
 
-def _bin_mjcf(layout: LayoutConfig) -> str:
-    """A mocap body with the bin's four walls (the table is its floor), parked."""
-    inner, wall, height = layout.bin_size, layout.bin_wall_thickness, layout.bin_wall_height
-    reach = inner / 2 + wall / 2
-    long_half = inner / 2 + wall
-    walls = [((reach, 0.0), (wall / 2, long_half)), ((-reach, 0.0), (wall / 2, long_half)),
-             ((0.0, reach), (long_half, wall / 2)), ((0.0, -reach), (long_half, wall / 2))]
-    geoms = "\n".join(
-        f'<geom name="bin_{k}" type="box" size="{hx:g} {hy:g} {height / 2:g}" '
-        f'pos="{x:g} {y:g} {height / 2:g}" contype="{_TABLE}" conaffinity="{_OBJECT | _GRIPPER}" '
-        f'material="default"/>' for k, ((x, y), (hx, hy)) in enumerate(walls))
-    park = " ".join(f"{v:g}" for v in BIN_PARK)
-    return f'<body name="bin" mocap="true" pos="{park}">\n{geoms}\n</body>'
+WALL_SIDES = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])  # each wall's outward normal
+
+
+def _walls_mjcf(layout: LayoutConfig) -> str:
+    """Four mocap bodies, one wall each (+x, -x, +y, -y), parked. Each wall is
+    `MAX_WALL_HEIGHT` tall: a lower bin or box sinks it into the table (`world.place_walls`)."""
+    half_length, half_thickness = layout.wall_length / 2, layout.wall_thickness / 2
+    park = " ".join(f"{v:g}" for v in WALL_PARK)
+    bodies = []
+    for k, (nx, _) in enumerate(WALL_SIDES):
+        hx, hy = (half_thickness, half_length) if nx else (half_length, half_thickness)
+        bodies.append(
+            f'<body name="wall_{k}" mocap="true" pos="{park}"><geom name="wall_{k}" type="box" '
+            f'size="{hx:g} {hy:g} {MAX_WALL_HEIGHT / 2:g}" contype="{_TABLE}" '
+            f'conaffinity="{_OBJECT | _GRIPPER}" material="default"/></body>')
+    return "\n".join(bodies)
 
 
 def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide: bool,
                layout: LayoutConfig = LayoutConfig()) -> str:
-    """The MJCF text of a scene with the given objects (and the bin when objects collide)."""
+    """The MJCF text of a scene with the given objects (and the walls when objects collide)."""
     friction = f"{sim.object_friction:g} 0.005 0.0001"
     contacts = sim.max_contact_points if objects_collide else sim.max_contact_points_alone
     object_affinity = _TABLE | _GRIPPER | (_OBJECT if objects_collide else 0)
@@ -166,7 +173,7 @@ def scene_mjcf(letters, gripper: GripperConfig, sim: SimConfig, objects_collide:
   <worldbody>
     <geom name="table" type="plane" size="0 0 1" contype="{_TABLE}" conaffinity="{_OBJECT | _GRIPPER}"
           material="default"/>
-{_bin_mjcf(layout) if objects_collide else ""}
+{_walls_mjcf(layout) if objects_collide else ""}
 {chr(10).join(bodies)}
     <body name="gripper_target" mocap="true" pos="{home}"/>
     <body name="hand" pos="{home}" gravcomp="1">
@@ -234,9 +241,9 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
     fingers = np.array([obj_id(mujoco.mjtObj.mjOBJ_JOINT, f"finger_{k}") for k in (1, 2)])
     hand_body = int(mj_model.jnt_bodyid[hand])
     finger_bodies = [int(b) for b in mj_model.jnt_bodyid[fingers]]
-    bin_geoms = [obj_id(mujoco.mjtObj.mjOBJ_GEOM, f"bin_{k}") for k in range(4)] if objects_collide \
-        else []
-    statics = [obj_id(mujoco.mjtObj.mjOBJ_GEOM, "table"), *bin_geoms]
+    walls = range(len(WALL_SIDES)) if objects_collide else ()
+    wall_geoms = [obj_id(mujoco.mjtObj.mjOBJ_GEOM, f"wall_{k}") for k in walls]
+    statics = [obj_id(mujoco.mjtObj.mjOBJ_GEOM, "table"), *wall_geoms]
     object_geoms = [g for g in range(mj_model.ngeom) if mj_model.geom_bodyid[g] in bodies]
     geom_object = np.full(mj_model.ngeom, -1, np.int32)
     for g in object_geoms:
@@ -248,11 +255,12 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
     finger_half = np.array([gripper.finger_thickness, gripper.finger_width,
                             gripper.finger_length]) / 2
     finger_z = PALM_HALF[2] + gripper.finger_length / 2
+    finger_points = np.concatenate([_box_points(finger_half, (opened, 0, finger_z)),
+                                    _box_points(finger_half, (-opened, 0, finger_z))])
     hand_points = np.concatenate([
         _box_points(PALM_HALF, (0, 0, 0)),
         _box_points(HOUSING_HALF, (0, PALM_HALF[1] + HOUSING_HALF[1], PALM_HALF[2] - HOUSING_HALF[2])),
-        _box_points(finger_half, (opened, 0, finger_z)),
-        _box_points(finger_half, (-opened, 0, finger_z))])
+        finger_points])
     return Scene(
         letters=letters,
         mj_model=mj_model,
@@ -261,9 +269,10 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         object_qpos=mj_model.jnt_qposadr[joints],
         object_qvel=mj_model.jnt_dofadr[joints],
         park_pos=mj_model.body_pos[bodies].copy(),
-        has_bin=bool(objects_collide),
-        bin_mocap=int(mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, "bin")])
-        if objects_collide else -1,
+        has_walls=bool(objects_collide),
+        wall_mocap=np.array([mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, f"wall_{k}")]
+                             for k in walls], np.int32),
+        wall_thickness=layout.wall_thickness,
         hand_mocap=int(mj_model.body_mocapid[obj_id(mujoco.mjtObj.mjOBJ_BODY, "gripper_target")]),
         hand_qpos=int(mj_model.jnt_qposadr[hand]),
         hand_qvel=int(mj_model.jnt_dofadr[hand]),
@@ -272,6 +281,7 @@ def build_scene(letters, gripper: GripperConfig = GripperConfig(), sim: SimConfi
         gripper_geom=np.isin(mj_model.geom_bodyid, [hand_body, *finger_bodies]),
         geom_object=geom_object,
         hand_points=hand_points,
+        finger_points=finger_points,
         tcp_offset=float(PALM_HALF[2] + gripper.finger_length),
         object_com=mj_model.body_ipos[bodies].copy(),
         object_points=padded,

@@ -1,0 +1,134 @@
+"""Setup 3's settled-layout bounds (`docs/simulation.md`, stated from the paper's words before
+they were measured), judged on a frame of settled rounds alone: one row per round with the
+`schema.LAYOUT_COLUMNS` and `placed_spread_m` (the largest distance between two objects'
+origins as the layout placed them, before it settled)."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+_Z99 = 2.326348  # one-sided 1 %: a sample is consistent with a bound unless it is this far off
+
+
+@dataclasses.dataclass(frozen=True)
+class Bound:
+    """One stated bound: a mean over rounds, or a share of rounds, at least or at most `limit`."""
+
+    name: str  # short name
+    paper: str  # the paper's words it reads
+    what: str  # the statistic
+    per_round: Callable[[pd.DataFrame], pd.Series]  # (R,) a value (mean) or a flag (share) per round
+    share: bool  # the statistic is the share of rounds flagged (else the mean of the values)
+    at_least: bool  # the statistic must be >= limit (else <= limit)
+    limit: float
+
+
+SETUP3_BOUNDS = (
+    Bound("near", "positioned close to each other within minimal distance",
+          "objects within 2 mm of another's outline, mean over rounds",
+          lambda f: f["near_fraction"], False, True, 0.80),
+    Bound("isolated", "positioned close to each other within minimal distance",
+          "rounds in which no object lies within 2 mm of another",
+          lambda f: f["near_fraction"] <= 0, True, False, 0.01),
+    Bound("gap", "positioned close to each other within minimal distance",
+          "median nearest face-to-face gap (m), mean over rounds",
+          lambda f: f["min_face_gap_m"], False, False, 0.002),
+    Bound("overlap", "sometimes even have overlapping; often overlap",
+          "rounds with an object resting on another", lambda f: f["stacked"] >= 1, True, True, 0.50),
+    Bound("scatter", "a pile that stays a pile",
+          "rounds whose spread grows by more than 1 cm while settling",
+          lambda f: f["spread_m"] - f["placed_spread_m"] > 0.01, True, False, 0.05),
+)
+
+
+def _binomial_tail(k: int, n: int, p: float, upper: bool) -> float:
+    """P(X >= k) (upper) or P(X <= k) for X ~ Binomial(n, p)."""
+    ks = range(k, n + 1) if upper else range(0, k + 1)
+    return sum(math.comb(n, i) * p ** i * (1 - p) ** (n - i) for i in ks)
+
+
+def judge(rounds: pd.DataFrame, allowance: bool = False) -> pd.DataFrame:
+    """One row per bound: its value on `rounds`, the limit and whether it holds. With
+    `allowance`, a bound holds unless the sample contradicts it at 1 % one-sided (a binomial
+    tail for a share of rounds, a normal interval for a mean): the test's small samples."""
+    out = []
+    for bound in SETUP3_BOUNDS:
+        values = np.asarray(bound.per_round(rounds), float)
+        values = values[np.isfinite(values)]
+        n = len(values)
+        value = float(values.mean()) if n else math.nan
+        holds = value >= bound.limit if bound.at_least else value <= bound.limit
+        if allowance and n:
+            if bound.share:
+                k = int(values.sum())
+                # a share at least `limit` is contradicted by few flagged rounds, and vice versa
+                holds = _binomial_tail(k, n, bound.limit, upper=not bound.at_least) >= 0.01
+            else:
+                half = _Z99 * float(values.std(ddof=1)) / math.sqrt(n) if n > 1 else 0.0
+                holds = (value + half >= bound.limit) if bound.at_least else (value - half <= bound.limit)
+        out.append({"bound": bound.name, "paper": bound.paper, "statistic": bound.what,
+                    "value": value, "limit": ("at least " if bound.at_least else "at most ")
+                    + f"{bound.limit:g}", "rounds": n, "holds": bool(holds)})
+    return pd.DataFrame(out)
+
+
+def paper_runs() -> pd.DataFrame:
+    """The paper's run-level statements of Setups 2 and 3 (`data/paper_runs.csv`): setup,
+    whether exact or a lower bound, failures per run, runs, and the quote."""
+    from importlib import resources
+
+    text = resources.files("graspjax").joinpath("data/paper_runs.csv").read_text()
+    return pd.read_csv(io.StringIO(text))
+
+
+def round_failures(outcomes: pd.DataFrame) -> pd.DataFrame:
+    """Failures per round: one row per (point, setup, round) of Setups 2 and 3 from
+    `report.object_outcomes`' rows (each object once per round), with `failures`, `objects`."""
+    rounds = outcomes[outcomes["setup"] > 1]
+    keys = [c for c in ("point", "setup", "trial") if c in rounds.columns]
+    return rounds.groupby(keys).agg(objects=("success", "size"),
+                                    failures=("success", lambda s: int((~s.astype(bool)).sum()))
+                                    ).reset_index()
+
+
+def _binomial_between(n: int, p: float, low: int, high: int) -> float:
+    """P(low <= X <= high) for X ~ Binomial(n, p)."""
+    return sum(math.comb(n, k) * p ** k * (1 - p) ** (n - k) for k in range(low, high + 1))
+
+
+def consistency(outcomes: pd.DataFrame, setup: int, runs: int = 10) -> dict[str, float]:
+    """How probable the paper's own run-level facts of a setup are under our rates (a check of a
+    scene against the paper, never a choice of one). From `report.object_outcomes`' rows of one
+    grid point:
+
+    - Setup 3: every one of `runs` runs with 2 or more failures ("in all runs 2 or more
+      failures occurred"), and every object's cell of `runs` trials between 50 and 70 %
+      (Table 1's Setup 3 row), each object's rate taken as ours;
+    - Setup 2: the printed counts of runs with 0 / 1 / 2 failures (3 / 5 / 3; 11 runs, as
+      printed), their multinomial probability, and that of `runs` runs with at most 2.
+
+    Also the shares of our rounds with 0, 1, 2 and 3+ failures."""
+    part = outcomes[outcomes["setup"] == setup]
+    per_round = round_failures(part)["failures"]
+    share = [float((per_round == k).mean()) for k in (0, 1, 2)] + [float((per_round >= 3).mean())]
+    out = {"rounds": float(len(per_round)), "share_0": share[0], "share_1": share[1],
+           "share_2": share[2], "share_3_or_more": share[3]}
+    if setup == 3:
+        out["p_all_runs_2_or_more"] = (share[2] + share[3]) ** runs
+        rates = part.groupby("object")["success"].mean()
+        out["p_every_cell_50_to_70"] = float(np.prod([_binomial_between(runs, p, 5, 7)
+                                                     for p in rates]))
+    if setup == 2:
+        counts = paper_runs().query("setup == 2")  # 0, 1 and 2 failures per run, as printed
+        k = counts["runs"].astype(int).tolist()
+        n = sum(k)
+        out["p_printed_counts"] = (math.factorial(n) / math.prod(math.factorial(c) for c in k)
+                                   * math.prod(s ** c for s, c in zip(share[:3], k, strict=True)))
+        out["p_all_runs_at_most_2"] = (1 - share[3]) ** runs
+    return out
