@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from graspjax.batch.rows import layout_columns
 from graspjax.config import Config, override, stack_configs
 from graspjax.procedure import WorldSpec, settle, start_round
 from graspjax.report.density import judge
@@ -48,10 +49,8 @@ def settled_rounds(rounds: int, config: Config, seed: int = 0) -> pd.DataFrame:
                          trial=trials, order=np.tile(np.arange(n, dtype=np.int32), (CHUNK, 1)),
                          members=np.ones((CHUNK, n), bool), config=stack_configs([config] * CHUNK))
         stats, placed = jax.tree.map(lambda x, size=size: np.asarray(x)[:size], run(spec))
-        frames.append(pd.DataFrame({
-            "round": trials[:size], "touching_fraction": stats.touching / stats.objects,
-            "near_fraction": stats.near / stats.objects, "stacked": stats.stacked,
-            "min_face_gap_m": stats.gap, "spread_m": stats.spread, "placed_spread_m": placed}))
+        frames.append(pd.DataFrame({"round": trials[:size], **layout_columns(stats),
+                                    "placed_spread_m": placed}))
     return pd.concat(frames, ignore_index=True)
 
 

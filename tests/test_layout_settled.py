@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from conftest import SIM_BATCH
 
+from graspjax.batch.rows import layout_columns
 from graspjax.config import Config, stack_configs
 from graspjax.procedure import WorldSpec, start_round
 from graspjax.report.density import judge
@@ -37,11 +38,8 @@ def _settled_rounds(sim) -> pd.DataFrame:
         settled = jax.tree.map(np.asarray, stats(sim.settle(state.data, seconds, state.drops)))
         xy = np.asarray(state.drops.xy)
         placed = np.linalg.norm(xy[:, :, None] - xy[:, None], axis=-1).max((1, 2))
-        frames.append(pd.DataFrame({
-            "touching_fraction": settled.touching / settled.objects,
-            "near_fraction": settled.near / settled.objects, "stacked": settled.stacked,
-            "min_face_gap_m": settled.gap, "spread_m": settled.spread, "placed_spread_m": placed,
-            "objects": settled.objects}))
+        frames.append(pd.DataFrame({**layout_columns(settled), "placed_spread_m": placed,
+                                    "objects": settled.objects}))
     return pd.concat(frames, ignore_index=True)
 
 

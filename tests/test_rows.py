@@ -100,3 +100,18 @@ def test_the_protocol_uses_identity_and_the_method_does_not():
     assert bool(round_goes_on(_state([False] * 3, [True] * 3, failures=1), clutter))
     assert not bool(round_goes_on(_state([False] * 3, [True] * 3, failures=2), clutter))
     assert eligible_objects(_state([False] * 3, [True] * 3, failures=1), clutter).all()
+
+
+def test_layout_columns_are_the_schemas():
+    """`rows.layout_columns` gives `schema.LAYOUT_COLUMNS`, in order, and fractions of the
+    objects on the table."""
+    from graspjax.batch.rows import layout_columns
+    from graspjax.schema import LAYOUT_COLUMNS
+
+    stats = LayoutStats(objects=np.array([6, 4]), touching=np.array([3, 4]), near=np.array([6, 2]),
+                        stacked=np.array([1, 0]), gap=np.array([0.0, 0.01]),
+                        spread=np.array([0.12, 0.2]))
+    columns = layout_columns(stats)
+    assert tuple(columns) == LAYOUT_COLUMNS
+    np.testing.assert_allclose(columns["touching_fraction"], [0.5, 1.0])
+    np.testing.assert_allclose(columns["near_fraction"], [1.0, 0.5])

@@ -27,6 +27,7 @@ from graspjax.config import MAX_REORIENTATIONS, Config, differences
 from graspjax.perception import AlignReason, GraspReason
 from graspjax.procedure import Record
 from graspjax.schema import FIRST_COLUMNS, REASON_LABELS, SURFACE_LABELS
+from graspjax.sim.world import LayoutStats
 from graspjax.tree import named_fields
 
 if TYPE_CHECKING:
@@ -116,6 +117,13 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[WorldKey, ...], records
     return pd.concat([f for f in frames if len(f)], ignore_index=True)
 
 
+def layout_columns(stats: LayoutStats) -> dict[str, np.ndarray]:
+    """`schema.LAYOUT_COLUMNS` of settled layouts (`world.LayoutStats`, NumPy, (R,) each)."""
+    objects = np.maximum(stats.objects, 1)
+    return {"touching_fraction": stats.touching / objects, "near_fraction": stats.near / objects,
+            "stacked": stats.stacked, "min_face_gap_m": stats.gap, "spread_m": stats.spread}
+
+
 def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     """One row per Setup 2/3 round of a chunk: how dense its layout was once the drop settled,
     and how the round went, as VGN measures clutter removal: its attempts and successes, the
@@ -135,9 +143,7 @@ def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     frame = _world_columns(worlds, keep)[["point", "seed", "setup", "round", "objects"]]
     frame.insert(1, "method", [run.points[p].method for p in frame["point"]])
     return frame.assign(
-        touching_fraction=stats.touching[keep] / np.maximum(stats.objects[keep], 1),
-        near_fraction=stats.near[keep] / np.maximum(stats.objects[keep], 1),
-        stacked=stats.stacked[keep], min_face_gap_m=stats.gap[keep], spread_m=stats.spread[keep],
+        **layout_columns(jax.tree.map(lambda x: x[keep], stats)),
         attempts=attempts[keep], successes=successes[keep],
         grasp_success_rate=successes[keep] / np.where(attempts[keep] > 0, attempts[keep], np.nan),
         objects_placed=placed[keep], objects_removed=removed[keep],
