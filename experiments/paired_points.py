@@ -7,6 +7,10 @@ chance at the 5 % level.
 Columns: Setup 1 a-f, Setup 2, Setup 3, Setup 1 g-l (Tables 1+2), those the sweep played.
 
     python3 experiments/paired_points.py SWEEP_FOLDER [REFERENCE_POINT]
+    python3 experiments/paired_points.py RUN_FOLDER OTHER_RUN_FOLDER ...
+
+Two or more run folders of the same worlds (the same seed, trials and batch) are read as the
+points of one sweep, the first the reference, each named by its folder.
 """
 
 import sys
@@ -32,8 +36,17 @@ def column_frames(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
     return out
 
 
-def main(folder: str, reference: int = 0) -> None:
-    frame = object_outcomes(load_attempts(folder))
+def load(folders: list[str]) -> pd.DataFrame:
+    """One sweep's attempts, or several runs' as the points of one (a `cfg.run` column names
+    each run's folder)."""
+    if len(folders) == 1:
+        return load_attempts(folders[0])
+    return pd.concat([load_attempts(f).assign(point=i, **{"cfg.run": Path(f).name})
+                      for i, f in enumerate(folders)], ignore_index=True)
+
+
+def main(folders: list[str], reference: int = 0) -> None:
+    frame = object_outcomes(load(folders))
     frame["success"] = frame["success"].astype(bool)
     frame["rescued"] = frame["rescued"].astype(bool)
     columns = column_frames(frame)
@@ -60,4 +73,8 @@ def main(folder: str, reference: int = 0) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 0)
+    args = sys.argv[1:]
+    if len(args) == 2 and args[1].isdigit():
+        main(args[:1], int(args[1]))
+    else:
+        main(args)
