@@ -22,9 +22,9 @@ from graspjax.batch.rows import layout_columns
 from graspjax.config import Config, override, stack_configs
 from graspjax.procedure import WorldSpec, settle, start_round
 from graspjax.report.density import judge
+from graspjax.sim.clutter import layout_stats
 from graspjax.sim.physics import WORLDS
 from graspjax.sim.scene import mjx, scene_for
-from graspjax.sim.world import layout_stats
 
 CHUNK = 50
 

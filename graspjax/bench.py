@@ -212,8 +212,8 @@ class PhysicsWorkload:
     scene: object  # sim.scene.Scene
     spec: object  # procedure.WorldSpec (batch,)
     data: object  # mjx.Data (batch,): the layouts placed, not yet settled (a pile's objects wait)
-    drops: object  # world.Drops (batch,): what the first settle drops (Setup 3's pile)
-    no_drops: object  # world.Drops (batch,): nothing (every later call)
+    drops: object  # pile.Drops (batch,): what the first settle drops (Setup 3's pile)
+    no_drops: object  # pile.Drops (batch,): nothing (every later call)
     simulate: object  # jitted (data, spec, drops, grasp, target, segments, execute) -> (data,
     # Execution)
     idle: object  # GraspPose (batch,) that is never executed
@@ -225,7 +225,7 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
     (`procedure.start_round`, `world.simulate`) vmapped over `batch` worlds of `setup`."""
     from graspjax.config import stack_configs
     from graspjax.procedure import WorldSpec, start_round
-    from graspjax.sim import world
+    from graspjax.sim import pile, world
     from graspjax.sim.physics import WORLDS
     from graspjax.sim.scene import mjx, scene_for
     from graspjax.sim.world import GraspPose, physics_model
@@ -247,7 +247,7 @@ def physics_workload(letters: str, setup: int, batch: int, config: Config) -> Ph
     simulate = jax.jit(jax.vmap(run, in_axes=(0, 0, 0, 0, 0, 0, None), axis_name=WORLDS),
                        static_argnums=6)
     nan = jnp.full((batch, 3), jnp.nan)
-    nothing = jax.vmap(lambda _: world.no_drops(n))(jnp.arange(batch))
+    nothing = jax.vmap(lambda _: pile.no_drops(n))(jnp.arange(batch))
     return PhysicsWorkload(scene, spec, state.data, state.drops, nothing, simulate,
                            GraspPose(nan, nan, nan, jnp.zeros(batch, bool)),
                            jnp.zeros(batch, jnp.int32))

@@ -165,8 +165,8 @@ class Worlds:
 
     def reset(self, pos, quat, active, walls=None):
         """Worlds with objects at `pos` (B, n, 3), `quat` (B, n, 4), `active` (B, n); the walls
-        (`world.Walls` (side, height, present), one for every world) standing or parked."""
-        from graspjax.sim.world import NO_WALLS, Walls
+        (`pile.Walls` (side, height, present), one for every world) standing or parked."""
+        from graspjax.sim.pile import NO_WALLS, Walls
 
         walls = NO_WALLS if walls is None else walls
         batched = Walls(*(jnp.full(SIM_BATCH, x, dtype) for x, dtype in (
@@ -174,7 +174,7 @@ class Worlds:
         return self._reset(*map(jnp.asarray, (pos, quat, active)), batched)
 
     def settle(self, data, seconds: float, drops=None):
-        """Settle every world for `seconds`, dropping `drops` (`world.Drops`, batched; None:
+        """Settle every world for `seconds`, dropping `drops` (`pile.Drops`, batched; None:
         nothing) as their segments come."""
         segments = self.scene.sim.segments(seconds)
         drops = self.no_drops() if drops is None else jax.tree.map(jnp.asarray, drops)
@@ -218,7 +218,7 @@ class Worlds:
         return self._start(spec)
 
     def no_drops(self):
-        from graspjax.sim.world import no_drops
+        from graspjax.sim.pile import no_drops
 
         return jax.vmap(lambda _: no_drops(self.scene.num_objects))(jnp.arange(SIM_BATCH))
 

@@ -13,8 +13,8 @@ from graspjax.batch.rows import layout_columns
 from graspjax.config import Config, stack_configs
 from graspjax.procedure import WorldSpec, start_round
 from graspjax.report.density import judge
+from graspjax.sim.clutter import layout_stats
 from graspjax.sim.scene import mjx
-from graspjax.sim.world import layout_stats
 
 CALLS = 2  # 12 rounds
 

@@ -13,7 +13,7 @@ from graspjax.codes import Outcome
 from graspjax.config import Config, LayoutConfig, SimConfig, override
 from graspjax.geometry import quat_to_matrix
 from graspjax.sim import GraspPose
-from graspjax.sim.world import parked
+from graspjax.sim.bodies import parked
 
 CFG = LayoutConfig()
 IN_BIN = LayoutConfig(bin=True)  # Setup 3's bin variant
@@ -378,9 +378,10 @@ def test_layout_stats_count_touching_and_stacked_objects():
     """Hand-placed layouts of the cube (a) and the flat block (f), their contacts from the
     physics step's collision: f resting 0.5 mm into a's top face (both touching, f stacked, no
     footprint gap), then f on the table 2 cm beside a (nothing touching, a 2 cm gap)."""
+    from graspjax.sim.clutter import layout_stats
     from graspjax.sim.physics import collision
     from graspjax.sim.scene import build_scene, mjx
-    from graspjax.sim.world import layout_stats, reset
+    from graspjax.sim.world import reset
 
     scene = build_scene(("a", "f"), objects_collide=True)
     model, m = scene.model, scene.mj_model

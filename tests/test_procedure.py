@@ -13,7 +13,9 @@ from graspjax.perception import Alignment, AlignReason, GraspReason
 from graspjax.procedure import centred_pose, plane_truth, select_target, view
 from graspjax.procedure.state import NO_CLUTTER, NO_PLANE
 from graspjax.procedure.steps import _record, _with_error
-from graspjax.sim.world import Execution, GraspPose, LayoutStats, Walls
+from graspjax.sim.clutter import LayoutStats
+from graspjax.sim.pile import Walls
+from graspjax.sim.world import Execution, GraspPose
 
 CONFIG = Config()
 CAMERA = CONFIG.camera.camera()

@@ -16,7 +16,7 @@ from graspjax.procedure import (
     eligible_objects,
     round_goes_on,
 )
-from graspjax.sim.world import LayoutStats
+from graspjax.sim.clutter import LayoutStats
 
 LETTERS = ("a", "b", "c")
 

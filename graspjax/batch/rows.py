@@ -27,7 +27,7 @@ from graspjax.config import MAX_REORIENTATIONS, Config, differences
 from graspjax.perception import AlignReason, GraspReason
 from graspjax.procedure import Record
 from graspjax.schema import FIRST_COLUMNS, REASON_LABELS, SURFACE_LABELS
-from graspjax.sim.world import LayoutStats
+from graspjax.sim.clutter import LayoutStats
 from graspjax.tree import named_fields
 
 if TYPE_CHECKING:
@@ -118,7 +118,7 @@ def _record_rows(letters: tuple[str, ...], worlds: tuple[WorldKey, ...], records
 
 
 def layout_columns(stats: LayoutStats) -> dict[str, np.ndarray]:
-    """`schema.LAYOUT_COLUMNS` of settled layouts (`world.LayoutStats`, NumPy, (R,) each)."""
+    """`schema.LAYOUT_COLUMNS` of settled layouts (`clutter.LayoutStats`, NumPy, (R,) each)."""
     objects = np.maximum(stats.objects, 1)
     return {"touching_fraction": stats.touching / objects, "near_fraction": stats.near / objects,
             "stacked": stats.stacked, "min_face_gap_m": stats.gap, "spread_m": stats.spread}

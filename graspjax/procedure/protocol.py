@@ -12,16 +12,9 @@ from graspjax.config import Config
 from graspjax.procedure.state import RoundState, WorldSpec
 from graspjax.sim import layout
 from graspjax.sim.objects import LETTER_INDEX
+from graspjax.sim.pile import Drops, Walls, no_drops
 from graspjax.sim.scene import Scene, mjx
-from graspjax.sim.world import (
-    Drops,
-    GraspPose,
-    Walls,
-    no_drops,
-    physics_model,
-    reset,
-    simulate,
-)
+from graspjax.sim.world import GraspPose, physics_model, reset, simulate
 
 
 def in_bin(spec: WorldSpec) -> jax.Array:
@@ -75,7 +68,7 @@ def _drops(pos: jax.Array, quat: jax.Array, order: jax.Array, spec: WorldSpec) -
     """Setup 3: the layout's members dropped one at a time in `order`, one every
     `sim.drop_interval` seconds, each at its layout's place and orientation; on the table
     pushed together toward their centre until `sim.push_time`, the push fading out over its
-    last `sim.push_fade_time` (`world.Drops`)."""
+    last `sim.push_fade_time` (`pile.Drops`)."""
     n = order.shape[0]
     config = spec.config
     turn = jnp.cumsum(spec.members[order]) - 1  # the i-th member of the layout dropped

@@ -12,12 +12,10 @@ from graspjax.perception import (
     Alignment,
     Grasp,
 )
+from graspjax.sim.clutter import LayoutStats
+from graspjax.sim.pile import Drops
 from graspjax.sim.scene import mjx
-from graspjax.sim.world import (
-    Drops,
-    LayoutStats,
-    PhysicsState,
-)
+from graspjax.sim.world import PhysicsState
 from graspjax.tree import pytree_dataclass
 
 
@@ -59,7 +57,7 @@ class PlaneTruth:
 @pytree_dataclass
 class TargetClutter:
     """How crowded the attempt's target was when the robot looked (ground truth, to attribute
-    success to clutter; `world.object_clutter` before the attempt)."""
+    success to clutter; `clutter.object_clutter` before the attempt)."""
 
     touching: jax.Array  # () bool in contact with another object
     resting: jax.Array  # () bool resting on another object

@@ -45,18 +45,16 @@ from graspjax.procedure.state import (
     WorldSpec,
 )
 from graspjax.procedure.truth import plane_truth, surfaces, target_faces, target_pixels, with_oracle
+from graspjax.sim.clutter import LayoutStats, layout_stats, object_clutter
 from graspjax.sim.raycast import render_depth_and_piece
 from graspjax.sim.scene import Scene, mjx
 from graspjax.sim.world import (
     Execution,
     GraspPose,
-    LayoutStats,
     Outcome,
     finger_clearance,
     hand_clear,
     hand_waypoints,
-    layout_stats,
-    object_clutter,
     physics_model,
     physics_state,
     simulate,

@@ -19,7 +19,7 @@ lets the physics finish the layout.
   sometimes even have overlapping": Setup 2's group with gaps
   U(pile_gap_min, pile_gap_max) <= 0, so each object touches or overlaps the
   member placed beside; the objects are dropped one at a time in their
-  placement order (`world.Drops`), an overlapping one onto what it overlaps.
+  placement order (`pile.Drops`), an overlapping one onto what it overlaps.
   With `layout.bin`: dropped one at a time from random orientations into the
   bin.
 
@@ -191,7 +191,7 @@ def grouped(key: jax.Array, resting: jax.Array, points: jax.Array, config: Layou
 def in_bin(key: jax.Array, points: jax.Array, config: LayoutConfig):
     """Setup 3's bin variant: every object dropped from a random orientation into the bin
     (`bin_size`) centred at the origin, its centre uniform over the floor clear of the walls,
-    one at a time in a random order (`world.Drops`).
+    one at a time in a random order (`pile.Drops`).
 
     points: vertices (n, V, 3). Returns positions (n, 3) (each lowest point `drop_clearance`
     above the table: the drop lifts it onto what lies there), quaternions (n, 4), the active

@@ -19,6 +19,7 @@ import numpy as np
 
 from graspjax.config import Config
 from graspjax.geometry import frame_from_axes
+from graspjax.sim.bodies import parked, snapshot
 from graspjax.sim.scene import CLOSED_TARGET, Scene
 from graspjax.sim.world import (
     GraspPose,
@@ -28,8 +29,6 @@ from graspjax.sim.world import (
     hand_clear,
     hand_waypoints,
     judge,
-    parked,
-    snapshot,
 )
 
 

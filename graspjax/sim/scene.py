@@ -117,7 +117,7 @@ WALL_SIDES = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])  # eac
 
 def _walls_mjcf(layout: LayoutConfig) -> str:
     """Four mocap bodies, one wall each (+x, -x, +y, -y), parked. Each wall is
-    `MAX_WALL_HEIGHT` tall: a lower bin or box sinks it into the table (`world.place_walls`)."""
+    `MAX_WALL_HEIGHT` tall: a lower bin or box sinks it into the table (`pile.place_walls`)."""
     half_length, half_thickness = layout.wall_length / 2, layout.wall_thickness / 2
     park = " ".join(f"{v:g}" for v in WALL_PARK)
     bodies = []

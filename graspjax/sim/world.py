@@ -26,24 +26,19 @@ import numpy as np
 
 from graspjax.camera import Camera
 from graspjax.codes import Outcome
-from graspjax.config import MAX_WALL_HEIGHT, CameraConfig, Config
-from graspjax.geometry import frame_from_axes, matrix_to_quat, quat_to_matrix
-from graspjax.privates import impl
+from graspjax.config import CameraConfig, Config
+from graspjax.geometry import frame_from_axes, matrix_to_quat
 from graspjax.sim import physics
+from graspjax.sim.bodies import Snapshot, parked, snapshot
 from graspjax.sim.contacts import hand_contact_force
-from graspjax.sim.layout import footprints, gap, gaps
+from graspjax.sim.pile import NO_WALLS, Drops, Walls, drop, place_walls, push
 from graspjax.sim.raycast import render_depth, world_planes
-from graspjax.sim.scene import CLOSED_TARGET, GRIPPER_HOME, WALL_PARK, WALL_SIDES, Scene, mjx
+from graspjax.sim.scene import CLOSED_TARGET, GRIPPER_HOME, Scene, mjx
 from graspjax.tree import pytree_dataclass, where_tree
 
 HOME_QUAT = np.array([0.0, 1.0, 0.0, 0.0])  # hand z (approach) pointing down
 _HELD_MARGIN = 0.01  # target centre of mass within the jaw span plus this (m)
 _CLOSED = 0.001  # finger opening below this means the jaws closed on nothing (m)
-NEAR = 0.002  # an object is near another when their outlines seen from above are this close (m)
-_OVERLAP = 0.001  # a drop lands on what its outline overlaps by more than this (m): outlines
-# placed touching stay side by side when what was there settled by less than this
-
-
 
 
 @pytree_dataclass
@@ -54,19 +49,6 @@ class GraspPose:
     approach: jax.Array  # (3,) unit direction from the palm to the finger tips
     closing: jax.Array  # (3,) unit closing axis, perpendicular to `approach`
     valid: jax.Array  # () bool: False means do not execute
-
-
-@pytree_dataclass
-class Snapshot:
-    """What the judge needs from one moment of one world (read from qpos alone)."""
-
-    object_pos: jax.Array  # (n, 3) object frame origins
-    object_com: jax.Array  # (n, 3) object centres of mass
-    hand_pos: jax.Array  # (3,)
-    hand_rot: jax.Array  # (3, 3)
-    target_pos: jax.Array  # (3,) where the gripper target (mocap) is
-    opening: jax.Array  # () finger 1 position = half the jaw opening (m)
-    finite: jax.Array  # () bool
 
 
 @pytree_dataclass
@@ -107,117 +89,11 @@ def physics_model(scene: Scene, config: Config) -> mjx.Model:
                          actuator_forcerange=jnp.array([[-force, force]], jnp.float32))
 
 
-def parked(scene: Scene, data: mjx.Data) -> jax.Array:
-    """Objects (n,) bool off the table, at their parking spots (far beyond any layout)."""
-    return jnp.stack([data.qpos[a] for a in scene.object_qpos]) > scene.park_pos[0, 0] - 1.0
-
-
 def with_parking(scene: Scene, model: mjx.Model, data: mjx.Data) -> mjx.Model:
     """`model` with gravity compensated for the parked objects of `data`: they float at rest."""
     gravcomp = jnp.asarray(model.body_gravcomp).at[scene.object_body].set(
         parked(scene, data).astype(jnp.float32), unique_indices=True)
     return model.replace(body_gravcomp=gravcomp)
-
-
-@pytree_dataclass
-class Walls:
-    """Where one world's four walls stand: around a square at the origin, or parked."""
-
-    side: jax.Array  # () inner side of the square (m)
-    height: jax.Array  # () the walls' tops above the table (m)
-    present: jax.Array  # () bool: standing around the square; else parked
-
-
-NO_WALLS = Walls(side=np.float32(0.0), height=np.float32(0.0), present=np.bool_(False))
-
-
-def place_walls(scene: Scene, data: mjx.Data, walls: Walls) -> mjx.Data:
-    """The walls (if the scene has them) around a square of inner side `walls.side` centred at
-    the origin, their tops `walls.height` above the table (each wall is `MAX_WALL_HEIGHT` tall,
-    the rest sunk into the table); parked unless `walls.present`."""
-    if not scene.has_walls:
-        return data
-    offset = (walls.side + scene.wall_thickness) / 2
-    xy = jnp.asarray(WALL_SIDES, jnp.float32) * offset
-    z = jnp.full((len(WALL_SIDES), 1), walls.height - MAX_WALL_HEIGHT / 2)
-    spot = jnp.where(walls.present, jnp.concatenate([xy, z], -1),
-                     jnp.asarray(WALL_PARK, jnp.float32))
-    return data.replace(mocap_pos=data.mocap_pos.at[jnp.asarray(scene.wall_mocap)].set(spot))
-
-
-@pytree_dataclass
-class Drops:
-    """How one world's pile is built while it settles (Setup 3).
-
-    Drops: object j appears at `xy[j]` in orientation `quat[j]` before settle segment
-    `segment[j]` (-1: not dropped), its lowest point `stack_gap` above the highest point of the
-    objects already there whose outlines seen from above overlap its own (by more than
-    `_OVERLAP`), else `drop_clearance` above the table. Objects dropped before the same
-    segment do not see each other. The push: before segment `push_until`, every dropped object
-    is pushed toward `centre` with `push` times its weight, horizontally (the experimenter
-    sliding the group together), the force fading to zero over the last `push_fade` segments
-    (let go gently)."""
-
-    segment: jax.Array  # (n,) int32
-    xy: jax.Array  # (n, 2) where the origin appears, seen from above (m)
-    quat: jax.Array  # (n, 4) the orientation it is dropped in
-    centre: jax.Array  # (2,) where the push points (m)
-    push: jax.Array  # () the push, a fraction of each object's weight
-    push_until: jax.Array  # () int32 the settle segment the push ends before
-    push_fade: jax.Array  # () int32 segments over which it fades out
-
-
-def no_drops(n: int) -> Drops:
-    """Nothing to drop or push (every layout but Setup 3's, and every call after the first)."""
-    return Drops(segment=jnp.full(n, -1, jnp.int32), xy=jnp.zeros((n, 2), jnp.float32),
-                 quat=jnp.tile(jnp.array([1.0, 0.0, 0.0, 0.0], jnp.float32), (n, 1)),
-                 centre=jnp.zeros(2, jnp.float32), push=jnp.float32(0.0),
-                 push_until=jnp.int32(0), push_fade=jnp.int32(1))
-
-
-def push(scene: Scene, data: mjx.Data, drops: Drops, segment: jax.Array) -> mjx.Data:
-    """The push of `Drops` during settle segment `segment` () int32: a horizontal force on each
-    dropped object's centre of mass (`xfrc_applied`), toward `drops.centre`, fading out over
-    the last `push_fade` segments before `push_until`; none after."""
-    dropped = (drops.segment >= 0) & (drops.segment <= segment) & ~parked(scene, data)
-    on = dropped & (segment < drops.push_until)
-    away = snapshot(scene, data).object_com[:, :2] - drops.centre
-    unit = away / jnp.maximum(jnp.linalg.norm(away, axis=-1, keepdims=True), 1e-3)
-    weight = jnp.asarray(scene.mj_model.body_mass[scene.object_body] * -scene.mj_model.opt.gravity[2],
-                         jnp.float32)
-    fade = jnp.clip((drops.push_until - segment) / jnp.maximum(drops.push_fade, 1), 0.0, 1.0)
-    force = jnp.where(on[:, None], -fade * drops.push * weight[:, None] * unit, 0.0)
-    return data.replace(xfrc_applied=data.xfrc_applied.at[jnp.asarray(scene.object_body), :2].set(
-        force, unique_indices=True))
-
-
-def drop(scene: Scene, data: mjx.Data, drops: Drops, segment: jax.Array,
-         config: Config) -> mjx.Data:
-    """Drop the objects whose turn comes before settle segment `segment` () int32 (`Drops`)."""
-    now = (drops.segment >= 0) & (drops.segment == segment)  # (n,); the execution's segments
-    # count below 0
-    points = jnp.asarray(scene.object_points, jnp.float32)  # (n, V, 3)
-    snap = snapshot(scene, data)
-    rotations = jax.vmap(quat_to_matrix)(jnp.stack([data.qpos[a + 3:a + 7]
-                                                    for a in scene.object_qpos]))
-    there = jnp.einsum("nij,nvj->nvi", rotations, points) + snap.object_pos[:, None]  # (n, V, 3)
-    falling_rotations = jax.vmap(quat_to_matrix)(drops.quat)
-    falling = jnp.einsum("nij,nvj->nvi", falling_rotations, points)
-    apart = jax.vmap(lambda a, xy_a: jax.vmap(lambda b, xy_b: gap(a, xy_a, b, xy_b))(
-        footprints(points, rotations), snap.object_pos[:, :2]))(
-        footprints(points, falling_rotations), drops.xy)  # (n, n) outline distances
-    meets = (apart < -_OVERLAP) & ~parked(scene, data)[None]
-    top = jnp.max(jnp.where(meets, jnp.max(there[..., 2], 1)[None], -jnp.inf), 1)
-    layout = config.layout
-    floor = jnp.where(jnp.isfinite(top), top + layout.stack_gap, layout.drop_clearance)
-    z = floor - jnp.min(falling[..., 2], 1)
-    qpos, qvel = data.qpos, data.qvel
-    for i in range(scene.num_objects):
-        a, v = scene.object_qpos[i], scene.object_qvel[i]
-        pose = jnp.concatenate([drops.xy[i], z[i][None], drops.quat[i]])
-        qpos = qpos.at[a:a + 7].set(jnp.where(now[i], pose, qpos[a:a + 7]))
-        qvel = qvel.at[v:v + 6].set(jnp.where(now[i], 0.0, qvel[v:v + 6]))
-    return data.replace(qpos=qpos, qvel=qvel)
 
 
 def reset(scene: Scene, data: mjx.Data, pos: jax.Array, quat: jax.Array,
@@ -325,23 +201,6 @@ def finger_clearance(scene: Scene, data: mjx.Data, position: jax.Array, rotation
     owner = jnp.asarray(scene.piece_object)
     counted = (owner != target) & (jnp.arange(owner.shape[0]) > 0)  # piece 0: the table
     return jnp.min(jnp.where(counted[None], outside, jnp.inf))
-
-
-def snapshot(scene: Scene, data: mjx.Data) -> Snapshot:
-    """Positions the judge needs, from the joint positions (exact at any step)."""
-    qpos = data.qpos
-    pos = jnp.stack([qpos[a:a + 3] for a in scene.object_qpos])
-    rot = jax.vmap(quat_to_matrix)(jnp.stack([qpos[a + 3:a + 7] for a in scene.object_qpos]))
-    h = scene.hand_qpos
-    return Snapshot(
-        object_pos=pos,
-        object_com=pos + jnp.einsum("nij,nj->ni", rot, jnp.asarray(scene.object_com, jnp.float32)),
-        hand_pos=qpos[h:h + 3],
-        hand_rot=quat_to_matrix(qpos[h + 3:h + 7]),
-        target_pos=data.mocap_pos[scene.hand_mocap],
-        opening=qpos[scene.finger_qpos[0]],
-        finite=jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel)),
-    )
 
 
 def depth_image(scene: Scene, data: mjx.Data, rotation: jax.Array, position: jax.Array,
@@ -499,68 +358,3 @@ def simulate(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose,
     carry = (first, data, reflex, start, start, no)
     _, data, _, _, _, result = jax.lax.while_loop(lambda c: c[0] < last, body, carry)
     return data, result
-
-
-@pytree_dataclass
-class LayoutStats:
-    """How dense one world's layout is (Setups 2, 3; `rounds.csv`)."""
-
-    objects: jax.Array  # () int32 objects on the table
-    touching: jax.Array  # () int32 of them in contact with another object
-    near: jax.Array  # () int32 of them whose outline seen from above lies within `NEAR` of another's
-    stacked: jax.Array  # () int32 of them resting on another object
-    gap: jax.Array  # () median over objects of the nearest footprint-to-footprint distance (m)
-    spread: jax.Array  # () largest distance between two objects' origins, seen from above (m)
-
-
-@pytree_dataclass
-class Clutter:
-    """How crowded each object of one world is (state after a step); (n,) each."""
-
-    present: jax.Array  # bool on the table (not parked)
-    touching: jax.Array  # bool in contact with another object
-    resting: jax.Array  # bool resting on another object (a contact with a mostly vertical
-    # normal, this one's centre of mass the higher)
-    covered: jax.Array  # bool another object rests on it
-    gap: jax.Array  # nearest outline-to-outline distance seen from above to another object on
-    # the table (m; negative: their outlines overlap; inf: none)
-
-
-def object_clutter(scene: Scene, data: mjx.Data) -> Clutter:
-    """Contacts and footprint gaps of every object (state after a step, for its contacts)."""
-    n = scene.num_objects
-    present = ~parked(scene, data)
-    contact = impl(data).contact
-    owner = jnp.asarray(scene.geom_object)[contact.geom]  # (C, 2)
-    real = (contact.dist < 1e-3) & (owner[:, 0] >= 0) & (owner[:, 1] >= 0) & (
-        owner[:, 0] != owner[:, 1])
-    pairs = jnp.zeros((n, n), bool).at[owner[:, 0], owner[:, 1]].max(real)
-    pairs = pairs | pairs.T
-    snap = snapshot(scene, data)
-    vertical = real & (jnp.abs(contact.frame[:, 0, 2]) > 0.7)
-    higher = snap.object_com[owner[:, 0], 2] > snap.object_com[owner[:, 1], 2]
-    upper, lower = jnp.where(higher, owner[:, 0], owner[:, 1]), jnp.where(higher, owner[:, 1], owner[:, 0])
-    resting = jnp.zeros(n, bool).at[upper].max(vertical)
-    covered = jnp.zeros(n, bool).at[lower].max(vertical)
-    rotations = jax.vmap(quat_to_matrix)(
-        jnp.stack([data.qpos[a + 3:a + 7] for a in scene.object_qpos]))
-    apart = gaps(footprints(jnp.asarray(scene.object_points), rotations), snap.object_pos[:, :2])
-    apart = jnp.where(present[:, None] & present[None], apart, jnp.inf)
-    return Clutter(present=present, touching=present & jnp.any(pairs, 1), resting=present & resting,
-                   covered=present & covered, gap=jnp.where(present, jnp.min(apart, 1), jnp.inf))
-
-
-def layout_stats(scene: Scene, data: mjx.Data) -> LayoutStats:
-    """How dense the objects on the table are (state after a step: `object_clutter`)."""
-    each = object_clutter(scene, data)
-    present = each.present
-    nearest = jnp.clip(each.gap, 0.0, None)
-    xy = snapshot(scene, data).object_pos[:, :2]
-    distance = jnp.linalg.norm(xy[:, None] - xy[None], axis=-1)
-    spread = jnp.max(jnp.where(present[:, None] & present[None], distance, 0.0))
-    return LayoutStats(objects=jnp.sum(present).astype(jnp.int32),
-                       touching=jnp.sum(each.touching).astype(jnp.int32),
-                       near=jnp.sum(present & (nearest <= NEAR)).astype(jnp.int32),
-                       stacked=jnp.sum(each.resting).astype(jnp.int32),
-                       gap=jnp.nanmedian(jnp.where(present & jnp.isfinite(nearest), nearest, jnp.nan)),
-                       spread=spread)
