@@ -488,21 +488,26 @@ def _parse(text: str, kind: Any, key: str) -> Any:
     return value
 
 
-def _replace(config: Any, path: list[str], text: str, key: str) -> Any:
+def _replace(config: Any, assignments: dict[tuple[str, ...], tuple[str, str]]) -> Any:
+    """`config` with every assignment (its path below `config` -> (text, dotted key)) made, one
+    replacement per dataclass: a dataclass checks the values it is given together, so their
+    order does not matter (`pile_gap_min` above the old `pile_gap_max`, then the max)."""
     hints = typing.get_type_hints(type(config))
-    name = path[0]
-    if name not in hints:
-        raise KeyError(name)
-    current = getattr(config, name)
-    if len(path) == 1:
-        if dataclasses.is_dataclass(current):
-            raise KeyError(name)
-        value = _parse(text, hints[name], key)
-    else:
-        if not dataclasses.is_dataclass(current):
-            raise KeyError(name)
-        value = _replace(current, path[1:], text, key)
-    return dataclasses.replace(config, **{name: value})
+    changes, below = {}, {}
+    for path, (text, key) in assignments.items():
+        name = path[0]
+        if name not in hints:
+            raise KeyError(key)
+        nested = dataclasses.is_dataclass(getattr(config, name))
+        if nested == (len(path) == 1):  # a leaf named as a section, or a section as a leaf
+            raise KeyError(key)
+        if nested:
+            below.setdefault(name, {})[path[1:]] = (text, key)
+        else:
+            changes[name] = _parse(text, hints[name], key)
+    for name, inner in below.items():
+        changes[name] = _replace(getattr(config, name), inner)
+    return dataclasses.replace(config, **changes)
 
 
 def parse_assignments(items: Iterable[str]) -> dict[str, str]:
@@ -522,15 +527,14 @@ def override(config: Any, assignments: Mapping[str, str] | Iterable[str]) -> Any
     """Return `config` with values replaced by dotted name (`"align.window_px": "10"`)."""
     if not isinstance(assignments, Mapping):
         assignments = parse_assignments(assignments)
-    for key, text in assignments.items():
-        try:
-            config = _replace(config, key.split("."), str(text), key)
-        except KeyError:
-            known = list(named_fields(config))
-            close = difflib.get_close_matches(key, known, n=1)
-            hint = f" (did you mean {close[0]}?)" if close else ""
-            raise ConfigError(f"unknown configuration key {key!r}{hint}") from None
-    return config
+    try:
+        return _replace(config, {tuple(key.split(".")): (str(text), key)
+                                 for key, text in assignments.items()})
+    except KeyError as unknown:
+        key = unknown.args[0]
+        close = difflib.get_close_matches(key, list(named_fields(config)), n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise ConfigError(f"unknown configuration key {key!r}{hint}") from None
 
 
 def differences(config: Any, reference: Any) -> dict[str, Any]:
