@@ -6,7 +6,7 @@ import math
 import pandas as pd
 import pytest
 
-from graspjax.report.density import consistency, judge, paper_runs
+from graspjax.report.density import consistency, consistency_lines, judge, paper_runs
 
 
 def _rounds(**columns):
@@ -80,3 +80,16 @@ def test_setup2s_printed_counts_by_hand():
     facts = consistency(_outcomes(2, [0, 0, 1, 2]), setup=2)
     assert facts["p_printed_counts"] == pytest.approx(9240 * 2.0 ** -19)
     assert facts["p_all_runs_at_most_2"] == 1.0
+
+
+def test_a_runs_table1_states_the_facts_it_computed_by_hand():
+    """The lines `table1.md` carries: Setup 2's and Setup 3's hand-computed probabilities above
+    (9240 * 2^-19 = 0.0176, 0.5^10 = 0.00098) and the shares of rounds by failures."""
+    frame = pd.concat([_outcomes(2, [0, 0, 1, 2]), _outcomes(3, [0, 1, 2, 3])])
+    lines = consistency_lines(frame)
+    assert lines[3] == ("- Setup 2 (4 rounds; 0 / 1 / 2 / 3+ failures in 50 / 25 / 25 / 0 % of "
+                        "them): P(the printed 3 / 5 / 3 runs with 0 / 1 / 2 failures) = 0.018, "
+                        "P(10 runs with at most 2) = 1")
+    assert lines[4].startswith("- Setup 3 (4 rounds; 0 / 1 / 2 / 3+ failures in 25 / 25 / 25 / "
+                               "25 % of them): P(all 10 runs with 2 or more failures) = 0.00098,")
+    assert consistency_lines(_outcomes(1, [0, 1])) == []

@@ -132,3 +132,28 @@ def consistency(outcomes: pd.DataFrame, setup: int, runs: int = 10) -> dict[str,
                                    * math.prod(s ** c for s, c in zip(share[:3], k, strict=True)))
         out["p_all_runs_at_most_2"] = (1 - share[3]) ** runs
     return out
+
+
+def consistency_lines(outcomes: pd.DataFrame) -> list[str]:
+    """The paper's run-level facts of Setups 2 and 3 under our rates (`consistency`), one
+    markdown line per setup played, for a run's Table 1 (one grid point)."""
+    played = [s for s in (2, 3) if (outcomes["setup"] == s).any()]
+    if not played:
+        return []
+    lines = ["", "The paper's run-level facts under our rates (`report.density.consistency`; a "
+             "check of the scene against the paper, never a choice of one):", ""]
+    for setup in played:
+        facts = consistency(outcomes, setup)
+        shares = " / ".join(f"{100 * facts[k]:.0f}" for k in
+                            ("share_0", "share_1", "share_2", "share_3_or_more"))
+        if setup == 3:
+            fact = (f"P(all 10 runs with 2 or more failures) = {facts['p_all_runs_2_or_more']:.2g}, "
+                    f"P(every cell of 10 trials within 50-70 %) = "
+                    f"{facts['p_every_cell_50_to_70']:.2g}")
+        else:
+            fact = (f"P(the printed 3 / 5 / 3 runs with 0 / 1 / 2 failures) = "
+                    f"{facts['p_printed_counts']:.2g}, P(10 runs with at most 2) = "
+                    f"{facts['p_all_runs_at_most_2']:.2g}")
+        lines.append(f"- Setup {setup} ({facts['rounds']:.0f} rounds; 0 / 1 / 2 / 3+ failures "
+                     f"in {shares} % of them): {fact}")
+    return lines
