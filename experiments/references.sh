@@ -1,41 +1,57 @@
 #!/usr/bin/env bash
-# The reference results a CPU can make when no GPU is lent (labelled `_cpu_N`): Tables 1+2, Eq. 2's
-# printed half-footprint against the paper preset, Setup 3's density sweep and the bin's size,
-# and the methods on the same worlds. Each step runs one graspjax command into $OUT/NAME (default
-# results/...), gzips its attempts and drops the Parquet copy (the committed folders keep CSV).
-#   tables-PRESET  Tables 1+2, 100 trials per cell (results/PRESET_cpu_100)
+# The reference results (labelled `_DEVICE_TRIALS`): Tables 1+2, Eq. 2's printed half-footprint
+# against the paper preset, Setup 3's density sweep and the bin's size, and the methods on the
+# same worlds. DEVICE=gpu (one GPU; MuJoCo as wheels, ../shared/gpu/README.md) runs 1,000 trials
+# per cell (the methods 300) and packs each folder into $OUT/NAME.tgz, as the GPU machine returns
+# at most 8 files; DEVICE=cpu (default) runs 100 (the methods 30) into results/. Each step runs
+# one graspjax command into $OUT/FOLDER, gzips its attempts and rounds and drops the Parquet copy
+# (the committed folders keep CSV). LIMIT=SECONDS stops a step that runs longer (its parts stay:
+# `--resume` continues it).
+#   tables-PRESET  Tables 1+2 (results/PRESET_DEVICE_N)
 #   eq2            the paper preset with Eq. 2 as printed (align.pixel_scale=printed), the same
-#                  worlds as tables-paper (same seed, trials and batch): results/eq2_printed_cpu_100
-#   density        Setup 3's pile from the paper's reading to Setup 2's gaps, paired, 100 rounds
-#                  per point (results/setup3/density_cpu_100; experiments/setup3_density.py)
-#   bin            Setup 3 in the bin at 14 / 18 / 24 cm, paired, 100 rounds per point
-#                  (results/setup3/bin_size_cpu_100)
-#   methods-PRESET the paper's method and the baselines on the same worlds, Tables 1+2, 30 trials
-#                  per cell (results/methods/PRESET_cpu_30)
+#                  worlds as tables-paper (same seed, trials and batch): results/eq2_printed_DEVICE_N
+#   density        Setup 3's pile from the paper's reading to Setup 2's gaps, paired
+#                  (results/setup3/density_DEVICE_N; experiments/setup3_density.py)
+#   bin            Setup 3 in the bin at 14 / 18 / 24 cm, paired (results/setup3/bin_size_DEVICE_N)
+#   methods-PRESET the paper's method and the baselines on the same worlds, Tables 1+2
+#                  (results/methods/PRESET_DEVICE_N)
 set -uo pipefail
-out=${OUT:-results}
+device=${DEVICE:-cpu}
+case "$device" in
+  cpu) trials=100; method_trials=30; out=${OUT:-results} ;;
+  gpu) trials=1000; method_trials=300; out=${OUT:?set OUT to the folder that collects the results} ;;
+  *) echo "DEVICE must be cpu or gpu" >&2; exit 2 ;;
+esac
 step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
   local folder=$out/$1 start=$SECONDS
   shift
-  python3 -m graspjax.cli "$@" --seed 0 --quiet --overwrite --out "$folder" > "$folder.log" 2>&1
+  mkdir -p "$(dirname "$folder")"
+  ${LIMIT:+timeout "$LIMIT"} python3 -m graspjax.cli "$@" --seed 0 --quiet --overwrite --out "$folder" > "$folder.log" 2>&1
   local code=$?
   echo "== $folder: exit $code after $((SECONDS - start)) s"
-  if [ "$code" -ne 0 ]; then tail -n 5 "$folder.log"; return "$code"; fi
+  tail -n 2 "$folder.log"
+  if [ "$code" -ne 0 ]; then return "$code"; fi
   gzip -f "$folder/attempts.csv" "$folder/rounds.csv" 2>/dev/null
   rm -f "$folder/attempts.parquet" "$folder.log"
+  if [ "$device" = gpu ]; then
+    tar -C "$(dirname "$folder")" -czf "$out/$(basename "$folder").tgz" "$(basename "$folder")" \
+      && rm -rf "$folder"
+  fi
 }
 for name in "$@"; do
   case "$name" in
-    tables-*) step "${name#tables-}_cpu_100" run --table 1,2 --trials 100 --preset "${name#tables-}" ;;
-    eq2) step eq2_printed_cpu_100 run --table 1,2 --trials 100 --preset paper \
+    tables-*) step "${name#tables-}_${device}_$trials" run --table 1,2 --trials "$trials" \
+      --preset "${name#tables-}" ;;
+    eq2) step "eq2_printed_${device}_$trials" run --table 1,2 --trials "$trials" --preset paper \
       --set align.pixel_scale=printed ;;
-    density) mkdir -p "$out/setup3" && step setup3/density_cpu_100 sweep --setup 3 --trials 100 \
-      --paired --grid "layout.pile_gap_min:layout.pile_gap_max:layout.pile_push=\
+    density) step "setup3/density_${device}_$trials" sweep --setup 3 --trials "$trials" --paired \
+      --grid "layout.pile_gap_min:layout.pile_gap_max:layout.pile_push=\
 -0.02:0:0.7,-0.02:0:0,0:0.01:0,0.005:0.03:0,0.02:0.05:0" ;;
-    bin) mkdir -p "$out/setup3" && step setup3/bin_size_cpu_100 sweep --setup 3 --trials 100 \
-      --paired --set layout.bin=true --grid layout.bin_size=0.14,0.18,0.24 ;;
-    methods-*) mkdir -p "$out/methods" && step "methods/${name#methods-}_cpu_30" sweep --table 1,2 \
-      --trials 30 --paired --preset "${name#methods-}" --grid method=paper,highest-pca,antipodal ;;
+    bin) step "setup3/bin_size_${device}_$trials" sweep --setup 3 --trials "$trials" --paired \
+      --set layout.bin=true --grid layout.bin_size=0.14,0.18,0.24 ;;
+    methods-*) step "methods/${name#methods-}_${device}_$method_trials" sweep --table 1,2 \
+      --trials "$method_trials" --paired --preset "${name#methods-}" \
+      --grid method=paper,highest-pca,antipodal ;;
     *) echo "unknown step $name" >&2; exit 2 ;;
   esac
 done

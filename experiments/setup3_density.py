@@ -2,7 +2,7 @@
 
     python3 experiments/setup3_density.py SWEEP_FOLDER [REFERENCE_POINT]
 
-The sweep (`experiments/setup3_density.sh`) plays the same Setup 3 rounds at every grid point,
+The sweep (`experiments/references.sh density`) plays the same Setup 3 rounds at every grid point,
 only the pile's density changing. Writes into the folder:
 
 - `density.md`: per point its settings, its measured clutter (`rounds.csv`), its success (first

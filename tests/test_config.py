@@ -74,6 +74,20 @@ class Root:  # a nested config, as the experiment's is
     gripper: GripperConfig = GripperConfig()
 
 
+def test_values_checked_together_may_be_given_in_any_order():
+    """A dataclass checks the values it is given together: raising both of Setup 3's gaps past
+    the old maximum works with the minimum named first; a pair that contradicts itself is a
+    one-line error whichever comes first."""
+    config = override(Config(), {"layout.pile_gap_min": "0.02", "layout.pile_gap_max": "0.05",
+                                 "align.window_px": "10"})
+    assert (config.layout.pile_gap_min, config.layout.pile_gap_max) == (0.02, 0.05)
+    assert config.align.window_px == 10 and config.layout.gap_min == Config().layout.gap_min
+    for pair in ({"layout.pile_gap_min": "0.03", "layout.pile_gap_max": "0.01"},
+                 {"layout.pile_gap_max": "0.01", "layout.pile_gap_min": "0.03"}):
+        with pytest.raises(ConfigError, match="pile_gap_min <= pile_gap_max"):
+            override(Config(), pair)
+
+
 def test_override_by_dotted_name():
     root = override(Root(), ["align.window_px=10", "align.distance_threshold=0.5",
                              "align.refit=true", "align.pixel_scale=printed"])
@@ -172,15 +186,24 @@ def test_the_paper_preset_reads_the_paper_literally():
     assert realistic.layout == paper.layout  # the same worlds in both presets
 
 
+def _reference_folders():
+    """The committed reference tables: `results/PRESET_DEVICE_TRIALS` for both presets (Tables
+    1+2 at 1,000 trials on a GPU or 100 on a CPU, and at the paper's 10)."""
+    import pathlib
+
+    results = pathlib.Path(__file__).parent.parent / "results"
+    folders = sorted(p for p in results.glob("*_*_*")
+                     if p.is_dir() and p.name.split("_")[0] in PRESETS)
+    assert {p.name.split("_")[0] for p in folders} == set(PRESETS) and len(folders) >= 4
+    return folders
+
+
 def test_the_reference_results_are_the_presets():
     """Every committed reference table ran with its preset as the code defines it now and
     nothing else: no override, no grid (so the paper preset's numbers are the paper's method)."""
     import json
-    import pathlib
 
-    results = pathlib.Path(__file__).parent.parent / "results"
-    folders = sorted(results.glob("*_gpu_1000")) + sorted(results.glob("*_cpu_10"))
-    assert len(folders) == 4
+    folders = _reference_folders()
     for folder in folders:
         meta = json.loads((folder / "config.json").read_text())
         assert meta["grid"] == {}, folder
@@ -189,14 +212,11 @@ def test_the_reference_results_are_the_presets():
 
 
 def test_the_reference_results_were_made_without_the_labels():
-    """Every committed reference table (`results/*_gpu_1000`, `results/*_cpu_10`) ran with
-    `perception.oracle` false: it is neither overridden nor a grid key there."""
+    """Every committed reference table (`_reference_folders`) ran with `perception.oracle` false:
+    it is neither overridden nor a grid key there."""
     import json
-    import pathlib
 
-    results = pathlib.Path(__file__).parent.parent / "results"
-    folders = sorted(results.glob("*_gpu_1000")) + sorted(results.glob("*_cpu_10"))
-    assert len(folders) == 4
+    folders = _reference_folders()
     for folder in folders:
         meta = json.loads((folder / "config.json").read_text())
         assert meta["config"]["perception.oracle"] is False, folder
