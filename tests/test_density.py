@@ -6,7 +6,7 @@ import math
 import pandas as pd
 import pytest
 
-from graspjax.report.density import consistency, consistency_lines, judge, paper_runs
+from graspjax.report.density import consistency, consistency_lines, judge, paper_runs, target_clutter_lines
 
 
 def _rounds(**columns):
@@ -93,3 +93,20 @@ def test_a_runs_table1_states_the_facts_it_computed_by_hand():
     assert lines[4].startswith("- Setup 3 (4 rounds; 0 / 1 / 2 / 3+ failures in 25 / 25 / 25 / "
                                "25 % of them): P(all 10 runs with 2 or more failures) = 0.00098,")
     assert consistency_lines(_outcomes(1, [0, 1])) == []
+
+
+def test_success_by_the_targets_clutter_counts_by_hand():
+    """Four Setup 3 attempts: two touching (one succeeds), one alone (succeeds), one with no
+    target (NaN, in neither group); one resting; clearances -1 mm, 3 mm, 3 mm and none."""
+    nan = float("nan")
+    frame = pd.DataFrame({"setup": 3, "success": [True, False, True, False],
+                          "target_touching": [1.0, 1.0, 0.0, nan],
+                          "target_resting": [1.0, 0.0, 0.0, nan],
+                          "target_covered": [0.0, 0.0, 0.0, nan],
+                          "finger_clearance_m": [-0.001, 0.003, 0.003, nan]})
+    (line,) = target_clutter_lines(frame)[3:]
+    assert line == ("- Setup 3: the target touching another 50 % of 2, touching none 100 % of 1, "
+                    "resting on another 100 % of 1, covered by another: none; free space at the "
+                    "open fingers below 0 100 % of 1, 0-5 mm 50 % of 2, 5-20 mm: none, over "
+                    "20 mm: none")
+    assert target_clutter_lines(frame.assign(setup=1)) == []

@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.config import Config, override
-from graspjax.report.density import consistency_lines
+from graspjax.report.density import consistency_lines, target_clutter_lines
 from graspjax.report.figures import comparison_figure, outcomes_figure, success_figure, sweep_outputs
 from graspjax.report.files import (
     load_attempts,
@@ -70,7 +70,8 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
             if summary["object"].isin(TABLE_OBJECTS[table]).any():
                 text = table_markdown(summary, table, state)
                 if table == 1:
-                    lines = layout_lines(rounds) + consistency_lines(objects)
+                    lines = (layout_lines(rounds) + target_clutter_lines(frame)
+                             + consistency_lines(objects))
                     text += "".join(f"{line}\n" for line in lines)
                 files[f"table{table}.md"] = text.encode()
                 files[f"table{table}.tex"] = table_latex(summary, table, state).encode()

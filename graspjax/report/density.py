@@ -157,3 +157,40 @@ def consistency_lines(outcomes: pd.DataFrame) -> list[str]:
         lines.append(f"- Setup {setup} ({facts['rounds']:.0f} rounds; 0 / 1 / 2 / 3+ failures "
                      f"in {shares} % of them): {fact}")
     return lines
+
+
+_CLEARANCE_BINS = ((-np.inf, 0.0, "below 0"), (0.0, 0.005, "0-5 mm"), (0.005, 0.02, "5-20 mm"),
+                   (0.02, np.inf, "over 20 mm"))
+
+
+def _rates(success: pd.Series, groups: list[tuple[str, pd.Series]]) -> str:
+    """"name 68 % of 251, ..." for each (name, mask) of `success`."""
+    return ", ".join(f"{name} {100 * success[mask].mean():.0f} % of {int(mask.sum())}"
+                     if mask.any() else f"{name}: none" for name, mask in groups)
+
+
+def target_clutter_lines(attempts: pd.DataFrame) -> list[str]:
+    """Setups 2 and 3's success by how crowded the target was when the robot looked, from the
+    attempt rows' ground-truth clutter columns (attribution only; `schema.ATTEMPT_COLUMNS`):
+    touching another object or not, resting on another, covered by another, and the free space
+    around the open fingers at the executed grasp. One markdown line per setup played."""
+    if "target_touching" not in attempts.columns:  # runs made before these columns
+        return []
+    played = [s for s in (2, 3) if (attempts["setup"] == s).any()]
+    if not played:
+        return []
+    lines = ["", "Success by how crowded the target was when the robot looked (ground truth of "
+             "`attempts.csv`, attribution only; success of n attempts):", ""]
+    for setup in played:
+        part = attempts[attempts["setup"] == setup]
+        success = part["success"].astype(bool)
+        clearance = part["finger_clearance_m"]
+        kinds = [("touching another", part["target_touching"] > 0.5),
+                 ("touching none", part["target_touching"] < 0.5),
+                 ("resting on another", part["target_resting"] > 0.5),
+                 ("covered by another", part["target_covered"] > 0.5)]
+        space = [(name, (clearance > low) & (clearance <= high))
+                 for low, high, name in _CLEARANCE_BINS]
+        lines.append(f"- Setup {setup}: the target {_rates(success, kinds)}; free space at "
+                     f"the open fingers {_rates(success, space)}")
+    return lines
