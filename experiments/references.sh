@@ -13,6 +13,8 @@
 #   density        Setup 3's pile from the paper's reading to Setup 2's gaps, paired
 #                  (results/setup3/density_DEVICE_N; experiments/setup3_density.py)
 #   bin            Setup 3 in the bin at 14 / 18 / 24 cm, paired (results/setup3/bin_size_DEVICE_N)
+#   bin-small-hand the same bins and worlds with the small hand (6 cm opening, 1 cm x 6 mm fingers;
+#                  the default is Franka-sized): results/setup3/bin_small_hand_DEVICE_N
 #   methods-PRESET the paper's method and the baselines on the same worlds, Tables 1+2
 #                  (results/methods/PRESET_DEVICE_N)
 set -uo pipefail
@@ -49,6 +51,10 @@ for name in "$@"; do
 -0.02:0:0.7,-0.02:0:0,0:0.01:0,0.005:0.03:0,0.02:0.05:0" ;;
     bin) step "setup3/bin_size_${device}_$trials" sweep --setup 3 --trials "$trials" --paired \
       --set layout.bin=true --grid layout.bin_size=0.14,0.18,0.24 ;;
+    bin-small-hand) step "setup3/bin_small_hand_${device}_$trials" sweep --setup 3 \
+      --trials "$trials" --paired --set layout.bin=true --set gripper.opening=0.06 \
+      --set gripper.finger_width=0.01 --set gripper.finger_thickness=0.006 \
+      --grid layout.bin_size=0.14,0.18,0.24 ;;
     methods-*) step "methods/${name#methods-}_${device}_$method_trials" sweep --table 1,2 \
       --trials "$method_trials" --paired --preset "${name#methods-}" \
       --grid method=paper,highest-pca,antipodal ;;

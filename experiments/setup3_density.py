@@ -57,20 +57,24 @@ def point_table(outcomes: pd.DataFrame, rounds: pd.DataFrame, reference: int) ->
                 "first_view": (part.success.astype(bool) & ~part.rescued.astype(bool)).mean(),
                 "rescued": part.rescued.astype(bool).mean(), "objects": n,
                 "change": rate - base.mean(), "gained": gained, "lost": lost, "z": z}
-        row |= consistency(part, setup=3)
+        row |= consistency(part, setup=3) | {"rounds": len(layout)}
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+_MIN_BIN = 20  # bins with fewer attempts are left out of the figure
 
 
 def _binned(ax, x, success, edges, labels, title):
     """Success with Wilson intervals in bins of x."""
     which = np.digitize(x, edges)
     rates, lows, highs, counts = [], [], [], []
-    for b in range(len(labels)):
-        part = success[which == b]
-        rate, low, high, n = _rate(part)
+    kept = [b for b in range(len(labels)) if np.sum(which == b) >= _MIN_BIN]
+    for b in kept:
+        rate, low, high, n = _rate(pd.Series(success[which == b]))
         rates.append(rate), lows.append(low), highs.append(high), counts.append(n)
     rates, lows, highs = map(np.asarray, (rates, lows, highs))
+    labels = [labels[b] for b in kept]
     pos = np.arange(len(labels))
     ax.errorbar(pos, 100 * rates, yerr=100 * np.stack([rates - lows, highs - rates]), fmt="o",
                 capsize=3, color="C0")
@@ -82,14 +86,37 @@ def _binned(ax, x, success, edges, labels, title):
     ax.grid(axis="y", alpha=0.3)
 
 
-def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame, path: Path):
+def _points(ax, table: pd.DataFrame):
+    """Each grid point's success and first view (95 % Wilson), in grid order, each labelled by
+    its settings and its settled clutter."""
+    pos = np.arange(len(table))
+    for column, label, color in (("success", "success", "C0"), ("first_view", "first view", "C1")):
+        rate = table[column].to_numpy()
+        low, high = np.transpose([wilson(round(r * n), n) for r, n in zip(rate, table.objects,
+                                                                            strict=True)])
+        ax.errorbar(pos, 100 * rate, yerr=100 * np.stack([rate - low, high - rate]), fmt="o-",
+                    capsize=3, color=color, label=label)
+    settings = list(table.columns[:list(table.columns).index("rounds")])
+    labels = [", ".join(f"{key.split('.')[-1]}={row[key]:g}" for key in settings)
+              + f"\n{100 * row.touching:.0f} % touch" for _, row in table.iterrows()]
+    ax.set_xticks(pos, labels, fontsize=7)
+    ax.set_title("each grid point (its settings; settled contact)", fontsize=9)
+    ax.set_ylabel("success (%)")
+    ax.legend(fontsize=7, loc="lower right")
+    ax.grid(axis="y", alpha=0.3)
+
+
+def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
+           table: pd.DataFrame, path: Path):
     tried = attempts[(attempts.attempt >= 0) & (attempts.object.fillna("") != "")]
     success = tried.success.astype(bool).to_numpy()
-    fig, axes = plt.subplots(1, 4, figsize=(15, 3.6))
-    per_round = outcomes.merge(rounds[["point", "trial", "near_fraction"]].rename(
-        columns={"trial": "trial"}), on=["point", "trial"], how="left")
+    fig, axes = plt.subplots(1, 5, figsize=(19, 3.8))
+    _points(axes[0], table)
+    axes = axes[1:]
+    per_round = outcomes.merge(rounds[["point", "round", "near_fraction"]].rename(
+        columns={"round": "trial"}), on=["point", "trial"], how="left")
     _binned(axes[0], per_round.near_fraction.to_numpy(), per_round.success.astype(bool).to_numpy(),
-            [0.5, 0.84, 0.99], ["< 1/2", "1/2-5/6", "5/6", "all"],
+            [0.45, 0.75, 0.9], ["0-2 of 6", "3-4 of 6", "5 of 6", "all 6"],
             "objects of the round near another (settled)")
     state = np.select([tried.target_covered == 1, tried.target_resting == 1,
                        tried.target_touching == 1], [0, 1, 2], 3)
@@ -104,8 +131,9 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
     _binned(axes[3], room[executed], success[executed], [0.0, 0.5, 1.0, 2.0],
             ["touch", "0-0.5", "0.5-1", "1-2", "> 2"], "free space at the fingers (cm, executed)")
     axes[0].set_ylabel("success (%)")
-    fig.suptitle("Setup 3: success against clutter (every point of the density sweep pooled; "
-                 "95 % Wilson intervals)", fontsize=10)
+    fig.suptitle("Setup 3: success against clutter, each density point (left) and every point's "
+                 "rounds and attempts pooled (right; bins of 20 or more); 95 % Wilson intervals",
+                 fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
 
@@ -125,7 +153,7 @@ def main(folder: str, reference: int = 0) -> None:
             "within 50-70 %), from our rates; a consistency check, never a choice.", "",
             markdown(table.map(lambda v: f"{v:.3g}" if isinstance(v, float) else v), index=False)]
     (Path(folder) / "density.md").write_text("\n".join(text) + "\n")
-    figure(attempts, outcomes, rounds, Path(folder) / "density.png")
+    figure(attempts, outcomes, rounds, table, Path(folder) / "density.png")
     print("\n".join(text))
 
 
