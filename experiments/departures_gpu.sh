@@ -1,15 +1,9 @@
 #!/usr/bin/env bash
-# The literal paper preset (issue 51; docs/departures.md) on the GPU machine: its reference tables,
-# Setup 3 on the table against the bin, the methods on the same world states, and each departure
-# that a setting switches, measured paired on the same worlds (Tables 1+2, paper preset, TRIALS
-# per cell, default 300). MuJoCo goes along as wheels (../shared/gpu/README.md); each step writes
-# $OUT/NAME.tar.gz (attempts gzipped) and its log. Steps (several per call):
-#   tables-PRESET  Tables 1+2, 1,000 trials per cell (results/PRESET_gpu_1000)
-#   setup3-PRESET  Setup 3, 1,000 rounds, paired: on the table (the paper) or in the bin
-#                  (layout.bin; results/setup3/)
-#   methods-PRESET the paper's method and the baselines, one grid point each (so every method's
-#                  worlds are chunked alike and settle to the same states), each with the
-#                  paper's re-alignment, Tables 1+2, TRIALS per cell (results/methods/)
+# The departures of docs/departures.md that a setting switches, measured paired on the same worlds
+# on the GPU machine (Tables 1+2, paper preset, TRIALS per cell, default 300); the reference
+# tables, Eq. 2, Setup 3's sweeps and the methods are experiments/references.sh's. MuJoCo goes
+# along as wheels (../shared/gpu/README.md); each step writes $OUT/NAME.tar.gz (attempts gzipped)
+# and its log. Steps (several per call):
 #   tolerance      the T-beam's antipodal-edge tolerance and the antipodal sampler's cone, 15 / 25 /
 #                  35 deg each (results/studies/tolerance)
 #   ours           the paper's reading against each of our changes to the alignment, one at a time
@@ -34,13 +28,7 @@ paired() {  # paired NAME ARGS...: Tables 1+2, TRIALS per cell, paper preset, pa
   step "$name" sweep --table 1,2 --trials "$trials" --paired --preset paper "$@"
 }
 for name in "$@"; do
-  preset=${name#*-}
   case "$name" in
-    tables-*) step "${preset}_gpu_1000" run --table 1,2 --trials 1000 --preset "$preset" ;;
-    setup3-*) step "setup3_$preset" sweep --setup 3 --trials 1000 --paired --preset "$preset" \
-      --grid layout.bin=false,true ;;
-    methods-*) step "methods_$preset" sweep --table 1,2 --trials "$trials" --paired \
-      --preset "$preset" --grid method=paper,highest-pca,antipodal ;;
     tolerance) paired tolerance --grid "method:detect.antipodal_tolerance_deg:baseline.antipodal_cone_deg=\
 paper:15:35,paper:25:35,paper:35:35,antipodal:15:15,antipodal:15:25,antipodal:15:35" ;;
     ours) paired ours --grid "align.anchor:align.window_centre:align.turn_normal=\
