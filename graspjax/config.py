@@ -409,7 +409,7 @@ class PerceptionConfig:
     surface_step: float = traced(0.0025)  # a target's depth-connected surface: the largest
     # depth step between 4-neighbours inside it (m); a larger step parts it from what lies
     # behind or beside it (2.5 mm: measured against 1 cm and 5 mm on the same worlds, both
-    # presets, results/depth_only/; a flat top at the camera's slant steps far less)
+    # presets, git history's results/depth_only/; a flat top at the camera's slant steps far less)
     follow_distance: float = traced(0.02)  # a target is found again in a new view at the
     # visible surface point nearest its 3-D point, within this distance (m)
     wall_margin: float = traced(0.005)  # Setup 3 in the bin: the workspace is its interior, this
