@@ -134,29 +134,38 @@ def consistency(outcomes: pd.DataFrame, setup: int, runs: int = 10) -> dict[str,
     return out
 
 
+def _per_setup(frame: pd.DataFrame, heading: str,
+               line: Callable[[int, pd.DataFrame], str]) -> list[str]:
+    """A markdown section: `heading`, then `line(setup, rows)` for Setups 2 and 3 where played;
+    nothing where neither was."""
+    played = [s for s in (2, 3) if (frame["setup"] == s).any()]
+    if not played:
+        return []
+    return ["", heading, ""] + [line(s, frame[frame["setup"] == s]) for s in played]
+
+
+def _consistency_line(setup: int, outcomes: pd.DataFrame) -> str:
+    facts = consistency(outcomes, setup)
+    shares = " / ".join(f"{100 * facts[k]:.0f}" for k in
+                        ("share_0", "share_1", "share_2", "share_3_or_more"))
+    if setup == 3:
+        fact = (f"P(all 10 runs with 2 or more failures) = {facts['p_all_runs_2_or_more']:.2g}, "
+                f"P(every cell of 10 trials within 50-70 %) = "
+                f"{facts['p_every_cell_50_to_70']:.2g}")
+    else:
+        fact = (f"P(the printed 3 / 5 / 3 runs with 0 / 1 / 2 failures) = "
+                f"{facts['p_printed_counts']:.2g}, P(10 runs with at most 2) = "
+                f"{facts['p_all_runs_at_most_2']:.2g}")
+    return (f"- Setup {setup} ({facts['rounds']:.0f} rounds; 0 / 1 / 2 / 3+ failures in {shares} "
+            f"% of them): {fact}")
+
+
 def consistency_lines(outcomes: pd.DataFrame) -> list[str]:
     """The paper's run-level facts of Setups 2 and 3 under our rates (`consistency`), one
     markdown line per setup played, for a run's Table 1 (one grid point)."""
-    played = [s for s in (2, 3) if (outcomes["setup"] == s).any()]
-    if not played:
-        return []
-    lines = ["", "The paper's run-level facts under our rates (`report.density.consistency`; a "
-             "check of the scene against the paper, never a choice of one):", ""]
-    for setup in played:
-        facts = consistency(outcomes, setup)
-        shares = " / ".join(f"{100 * facts[k]:.0f}" for k in
-                            ("share_0", "share_1", "share_2", "share_3_or_more"))
-        if setup == 3:
-            fact = (f"P(all 10 runs with 2 or more failures) = {facts['p_all_runs_2_or_more']:.2g}, "
-                    f"P(every cell of 10 trials within 50-70 %) = "
-                    f"{facts['p_every_cell_50_to_70']:.2g}")
-        else:
-            fact = (f"P(the printed 3 / 5 / 3 runs with 0 / 1 / 2 failures) = "
-                    f"{facts['p_printed_counts']:.2g}, P(10 runs with at most 2) = "
-                    f"{facts['p_all_runs_at_most_2']:.2g}")
-        lines.append(f"- Setup {setup} ({facts['rounds']:.0f} rounds; 0 / 1 / 2 / 3+ failures "
-                     f"in {shares} % of them): {fact}")
-    return lines
+    return _per_setup(outcomes, "The paper's run-level facts under our rates "
+                      "(`report.density.consistency`; a check of the scene against the paper, "
+                      "never a choice of one):", _consistency_line)
 
 
 _CLEARANCE_BINS = ((-np.inf, 0.0, "below 0"), (0.0, 0.005, "0-5 mm"), (0.005, 0.02, "5-20 mm"),
@@ -169,6 +178,18 @@ def _rates(success: pd.Series, groups: list[tuple[str, pd.Series]]) -> str:
                      if mask.any() else f"{name}: none" for name, mask in groups)
 
 
+def _clutter_line(setup: int, part: pd.DataFrame) -> str:
+    success = part["success"].astype(bool)
+    clearance = part["finger_clearance_m"]
+    kinds = [("touching another", part["target_touching"] > 0.5),
+             ("touching none", part["target_touching"] < 0.5),
+             ("resting on another", part["target_resting"] > 0.5),
+             ("covered by another", part["target_covered"] > 0.5)]
+    space = [(name, (clearance > low) & (clearance <= high)) for low, high, name in _CLEARANCE_BINS]
+    return (f"- Setup {setup}: the target {_rates(success, kinds)}; free space at the open "
+            f"fingers {_rates(success, space)}")
+
+
 def target_clutter_lines(attempts: pd.DataFrame) -> list[str]:
     """Setups 2 and 3's success by how crowded the target was when the robot looked, from the
     attempt rows' ground-truth clutter columns (attribution only; `schema.ATTEMPT_COLUMNS`):
@@ -176,21 +197,6 @@ def target_clutter_lines(attempts: pd.DataFrame) -> list[str]:
     around the open fingers at the executed grasp. One markdown line per setup played."""
     if "target_touching" not in attempts.columns:  # runs made before these columns
         return []
-    played = [s for s in (2, 3) if (attempts["setup"] == s).any()]
-    if not played:
-        return []
-    lines = ["", "Success by how crowded the target was when the robot looked (ground truth of "
-             "`attempts.csv`, attribution only; success of n attempts):", ""]
-    for setup in played:
-        part = attempts[attempts["setup"] == setup]
-        success = part["success"].astype(bool)
-        clearance = part["finger_clearance_m"]
-        kinds = [("touching another", part["target_touching"] > 0.5),
-                 ("touching none", part["target_touching"] < 0.5),
-                 ("resting on another", part["target_resting"] > 0.5),
-                 ("covered by another", part["target_covered"] > 0.5)]
-        space = [(name, (clearance > low) & (clearance <= high))
-                 for low, high, name in _CLEARANCE_BINS]
-        lines.append(f"- Setup {setup}: the target {_rates(success, kinds)}; free space at "
-                     f"the open fingers {_rates(success, space)}")
-    return lines
+    return _per_setup(attempts, "Success by how crowded the target was when the robot looked "
+                      "(ground truth of `attempts.csv`, attribution only; success of n attempts):",
+                      _clutter_line)
