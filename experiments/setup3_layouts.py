@@ -29,28 +29,38 @@ from graspjax.sim.scene import mjx, scene_for
 CHUNK = 50
 
 
-def settled_rounds(rounds: int, config: Config, seed: int = 0) -> pd.DataFrame:
+def settle_chunks(rounds: int, config: Config, measure, seed: int = 0):
+    """Place and settle Setup 3 rounds of a-f, rounds 0..rounds-1 of `seed`, exactly as a run
+    does, CHUNK worlds per compiled call; yield (rounds (C,), `measure`'s outputs as NumPy, (C,
+    ...) each) per chunk. `measure(scene, state, data)` reads one world: the round's start
+    (`procedure.start_round`) and its settled `mjx.Data`."""
     scene = scene_for(tuple("abcdef"), config, True)
     n = scene.num_objects
     template = mjx.make_data(scene.mj_model)
 
     def one(spec):
         state = start_round(scene, template, spec, (3,))
-        xy = state.drops.xy
-        placed = jnp.max(jnp.linalg.norm(xy[:, None] - xy[None], axis=-1))
-        return layout_stats(scene, settle(scene, state, spec).data), placed
+        return measure(scene, state, settle(scene, state, spec).data)
 
     run = jax.jit(jax.vmap(one, axis_name=WORLDS))
-    frames = []
     for start in tqdm(range(0, rounds, CHUNK), desc="settling", unit="chunk"):
         size = min(CHUNK, rounds - start)
         trials = np.arange(start, start + CHUNK, dtype=np.int32)  # the last chunk padded
         spec = WorldSpec(seed=np.full(CHUNK, seed, np.int32), setup=np.full(CHUNK, 3, np.int32),
                          trial=trials, order=np.tile(np.arange(n, dtype=np.int32), (CHUNK, 1)),
                          members=np.ones((CHUNK, n), bool), config=stack_configs([config] * CHUNK))
-        stats, placed = jax.tree.map(lambda x, size=size: np.asarray(x)[:size], run(spec))
-        frames.append(pd.DataFrame({"round": trials[:size], **layout_columns(stats),
-                                    "placed_spread_m": placed}))
+        yield trials[:size], jax.tree.map(lambda x, size=size: np.asarray(x)[:size], run(spec))
+
+
+def _layout(scene, state, data):
+    xy = state.drops.xy
+    placed = jnp.max(jnp.linalg.norm(xy[:, None] - xy[None], axis=-1))
+    return layout_stats(scene, data), placed
+
+
+def settled_rounds(rounds: int, config: Config, seed: int = 0) -> pd.DataFrame:
+    frames = [pd.DataFrame({"round": trials, **layout_columns(stats), "placed_spread_m": placed})
+              for trials, (stats, placed) in settle_chunks(rounds, config, _layout, seed)]
     return pd.concat(frames, ignore_index=True)
 
 

@@ -4,7 +4,7 @@ grasping, no success looked at): the data behind the unmet spread bound of `docs
     python3 experiments/setup3_scatter.py ROUNDS OUT.csv [KEY=VALUE ...]
 
 Places and settles ROUNDS Setup 3 rounds of a-f (seed 0, rounds 0..ROUNDS-1, as a run does:
-`procedure.start_round`, `procedure.settle`) and writes one row per object and round: where its
+`setup3_layouts.settle_chunks`) and writes one row per object and round: where its
 origin was dropped (seen from above), where it settled, the settle segment it was dropped
 before (`pile.Drops.segment`), and whether it rests on
 another or touches one. Prints, over the rounds whose spread grew by more than 1 cm, which
@@ -12,47 +12,35 @@ object moved the most and when it was dropped. KEY=VALUE are `--set` overrides.
 """
 
 import sys
+from pathlib import Path
 
-import jax
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
 
-from graspjax.config import Config, override, stack_configs
-from graspjax.procedure import WorldSpec, settle, start_round
+from graspjax.config import Config, override
 from graspjax.sim.bodies import snapshot
 from graspjax.sim.clutter import object_clutter
-from graspjax.sim.physics import WORLDS
-from graspjax.sim.scene import mjx, scene_for
 
-CHUNK = 50
+sys.path.insert(0, str(Path(__file__).parent))
+from setup3_layouts import settle_chunks  # noqa: E402
+
 LETTERS = "abcdef"
+
+
+def _objects(scene, state, data):
+    crowd = object_clutter(scene, data)
+    return (state.drops.xy, state.drops.segment, snapshot(scene, data).object_pos[:, :2],
+            crowd.resting, crowd.touching)
 
 
 def settled_objects(rounds: int, config: Config, seed: int = 0) -> pd.DataFrame:
     """One row per object and round: dropped and settled positions, drop segment, clutter."""
-    scene = scene_for(tuple(LETTERS), config, True)
-    n = scene.num_objects
-    template = mjx.make_data(scene.mj_model)
-
-    def one(spec):
-        state = start_round(scene, template, spec, (3,))
-        data = settle(scene, state, spec).data
-        crowd = object_clutter(scene, data)
-        return (state.drops.xy, state.drops.segment, snapshot(scene, data).object_pos[:, :2],
-                crowd.resting, crowd.touching)
-
-    run = jax.jit(jax.vmap(one, axis_name=WORLDS))
+    n = len(LETTERS)
     frames = []
-    for start in tqdm(range(0, rounds, CHUNK), desc="settling", unit="chunk"):
-        size = min(CHUNK, rounds - start)
-        trials = np.arange(start, start + CHUNK, dtype=np.int32)  # the last chunk padded
-        spec = WorldSpec(seed=np.full(CHUNK, seed, np.int32), setup=np.full(CHUNK, 3, np.int32),
-                         trial=trials, order=np.tile(np.arange(n, dtype=np.int32), (CHUNK, 1)),
-                         members=np.ones((CHUNK, n), bool), config=stack_configs([config] * CHUNK))
-        dropped, segment, settled, resting, touching = (np.asarray(x)[:size] for x in run(spec))
+    for trials, (dropped, segment, settled, resting, touching) in settle_chunks(
+            rounds, config, _objects, seed):
         frames.append(pd.DataFrame({
-            "round": np.repeat(trials[:size], n), "object": np.tile(list(LETTERS[:n]), size),
+            "round": np.repeat(trials, n), "object": np.tile(list(LETTERS), len(trials)),
             "drop_segment": segment.ravel(), "dropped_x": dropped[..., 0].ravel(),
             "dropped_y": dropped[..., 1].ravel(), "settled_x": settled[..., 0].ravel(),
             "settled_y": settled[..., 1].ravel(), "resting": resting.ravel(),
