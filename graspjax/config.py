@@ -32,7 +32,7 @@ import numpy as np
 from graspjax.tree import named_fields
 
 MAX_WINDOW_PX = 32  # largest Eq. 3 window (and triangle radius): the static size of the scored patch
-MAX_WALL_HEIGHT = 0.15  # the walls' modelled height (m); a bin or box of lower walls sinks them
+MAX_WALL_HEIGHT = 0.15  # the walls' modelled height (m); a bin of lower walls sinks them
 # into the table, so its wall height is a traced value
 
 

@@ -58,7 +58,7 @@ def start_round(scene: Scene, data: mjx.Data, spec: WorldSpec,
     pile = spec.setup == 3
     drops = _drops(pos, quat, placed[3][3], spec) if 3 in placed else no_drops(n)
     drops = dataclasses.replace(drops, segment=jnp.where(pile, drops.segment, -1))
-    walls = Walls(cfg.bin_size, cfg.bin_wall_height, pile & cfg.bin)
+    walls = Walls(cfg.bin_size, cfg.bin_wall_height, in_bin(spec))
     data = reset(scene, data, pos, quat, active & ~pile, walls)  # a pile's objects wait to drop
     return RoundState(data=data, attempted=jnp.zeros(n, bool), failures=jnp.int32(0),
                       removed=jnp.zeros(n, bool), key=key, drops=drops)
@@ -77,7 +77,7 @@ def _drops(pos: jax.Array, quat: jax.Array, order: jax.Array, spec: WorldSpec) -
     members = spec.members[:, None]
     centre = jnp.sum(jnp.where(members, pos[:, :2], 0.0), 0) / jnp.maximum(jnp.sum(members), 1)
     return Drops(segment=jnp.where(spec.members, segment, -1), xy=pos[:, :2], quat=quat,
-                 centre=centre, push=jnp.where(config.layout.bin, 0.0, config.layout.pile_push),
+                 centre=centre, push=jnp.where(in_bin(spec), 0.0, config.layout.pile_push),
                  push_until=jnp.int32(config.sim.segments(config.sim.push_time)),
                  push_fade=jnp.int32(config.sim.segments(config.sim.push_fade_time)))
 

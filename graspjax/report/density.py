@@ -47,12 +47,6 @@ SETUP3_BOUNDS = (
 )
 
 
-def _binomial_tail(k: int, n: int, p: float, upper: bool) -> float:
-    """P(X >= k) (upper) or P(X <= k) for X ~ Binomial(n, p)."""
-    ks = range(k, n + 1) if upper else range(0, k + 1)
-    return sum(math.comb(n, i) * p ** i * (1 - p) ** (n - i) for i in ks)
-
-
 def judge(rounds: pd.DataFrame, allowance: bool = False) -> pd.DataFrame:
     """One row per bound: its value on `rounds`, the limit and whether it holds. With
     `allowance`, a bound holds unless the sample contradicts it at 1 % one-sided (a binomial
@@ -68,7 +62,8 @@ def judge(rounds: pd.DataFrame, allowance: bool = False) -> pd.DataFrame:
             if bound.share:
                 k = int(values.sum())
                 # a share at least `limit` is contradicted by few flagged rounds, and vice versa
-                holds = _binomial_tail(k, n, bound.limit, upper=not bound.at_least) >= 0.01
+                tail = (k, n) if not bound.at_least else (0, k)  # P(X >= k) or P(X <= k)
+                holds = _binomial_between(n, bound.limit, *tail) >= 0.01
             else:
                 half = _Z99 * float(values.std(ddof=1)) / math.sqrt(n) if n > 1 else 0.0
                 holds = (value + half >= bound.limit) if bound.at_least else (value - half <= bound.limit)

@@ -1,4 +1,4 @@
-"""Scene models: a table, a set of objects, four walls (a bin, or a pile's box), and a floating
+"""Scene models: a table, a set of objects, four walls (the bin of Setup 3's variant), and a floating
 parallel-jaw gripper.
 
 One compiled model serves every layout of its objects: an object that is not
@@ -6,9 +6,8 @@ in the current layout is *parked*, at rest in the air far from the workspace
 with gravity compensated (`world.physics_model` sets its `body_gravcomp` per
 world), so it makes no contacts and adds no constraint to the solver. The
 a-f scene with object-object contacts and four walls serves Setups 2 and 3
-(each wall is a mocap body: in Setup 3 worlds they stand around the pile as
-the bin, or as the pile's box until it is lifted away, and wait far away
-otherwise); scenes without them (one object at a time, fewer contact slots)
+(each wall is a mocap body: in Setup 3's bin variant they stand around the
+pile as the bin, and wait far away otherwise); scenes without them (one object at a time, fewer contact slots)
 serve Setup 1.
 
 The gripper is a free-floating hand (gravity compensated, as a robot arm's
@@ -64,7 +63,7 @@ class Scene:
     object_qpos: np.ndarray  # (n,) qpos address of each object's free joint
     object_qvel: np.ndarray  # (n,) qvel address of each object's free joint
     park_pos: np.ndarray  # (n, 3) parking position of each object
-    has_walls: bool  # the scene holds the four walls of the bin and the pile's box
+    has_walls: bool  # the scene holds the four walls of the bin
     wall_mocap: np.ndarray  # (4,) mocap indices of the walls at +x, -x, +y, -y (empty without)
     wall_thickness: float  # the walls' thickness (m)
     hand_mocap: int  # mocap index of the hand's target
@@ -117,7 +116,7 @@ WALL_SIDES = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])  # eac
 
 def _walls_mjcf(layout: LayoutConfig) -> str:
     """Four mocap bodies, one wall each (+x, -x, +y, -y), parked. Each wall is
-    `MAX_WALL_HEIGHT` tall: a lower bin or box sinks it into the table (`pile.place_walls`)."""
+    `MAX_WALL_HEIGHT` tall: a lower bin sinks it into the table (`pile.place_walls`)."""
     half_length, half_thickness = layout.wall_length / 2, layout.wall_thickness / 2
     park = " ".join(f"{v:g}" for v in WALL_PARK)
     bodies = []

@@ -286,7 +286,7 @@ class Schedule:
 def simulate(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose,
              target: jax.Array, settle_segments: jax.Array, execute: jax.Array, config: Config,
              reachable: jax.Array | bool = True, take_out: jax.Array | bool = False,
-             drops: Drops | None = None) -> tuple[mjx.Data, Execution]:
+             *, drops: Drops) -> tuple[mjx.Data, Execution]:
     """Execute `grasp` on object `target` (-1: none), judge it, remove what was lifted, then
     settle.
 
@@ -298,8 +298,8 @@ def simulate(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose,
     would be inside something) is not executed and ends as `COLLISION`. With
     `take_out` (() bool, the protocol's hand), a target that was not lifted
     and held is taken out too, after the attempt. Then the world settles for
-    `settle_segments` () int32 segments, hand at home, dropping `drops` (`Drops`; None:
-    nothing) as their segments come. Worlds that do not execute only settle. `execute` is ()
+    `settle_segments` () int32 segments, hand at home, dropping `drops` (`Drops`;
+    `pile.no_drops`: nothing) as their segments come. Worlds that do not execute only settle. `execute` is ()
     bool, the same for every world.
     """
     plan = Schedule.of(config)
@@ -319,8 +319,7 @@ def simulate(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose,
 
     def body(carry):
         i, data, reflex, approached, closed, result = carry
-        if drops is not None:
-            data = push(scene, drop(scene, data, drops, i - n_exec, config), drops, i - n_exec)
+        data = push(scene, drop(scene, data, drops, i - n_exec, config), drops, i - n_exec)
         row = jnp.clip(i, 0, n_exec - 1)
         in_exec = i < n_exec
 
