@@ -38,7 +38,6 @@ import hashlib
 import io
 import json
 import os
-import shutil
 import socket
 from datetime import UTC, datetime
 from pathlib import Path
@@ -50,15 +49,18 @@ from graspjax.io import InputError, write_atomic
 from graspjax.schema import TIMINGS_COLUMNS, sort_attempts
 
 LOCK = ".graspjax.lock"  # held (an OS lock) by the process that writes the folder
+# The files of a chunk done (`RunFolder.add`), as glob patterns under the run's folder.
+PART_FILES = ("parts/attempts-[0-9]*.parquet", "parts/attempts-[0-9]*.csv",
+              "parts/rounds-[0-9]*.parquet", "parts/timings-[0-9]*.json")
 # Everything a run, a sweep, `graspjax report` or `graspjax planes` writes into its folder, as
-# glob patterns: the run's own files. `--overwrite` removes these and nothing else.
-OWN_FILES = ("config.json", LOCK, "attempts.csv", "attempts.parquet", "rounds.csv",
-             "timings.csv", "summary.csv", "rounds_summary.csv", "sweep_summary.csv",
-             "table[12].md", "table[12].tex", "success_by_object.png", "outcomes.png",
-             "comparison.md", "comparison.png", "sweep_*.png", "planes.csv.gz",
-             "planes_summary.csv", "parts/attempts-[0-9]*.parquet", "parts/attempts-[0-9]*.csv",
-             "parts/rounds-[0-9]*.parquet", "parts/timings-[0-9]*.json",
-             "views/p[0-9][0-9][0-9]_s[123]_r*.npz", "debug/p[0-9][0-9][0-9]_s[123]_r*.png")
+# glob patterns: the run's own files (and the gzipped copies that committed results keep).
+# `--overwrite` removes these and nothing else.
+OWN_FILES = ("config.json", LOCK, "attempts.csv", "attempts.csv.gz", "attempts.parquet",
+             "rounds.csv", "rounds.csv.gz", "timings.csv", "summary.csv", "rounds_summary.csv",
+             "sweep_summary.csv", "table[12].md", "table[12].tex", "success_by_object.png",
+             "outcomes.png", "comparison.md", "comparison.png", "sweep_*.png", "planes.csv.gz",
+             "planes_summary.csv", *PART_FILES, "views/p[0-9][0-9][0-9]_s[123]_r*.npz",
+             "debug/p[0-9][0-9][0-9]_s[123]_r*.png")
 
 
 def holds_graspjax_output(folder: Path) -> bool:
@@ -98,9 +100,19 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
     parts of a shared run) or `overwrite`; a folder that holds anything else is
     refused (a user's files are never removed or mixed with a run's).
     """
+    if not str(folder).strip():
+        raise InputError("--out is empty: give a folder")
     folder = Path(folder)
+    if folder.is_symlink() and not folder.exists():
+        raise InputError(f"--out {folder} is a symbolic link to {os.readlink(folder)}, which does "
+                         "not exist: give a folder")
     if folder.exists() and not folder.is_dir():
         raise InputError(f"--out {folder} exists and is not a directory")
+    if folder.resolve() == Path(folder.resolve().anchor):
+        raise InputError(f"--out {folder} is the file system's root: give a folder of its own")
+    if (folder / LOCK).is_symlink():
+        raise InputError(f"--out {folder}: its {LOCK} is a symbolic link, which graspjax never "
+                         "makes; remove it")
     probe = folder
     while not probe.exists():
         probe = probe.parent
@@ -133,12 +145,17 @@ def _held(lock: Path) -> bool:
     import fcntl
 
     try:
-        with open(lock) as handle:
-            fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)  # released when closed
+        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
     except FileNotFoundError:
         return False
+    except OSError:  # a link (refused by `check_output_folder`) or unreadable: not a run's
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)  # released when closed
     except OSError:
         return True
+    finally:
+        os.close(fd)
     return False
 
 
@@ -154,7 +171,14 @@ def writing(folder: Path, shared: bool = False):
     import fcntl
 
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / LOCK, "a+") as handle:
+    try:  # never through a link: a planted one would have a file elsewhere truncated
+        fd = os.open(folder / LOCK, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+    except OSError as exc:
+        if (folder / LOCK).is_symlink():
+            raise InputError(f"--out {folder}: its {LOCK} is a symbolic link, which graspjax "
+                             "never makes; remove it") from None
+        raise exc
+    with open(fd, "r+") as handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -168,8 +192,10 @@ def writing(folder: Path, shared: bool = False):
         handle.flush()
         try:
             yield
-        finally:  # removed while still held, so no run's folder keeps it
-            (folder / LOCK).unlink(missing_ok=True)
+        finally:  # removed while still held, so no run's folder keeps it (unless the folder
+            # became read-only: the error that stopped the run is the one to tell)
+            with contextlib.suppress(OSError):
+                (folder / LOCK).unlink(missing_ok=True)
 
 
 RUN_KEYS = ("seed", "paired", "jobs", "overrides", "grid")  # what determines a run's rows
@@ -192,6 +218,17 @@ def _difference(old: dict, new: dict) -> str:
                                 f"{new[key].get(k, 'unset')!r} here")
             return f"{key}: {old.get(key)!r} there, {new.get(key)!r} here"
     return f"run_id: {old.get('run_id')!r} there, {new.get('run_id')!r} here"
+
+
+def _read_config(path: Path) -> dict:
+    """A run's `config.json`; one line where it cannot be read."""
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path} cannot be read ({exc}): it holds no run to resume") from None
+    if not isinstance(meta, dict):
+        raise InputError(f"{path} holds no run's settings: it holds no run to resume")
+    return meta
 
 
 def _csv(frame: pd.DataFrame, header: bool) -> bytes:
@@ -226,17 +263,25 @@ class RunFolder:
                  shared: bool = False, keep: bool = True):
         self.folder = Path(folder)
         self.parts = self.folder / "parts"
-        self.chunks, self.meta, self.shared = chunks, meta, shared
+        self.chunks, self.shared = chunks, shared
+        self.meta = json.loads(json.dumps(meta, default=str))  # as config.json will hold it
         self.append = not shared
         config = self.folder / "config.json"
+        old = {}
         if config.is_file() and (resume or shared):
-            old = json.loads(config.read_text())
-            if any(old.get(key) != meta.get(key) for key in ("run_id", "batch")):
-                raise InputError(f"--out {self.folder} holds another run ({_difference(old, meta)})")
+            old = _read_config(config)
+            if any(old.get(key) != self.meta.get(key) for key in ("run_id", "batch")):
+                raise InputError(f"--out {self.folder} holds another run "
+                                 f"({_difference(old, self.meta)})")
         elif self.folder.exists():  # --overwrite: nothing of the old run may mix with this one
             remove_own_files(self.folder)
         self.folder.mkdir(parents=True, exist_ok=True)
-        self.finished = (self.folder / "attempts.parquet").is_file() and not self.parts.is_dir()
+        # Finished: every chunk's rows assembled (`finish`), its parts gone. Committed results
+        # keep attempts.csv (or .gz) alone: config.json's "finished" then says so.
+        rows = [self.folder / name for name in ("attempts.parquet", "attempts.csv",
+                                                "attempts.csv.gz")]
+        self.finished = not self._part_files() and (rows[0].is_file() or bool(
+            old.get("finished")) and any(path.is_file() for path in rows[1:]))
         self.appended: set[int] = set()  # chunks whose rows attempts.csv holds
         # The chunks this process added: their rows and CSV text, and their rounds, as their
         # parts read back (`add`), so that `finish` reads only other processes' parts. Not
@@ -249,6 +294,10 @@ class RunFolder:
             write_atomic(config, (json.dumps(meta, indent=2, default=str) + "\n").encode())
             if self.append:
                 self._rewrite_csv()
+
+    def _part_files(self) -> list[Path]:
+        """The parts of the chunks done (`PART_FILES`)."""
+        return [p for pattern in PART_FILES for p in self.folder.glob(pattern)]
 
     @property
     def done(self) -> set[int]:
@@ -268,9 +317,10 @@ class RunFolder:
     def _append(self, chunk: int, frame: pd.DataFrame, text: bytes) -> None:
         """Append one chunk's rows, `frame` formatted as `text` (the header first if the file
         is empty)."""
-        csv = self.folder / "attempts.csv"
-        with open(csv, "ab") as handle:
-            if csv.stat().st_size == 0:
+        fd = os.open(self.folder / "attempts.csv", os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW,
+                     0o644)
+        with open(fd, "ab") as handle:  # never through a link (it is made by write_atomic)
+            if os.fstat(fd).st_size == 0:
                 handle.write(_csv(frame.iloc[:0], True))
             handle.write(text)
         self.appended.add(chunk)
@@ -280,9 +330,19 @@ class RunFolder:
         folder of an earlier version resumed)."""
         if chunk in self._kept:
             return self._kept[chunk][:2]
-        frame = pd.read_parquet(self.parts / f"attempts-{chunk:05d}.parquet")
+        frame = self._read(f"attempts-{chunk:05d}.parquet", pd.read_parquet)
         text = self.parts / f"attempts-{chunk:05d}.csv"
         return frame, text.read_bytes() if text.is_file() else _csv(frame, False)
+
+    def _read(self, name: str, reader):
+        """`reader(path)` of the part file `name`; one line naming it where it cannot be read
+        (parts are written whole, so only a damaged disk or a hand edits one)."""
+        path = self.parts / name
+        try:
+            return reader(path)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{path} cannot be read ({str(exc).splitlines()[0]}): remove it "
+                             "and --resume plays its chunk again") from None
 
     def catch_up(self) -> None:
         """Append the rows of chunks done by other processes (the run's helpers) that
@@ -326,12 +386,13 @@ class RunFolder:
             alike = all(f.dtypes.equals(parts[0][0].dtypes) for f, _ in parts)
             lines = [line for _, text in parts for line in text.splitlines(keepends=True)]
             frame, csv = _sorted(frame, lines if alike else None)  # alike: formatted alike
-            timings = pd.DataFrame([json.loads((self.parts / f"timings-{c:05d}.json").read_text())
+            timings = pd.DataFrame([self._read(f"timings-{c:05d}.json",
+                                               lambda path: json.loads(path.read_text()))
                                     for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
             parquet = io.BytesIO()
             frame.to_parquet(parquet, index=False)
             rounds = pd.concat([self._kept[c][2] if c in self._kept
-                                else pd.read_parquet(self.parts / f"rounds-{c:05d}.parquet")
+                                else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
                                 for c in sorted(self.done)], ignore_index=True)
             rounds = rounds.sort_values(["point", "setup", "round"], kind="stable")
             write_atomic(self.folder / "attempts.parquet", parquet.getvalue())
@@ -342,8 +403,12 @@ class RunFolder:
             write_atomic(self.folder / "config.json",
                          (json.dumps(meta, indent=2, default=str) + "\n").encode())
             if not self.shared if remove_parts is None else remove_parts:
-                shutil.rmtree(self.parts)
+                for path in self._part_files():  # a user's file there stays, and so does parts/
+                    path.unlink()
+                with contextlib.suppress(OSError):
+                    self.parts.rmdir()
             self.finished = True
             self._kept.clear()  # the report reads the files
-        data_files = ("attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "config.json")
-        return [self.folder / name for name in data_files]
+        data_files = ("attempts.csv", "attempts.csv.gz", "attempts.parquet", "rounds.csv",
+                      "rounds.csv.gz", "timings.csv", "config.json")
+        return [self.folder / name for name in data_files if (self.folder / name).is_file()]

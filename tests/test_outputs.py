@@ -3,7 +3,12 @@ resume that would mix two runs is refused naming the setting that differs."""
 
 import json
 import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from graspjax.io import InputError
@@ -49,11 +54,12 @@ def test_overwrite_removes_every_file_of_a_run_or_sweep_and_nothing_else(tmp_pat
     ours = ["attempts.csv", "attempts.parquet", "rounds.csv", "timings.csv", "summary.csv",
             "table1.md", "table2.tex", "outcomes.png", "success_by_object.png",
             "sweep_summary.csv", "sweep_align.window_px.png", "sweep_heatmap.png",
-            "comparison.md", "comparison.png", "rounds_summary.csv",
+            "comparison.md", "comparison.png", "rounds_summary.csv", "rounds.csv.gz",
+            "attempts.csv.gz",
             "parts/attempts-00001.parquet", "parts/timings-00001.json",
             "views/p000_s1_r00002_a0_c.npz", "debug/p000_s1_r00002_a0_c.png"]
     theirs = ["notes.txt", "views/x", "debug/mine.png", "parts/keep.txt", "analysis/plot.png"]
-    for name in ours + theirs:
+    for name in ours + theirs:  # (rounds.csv.gz, attempts.csv.gz: as committed results keep them)
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text(name)
     assert check_output_folder(tmp_path, overwrite=True) == tmp_path
@@ -155,3 +161,139 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
     whole = sort_attempts(pd.concat(chunks, ignore_index=True))
     assert (tmp_path / "attempts.csv").read_bytes() == _csv(whole, True)
     assert pd.read_parquet(tmp_path / "attempts.parquet").equals(whole)
+
+
+def _finished_run(folder: Path) -> RunFolder:
+    """A run of two one-row chunks, finished: attempts.csv, .parquet, rounds.csv, timings."""
+    from graspjax.schema import TIMINGS_COLUMNS
+
+    run = RunFolder(folder, _meta(), chunks=2, resume=False)
+    for chunk in (0, 1):
+        run.add(chunk, pd.DataFrame({"point": [0], "setup": [1], "object": ["a"],
+                                     "trial": [chunk], "attempt": [0]}),
+                pd.DataFrame({"point": [], "setup": [], "round": []}),
+                dict.fromkeys(TIMINGS_COLUMNS, 0))
+    run.finish()
+    return run
+
+
+def test_resuming_a_finished_run_that_keeps_only_its_csv_keeps_every_row(tmp_path):
+    """Committed results keep attempts.csv without attempts.parquet: --resume on such a folder
+    is a finished run (config.json says so), its rows untouched, not a run to start over."""
+    _finished_run(tmp_path)
+    rows = (tmp_path / "attempts.csv").read_bytes()
+    (tmp_path / "attempts.parquet").unlink()
+    again = RunFolder(tmp_path, _meta(), chunks=2, resume=True)
+    assert again.finished and again.done == {0, 1}
+    assert (tmp_path / "attempts.csv").read_bytes() == rows
+    assert again.finish() and (tmp_path / "attempts.csv").read_bytes() == rows
+    assert not (tmp_path / "parts").exists()
+
+
+def test_resuming_the_committed_reference_run_keeps_its_rows(tmp_path):
+    """README's command with --resume on a copy of the committed 10-trial reference (a CLI
+    process): its 240 rows stay, whatever the code makes of the folder."""
+    reference = Path(__file__).parents[1] / "results" / "paper_cpu_10"
+    copy = tmp_path / "copy"
+    shutil.copytree(reference, copy)
+    rows = (copy / "attempts.csv").read_bytes()
+    done = subprocess.run([sys.executable, "-m", "graspjax.cli", "run", "--table", "1,2",
+                           "--trials", "10", "--seed", "0", "--out", str(copy), "--resume",
+                           "--quiet"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert (copy / "attempts.csv").read_bytes() == rows
+    assert len(pd.read_csv(copy / "attempts.csv")) == 240
+
+
+def test_a_users_file_in_parts_outlives_the_run(tmp_path):
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "notes.txt").write_text("mine")
+    _finished_run(tmp_path)
+    assert (tmp_path / "parts" / "notes.txt").read_text() == "mine"
+    assert [p.name for p in (tmp_path / "parts").iterdir()] == ["notes.txt"]
+    assert RunFolder(tmp_path, _meta(), chunks=2, resume=True).finished
+
+
+def test_a_damaged_part_is_named_on_resume(tmp_path):
+    run = RunFolder(tmp_path, _meta(), chunks=2, resume=False)
+    run.add(0, pd.DataFrame({"setup": [1], "object": ["a"], "trial": [0]}),
+            pd.DataFrame({"point": []}), {})
+    (tmp_path / "parts" / "attempts-00000.parquet").write_bytes(b"PAR1 cut")
+    with pytest.raises(InputError, match=r"attempts-00000.parquet cannot be read .*: remove it "
+                                         "and --resume plays its chunk again"):
+        RunFolder(tmp_path, _meta(), chunks=2, resume=True)
+
+
+def test_a_resume_refused_names_the_setting_even_where_the_run_held_tuples(tmp_path):
+    """The settings as the command gives them (tuples) and as config.json holds them (lists)
+    are the same settings: a resume refused for another batch says batch, not jobs."""
+    as_given = _meta(jobs=[{"objects": ("a",), "setups": (1,), "trials": 3}])
+    RunFolder(tmp_path, as_given, chunks=2, resume=False)
+    RunFolder(tmp_path, as_given, chunks=2, resume=True)  # the same run resumes
+    with pytest.raises(InputError, match="batch: 3 there, 6 here"):
+        RunFolder(tmp_path, {**as_given, "batch": 6}, chunks=2, resume=True)
+
+
+def test_a_lock_file_that_is_a_link_is_refused_and_its_target_left_alone(tmp_path):
+    """A planted `.graspjax.lock` link: the run stops in one line (a CLI process), the file it
+    points at keeps its bytes, and a dangling link creates nothing outside the folder."""
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / LOCK).symlink_to(victim)
+    for attempt in (lambda: writing(folder), lambda: check_output_folder(folder, resume=True)):
+        with pytest.raises(InputError, match="is a symbolic link, which graspjax never makes"):
+            with attempt():
+                pass
+    done = subprocess.run([sys.executable, "-m", "graspjax.cli", "run", "--setup", "1",
+                           "--objects", "a", "--trials", "1", "--out", str(folder), "--resume"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "symbolic link" in done.stderr
+    assert victim.read_text() == "precious"
+    elsewhere = tmp_path / "elsewhere.txt"
+    (folder / LOCK).unlink()
+    (folder / LOCK).symlink_to(elsewhere)
+    with pytest.raises(InputError, match="symbolic link"):
+        with writing(folder):
+            pass
+    assert not elsewhere.exists()
+
+
+def test_attempts_csv_is_never_appended_through_a_link(tmp_path):
+    run = RunFolder(tmp_path, _meta(), chunks=2, resume=False)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    (tmp_path / "attempts.csv").unlink()
+    (tmp_path / "attempts.csv").symlink_to(victim)
+    with pytest.raises(OSError):
+        run.add(0, pd.DataFrame({"setup": [1]}), pd.DataFrame({"point": []}), {})
+    assert victim.read_text() == "precious"
+
+
+@pytest.mark.parametrize("name, words", [
+    ("", "--out is empty: give a folder"),
+    ("/", "is the file system's root"),
+    ("dangling", "is a symbolic link to nowhere, which does not exist"),
+])
+def test_output_folders_no_run_can_use_get_one_line_that_says_why(tmp_path, name, words):
+    if name == "dangling":
+        (tmp_path / name).symlink_to("nowhere")
+        name = str(tmp_path / name)
+    with pytest.raises(InputError, match=words):
+        check_output_folder(name)
+
+
+def test_a_write_failure_is_the_error_told_not_the_lock_left_behind(tmp_path, monkeypatch):
+    """A folder turned read-only mid-run: the run's own failed write is what the user reads,
+    though its lock file cannot be removed either."""
+    folder = tmp_path / "run"
+    with pytest.raises(OSError) as failed:
+        with writing(folder):
+            def refuse(self, missing_ok=False):
+                raise PermissionError(13, "Permission denied", str(self))
+
+            monkeypatch.setattr(Path, "unlink", refuse)
+            raise PermissionError(13, "Permission denied", str(folder / "attempts.csv"))
+    assert failed.value.filename == str(folder / "attempts.csv")
