@@ -149,6 +149,9 @@ def grid(items: list[str], base, fixed=()):
     axes = []
     for name, text in parse_assignments(items).items():
         names = name.split(":")
+        if len(set(names)) < len(names):
+            raise UsageError(f"--grid {name} names {next(n for n in names if names.count(n) > 1)} "
+                             "twice")
         values = [v.strip().split(":") for v in text.split(",") if v.strip()]
         if not values:
             raise UsageError(f"--grid {name}= has no values")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import gzip
 import importlib
 import json
 import os
@@ -27,7 +28,7 @@ from graspjax.batch.program import program, run_chunks
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.config import Config, differences
 from graspjax.io import jsonable, write_atomic
-from graspjax.outputs import RunFolder, check_output_folder, run_id, writing
+from graspjax.outputs import RunFolder, check_output_folder, remove_own_files, run_id, writing
 from graspjax.provenance import provenance
 from graspjax.runtime.compiles import trace_workers
 from graspjax.runtime.distributed import barrier
@@ -200,7 +201,8 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                 todo = tuple(c.index for c in ours
                              if c.group in groups_of_helper and c.index not in folder.done)
                 if todo:
-                    helpers.append(Helper(play_helper_share, experiment, str(out), meta, process,
+                    helpers.append(Helper(play_helper_share, experiment, str(out.absolute()), meta,
+                                          process,
                                           todo, progress, cores_of(process, len(shares))
                                           if warm else None))
             if helpers:
@@ -232,10 +234,13 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
     clock.append(time.perf_counter())
     from graspjax.report import write_report
+    from graspjax.report.files import load_attempts
 
     files += write_report(out)[0]
     clock.append(time.perf_counter())
-    success = pd.read_parquet(out / "attempts.parquet", columns=["success"])["success"]
+    success = (pd.read_parquet(out / "attempts.parquet", columns=["success"])["success"]
+               if (out / "attempts.parquet").is_file()  # committed results keep the CSV alone
+               else load_attempts(out)["success"])
     lengths = [round(end - begin, 2) for begin, end in zip(clock[:-1], clock[1:], strict=True)]
     seconds = dict(zip(("start", "chunks", "rows", "report"), lengths, strict=True))
     if before is not None:
@@ -262,9 +267,9 @@ def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int]
     for result in run_chunks(groups, configs, batch, skip, keep_views=keep_views,
                              progress=progress, log=log, process=process, overlap=overlap):
         frame = attempt_rows(result, columns)
+        if result.views is not None:  # before the chunk is marked done: a kill between the
+            saver.save(result.chunk, frame, result.views)  # two replays the chunk and its views
         folder.add(result.chunk.index, frame, round_rows(result, columns), result.timings)
-        if result.views is not None:
-            saver.save(result.chunk, frame, result.views)
         if process == 0:
             import_in_background("graspjax.report")
         after_chunk()
@@ -292,22 +297,25 @@ def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str]
     from graspjax import planes
 
     out = check_output_folder(out, overwrite=overwrite)
-    groups = plan(jobs, [base], seed)
-    batch = batch or default_batch()
-    bar, _ = progress_bar(sum(len(g.worlds) for g in groups), quiet, unit="world")
-    with bar:
-        rows, timings = planes.study(groups, [c for _, c in points], batch, bar.update)
-    grid = {k: [p[0][k] for p in points] for k in keys}
-    for k, values in grid.items():
-        rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
-    summary = planes.summarize(rows, grid)
-    out.mkdir(parents=True, exist_ok=True)
-    rows.to_csv(out / "planes.csv.gz", index=False)
-    summary.to_csv(out / "planes_summary.csv", index=False)
-    meta = {"seed": seed, "preset": preset, "jobs": [dataclasses.asdict(j) for j in jobs],
-            "overrides": differences(base, Config()), "grid": grid, "batch": batch,
-            "config": named_fields(base), "timings": timings, **provenance()}
-    (out / "config.json").write_text(json.dumps(meta, indent=1, default=jsonable))
+    with writing(out):  # a run (or another study) writing the folder stops it here
+        if overwrite:  # nothing of what the folder held may stay beside the study
+            remove_own_files(out)
+        groups = plan(jobs, [base], seed)
+        batch = batch or default_batch()
+        bar, _ = progress_bar(sum(len(g.worlds) for g in groups), quiet, unit="world")
+        with bar:
+            rows, timings = planes.study(groups, [c for _, c in points], batch, bar.update)
+        grid = {k: [p[0][k] for p in points] for k in keys}
+        for k, values in grid.items():
+            rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
+        summary = planes.summarize(rows, grid)
+        meta = {"seed": seed, "preset": preset, "jobs": [dataclasses.asdict(j) for j in jobs],
+                "overrides": differences(base, Config()), "grid": grid, "batch": batch,
+                "config": named_fields(base), "timings": timings, **provenance()}
+        write_atomic(out / "planes.csv.gz",
+                     gzip.compress(rows.to_csv(index=False).encode(), mtime=0))
+        write_atomic(out / "planes_summary.csv", summary.to_csv(index=False).encode())
+        write_atomic(out / "config.json", json.dumps(meta, indent=1, default=jsonable).encode())
     return summary, timings, out
 
 

@@ -13,6 +13,7 @@ paper's Figs. 2-5 and 8 (`viz.attempt_figure`).
 from __future__ import annotations
 
 import dataclasses
+import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from graspjax.config import Config
+from graspjax.io import write_atomic
 from graspjax.perception import Alignment, Grasp
 from graspjax.perception.contour import Contour, Edges
 from graspjax.perception.grasp import surface_contour
@@ -97,8 +99,11 @@ class ViewSaver:
                       "camera": np.array([camera.fx, camera.fy, camera.cx, camera.cy]),
                       "label": np.array([f"Setup {row.setup}, trial {row.trial}, attempt "
                                          f"{row.attempt}, object {row.object}: {row.reason}"])}
-            np.savez_compressed(self.folder / f"{attempt_name(row)}.npz", **arrays)
-            self.saved += 1
+            path = self.folder / f"{attempt_name(row)}.npz"
+            self.saved += not path.exists()  # a resumed chunk's views are written again
+            buffer = io.BytesIO()
+            np.savez_compressed(buffer, **arrays)
+            write_atomic(path, buffer.getvalue())  # a kill leaves the whole file or none
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,9 +129,23 @@ class SavedAttempt:
 
 
 def load(path: str | Path) -> SavedAttempt:
-    """Read one `views/*.npz`."""
-    with np.load(path) as data:
-        arrays = dict(data)
+    """Read one `views/*.npz`; a ValueError naming the file where it is cut or not one."""
+    import zipfile
+    import zlib
+
+    try:
+        with np.load(path) as data:
+            arrays = dict(data)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise ValueError(f"{path} cannot be read as saved views ({exc}): remove it, or run "
+                         "again to save it") from None
+    try:
+        return _attempt(arrays)
+    except KeyError as exc:
+        raise ValueError(f"{path} is no saved attempt (it lacks {exc})") from None
+
+
+def _attempt(arrays: dict[str, np.ndarray]) -> SavedAttempt:
     return SavedAttempt(label=str(arrays["label"][0]), depth=arrays["depth"],
                         target_mask=arrays["target_mask"],
                         seed_mask=arrays["seed_mask"],

@@ -469,12 +469,16 @@ def test_a_worker_process_traces_the_second_program_and_the_rows_stay(methods_sw
     pd.testing.assert_frame_equal(ours, reference)
 
 
-def test_helper_processes_play_groups_side_by_side_and_the_files_stay(methods_sweep, tmp_path):
+def test_helper_processes_play_groups_side_by_side_and_the_files_stay(methods_sweep, tmp_path,
+                                                                     monkeypatch):
     """Two processes (`batch.players`): the run plays one method's group, a helper process the
     other's, on a core of its own; the run assembles their parts into the files one process
-    writes, byte for byte, and timings.csv says which process played each chunk."""
+    writes, byte for byte, and timings.csv says which process played each chunk. The folder
+    is given relative to a working directory outside the checkout (the helpers start in
+    another): every row lands in it."""
+    monkeypatch.chdir(tmp_path)
     out = tmp_path / "sweep"
-    assert main([*METHODS_SWEEP, "--out", str(out), "--processes", "2"]) == 0
+    assert main([*METHODS_SWEEP, "--out", "sweep", "--processes", "2"]) == 0
     for name in ("attempts.csv", "rounds.csv"):
         assert (out / name).read_bytes() == (methods_sweep / name).read_bytes()
     timings = pd.read_csv(out / "timings.csv")
@@ -680,6 +684,32 @@ def test_failed_attempts_keep_their_views_and_report_draws_them(rounds_runs, cap
     assert drawn[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_a_cut_views_file_is_one_line_in_report_debug(rounds_runs, tmp_path, capsys):
+    copy = tmp_path / "copy"
+    shutil.copytree(rounds_runs[1], copy)
+    first = sorted((copy / "views").glob("*.npz"))[0]
+    first.write_bytes(first.read_bytes()[:1000])
+    assert main(["report", str(copy), "--debug", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{first} cannot be read as saved views" in err
+
+
+def test_a_chunks_views_are_on_disk_before_the_chunk_counts_as_done(monkeypatch):
+    """A kill between the two writes must leave a chunk to replay, views and all: the views
+    of a chunk are saved before its part marks it done (`_play`'s order)."""
+    order = []
+    result = types.SimpleNamespace(chunk=types.SimpleNamespace(index=0), views="views",
+                                   timings={})
+    monkeypatch.setattr(experiment, "run_chunks", lambda *args, **options: iter([result]))
+    monkeypatch.setattr(experiment, "attempt_rows", lambda result, columns: "rows")
+    monkeypatch.setattr(experiment, "round_rows", lambda result, columns: "rounds")
+    folder = types.SimpleNamespace(add=lambda *args: order.append("chunk done"))
+    saver = types.SimpleNamespace(save=lambda *args: order.append("views saved"))
+    experiment._play([], [], 3, set(), folder, None, None, None, process=1, saver=saver,
+                     keep_views=True)
+    assert order == ["views saved", "chunk done"]
+
+
 def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_rows(
         tiny_run, two_devices):
     """The tiny run left its programs' exported forms in the store; another process, with two
@@ -755,6 +785,9 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     (["sweep", "--setup", "1", "--grid", "align.distance_threshold=0.3,0.30"], "one point twice"),
     (["run", "--table", "1,1"], "--table names a value twice"),  # one job twice: a run never ends
     (["run", "--setup", "1,2,1"], "--setup names a value twice"),
+    # Issue 81: a zipped grid naming one key twice kept its last value alone.
+    (["sweep", "--setup", "1", "--grid", "align.window_px:align.window_px=10:11"],
+     "--grid align.window_px:align.window_px names align.window_px twice"),
 ])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, message):
     out = tmp_path / "out"

@@ -1,6 +1,8 @@
 """The perception-only plane study: judged planes against analytic views, its summary by
 hand, and the command end to end on a small Setup 1 study."""
 
+import json
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -85,9 +87,18 @@ def test_planes_refuses_a_grid_that_is_not_an_alignment_value(tmp_path, capsys):
 @pytest.mark.slow
 def test_planes_end_to_end(tmp_path, capsys):
     """Two tilted first views of a cube per grid point: rows per (point, world), a summary per
-    point, one compiled scoring call; a cube's top is judged on the target."""
+    point, one compiled scoring call; a cube's top is judged on the target. Written over a
+    finished run's folder (--overwrite): none of the run's files stay beside the study."""
     out = tmp_path / "planes"
+    run_files = ["attempts.csv", "attempts.parquet", "rounds.csv.gz", "table1.md",
+                 "summary.csv", "views/p000_s1_r00000_a0_a.npz"]
+    for name in run_files:
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        (out / name).write_text("the run's")
+    (out / "config.json").write_text(json.dumps({"versions": {"graspjax": "0.1.0"},
+                                                 "finished": "2026-12-01T00:00:00+00:00"}))
     code = cli.main(["planes", "--setup", "1", "--objects", "a", "--trials", "2", "--quiet",
+                     "--overwrite",
                      "--set", "procedure.view_tilt_deg=30", "--set", "align.anchor=centre",
                      "--set", "align.turn_normal=metric",  # ours; and a tolerance tighter than
                      "--set", "detect.antipodal_tolerance_deg=15",  # the default: no grasp, so
@@ -101,3 +112,26 @@ def test_planes_end_to_end(tmp_path, capsys):
     assert len(found) > 0 and (found.surface == "target").all() and (found.normal_error_deg < 2.0).all()
     summary = pd.read_csv(out / "planes_summary.csv")
     assert list(summary.point) == [0, 1]
+    assert not any((out / name).exists() for name in run_files)
+    assert "timings" in json.loads((out / "config.json").read_text())  # the study's own
+
+
+def test_planes_stops_at_the_lock_of_a_run_writing_the_folder(tmp_path):
+    """`graspjax planes` (a CLI process) into the folder of a run still going: one line naming
+    the run's process; the run's config.json (what --resume needs) keeps its bytes."""
+    import os
+    import subprocess
+    import sys
+
+    from graspjax.outputs import writing
+
+    out = tmp_path / "run"
+    with writing(out):
+        (out / "config.json").write_text(json.dumps({"versions": {"graspjax": "0.1.0"}}))
+        settings = (out / "config.json").read_bytes()
+        done = subprocess.run([sys.executable, "-m", "graspjax.cli", "planes", "--setup", "1",
+                               "--objects", "a", "--out", str(out), "--quiet"],
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+        assert f"is being written by process {os.getpid()}" in done.stderr
+        assert (out / "config.json").read_bytes() == settings
