@@ -370,8 +370,11 @@ def detect_images(inputs, outputs: DetectOutputs, batch: int | None = None, quie
 
 
 def figure_names(paths: list[Path] | tuple[Path, ...]) -> list[str]:
-    """Distinct PNG names for the images: their stems, prefixed by parent folders where needed."""
-    parts = [p.resolve().with_suffix("").parts for p in paths]
+    """Distinct PNG names for the images, each a bare file name (no folder, no root), so that it
+    stays in the figures' folder: their stems, prefixed by as many parent folders as it takes to
+    tell them apart (joined by '_'), else numbered."""
+    resolved = [p.resolve().with_suffix("") for p in paths]
+    parts = [q.relative_to(q.anchor).parts for q in resolved]  # the root is no folder's name
     for depth in range(1, max(len(q) for q in parts) + 1):
         names = ["_".join(q[-depth:]) for q in parts]
         if len(set(names)) == len(names):

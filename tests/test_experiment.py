@@ -12,6 +12,7 @@ import sys
 import threading
 import time
 import types
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -849,3 +850,18 @@ def test_the_recorded_command_is_the_one_a_script_typed(tmp_path, monkeypatch):
     recorded = json.loads((out / "config.json").read_text())["command"]
     assert recorded == shlex.join(["graspjax", "run", *TINY, "--out", str(out)])
     assert shlex.split(recorded)[1:] == ["run", *TINY, "--out", str(out)]
+
+
+def test_figure_names_stay_in_the_folder_and_are_distinct(tmp_path):
+    """`detect --figures DIR`: images of one file name in sibling folders, or one of them in a
+    folder at the root's first level (`/data/x.npy` beside `/mnt/data/x.npy`), get distinct
+    bare names, never the root or a separator (a name with the root wrote outside DIR)."""
+    cases = [[tmp_path / "a" / "x.npy", tmp_path / "b" / "x.npy"],
+             [Path("/gjx81-data/x.npy"), Path("/gjx81-mnt/gjx81-data/x.npy")],
+             [Path("/gjx81-data/x.npy"), Path("/gjx81-other/x.npy")]]
+    expected = [["a_x.png", "b_x.png"], ["gjx81-data_x.png", "gjx81-mnt_gjx81-data_x.png"],
+                ["gjx81-data_x.png", "gjx81-other_x.png"]]
+    for paths, names in zip(cases, expected, strict=True):
+        got = experiment.figure_names(paths)
+        assert got == names
+        assert all(Path(n).name == n and (tmp_path / n).parent == tmp_path for n in got)
