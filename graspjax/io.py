@@ -100,7 +100,10 @@ def read_depth(path: str | os.PathLike, depth_scale: float = 0.001
 
 
 def check_matrix(matrix, name: str = "K") -> np.ndarray:
-    """A pinhole intrinsics matrix (3, 3): positive focal lengths, no skew, last row (0, 0, 1)."""
+    """A pinhole intrinsics matrix (3, 3): positive focal lengths, no skew, last row (0, 0, 1).
+    Booleans (JSON true/false, a bool array) are no numbers."""
+    if any(isinstance(v, (bool, np.bool_)) for v in np.asarray(matrix, dtype=object).ravel()):
+        raise InputError(f"{name}: expected numbers, got true/false")
     try:
         k = np.asarray(matrix, np.float64)
     except (TypeError, ValueError):
@@ -118,7 +121,8 @@ def load_intrinsics(path: str | os.PathLike) -> dict:
     """Intrinsics `{fx, fy, cx, cy}` (plus `width`, `height` when the file gives them).
 
     JSON (`.json`, gqcnn `.intr`) with fx, fy, cx, cy, or with a leading
-    underscore (_fx, ...), or a 3x3 `K`; or a 3x3 matrix in `.npy` / `.txt`.
+    underscore (_fx, ...), or a 3x3 `K`; or a 3x3 matrix in `.npy` / `.txt`. A JSON file's
+    values (pixels) must be finite numbers > 0, not true or false.
     """
     path = Path(path)
     _existing_file(path, "an intrinsics file")
@@ -135,25 +139,36 @@ def load_intrinsics(path: str | os.PathLike) -> dict:
         raise InputError(f"cannot read intrinsics from {path}: {_first_line(exc)}") from None
     if not isinstance(data, dict):
         raise InputError(f"cannot read intrinsics from {path}: expected a JSON object")
+    names = {key.lstrip("_"): key for key in data}  # as the file spells them, for messages
     data = {key.lstrip("_"): value for key, value in data.items()}
     if "fx" not in data and isinstance(data.get("K"), list):
-        k = check_matrix(data["K"], f"{path}: K")
+        k = check_matrix(data["K"], f"{path}: {names['K']}")
         data.update(fx=k[0, 0], fy=k[1, 1], cx=k[0, 2], cy=k[1, 2])
+        names.update({key: f"{names['K']}'s {key}" for key in ("fx", "fy", "cx", "cy")})
     missing = [key for key in ("fx", "fy", "cx", "cy") if key not in data]
     if missing:
         raise InputError(f"cannot read intrinsics from {path}: missing {', '.join(missing)}")
-    out = {}
-    for key in ("fx", "fy", "cx", "cy", "width", "height"):
-        if key in data:
-            try:
-                out[key] = float(data[key])
-            except (TypeError, ValueError):
-                raise InputError(f"{path}: {key} must be a number, got {data[key]!r}") from None
-    if out["fx"] <= 0 or out["fy"] <= 0:
-        raise InputError(f"{path}: focal lengths must be > 0")
+    out = {key: _positive(data[key], f"{path}: {names[key]}")
+           for key in ("fx", "fy", "cx", "cy", "width", "height") if key in data}
     if data.get("skew", 0) not in (0, 0.0):
         raise InputError(f"{path}: skew {data['skew']!r} is not supported (expected 0)")
     return out
+
+
+def _positive(value, name: str) -> float:
+    """A JSON value that must be a finite number > 0 (pixels), as a float; true and false are
+    no numbers (Python would take true for 1). `name` says which key of which file."""
+    number = None
+    if not isinstance(value, bool):
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            pass
+    if number is None:
+        raise InputError(f"{name} must be a number, got {json.dumps(value)}")
+    if not (math.isfinite(number) and number > 0):
+        raise InputError(f"{name} must be a finite number > 0, got {json.dumps(value)}")
+    return number
 
 
 def load_mask(path: str | os.PathLike, shape: tuple[int, int]) -> np.ndarray:

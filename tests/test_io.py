@@ -113,6 +113,32 @@ def test_unreadable_intrinsics(tmp_path, name, text, match):
     assert "\n" not in str(info.value)
 
 
+INTR = {"_fx": 525.0, "_fy": 520.0, "_cx": 319.5, "_cy": 239.5, "_width": 640, "_height": 480}
+
+
+@pytest.mark.parametrize("name, values, message", [
+    ("x.intr", {"_fx": True}, "_fx must be a number, got true"),
+    ("x.json", {"fx": 525.0, "fy": False, "cx": 1, "cy": 1}, "fy must be a number, got false"),
+    ("x.intr", {"_cy": float("nan")}, "_cy must be a finite number > 0, got NaN"),
+    ("x.intr", {"_fx": float("inf")}, "_fx must be a finite number > 0, got Infinity"),
+    ("x.intr", {"_cx": 0}, "_cx must be a finite number > 0, got 0"),
+    ("x.intr", {"_width": True}, "_width must be a number, got true"),
+    ("x.intr", {"_height": -480}, "_height must be a finite number > 0, got -480"),
+    ("x.json", {"K": [[True, 0, 319.5], [0, 520, 239.5], [0, 0, 1]]},
+     "K: expected numbers, got true/false"),
+    ("x.json", {"K": [[525, 0, -3.0], [0, 520, 239.5], [0, 0, 1]]},
+     "K's cx must be a finite number > 0, got -3.0"),
+])
+def test_intrinsics_files_refuse_booleans_and_non_positive_values(tmp_path, name, values, message):
+    """JSON `true` is no focal length (Python's float(True) is 1), nor are NaN, infinity, 0 or
+    a negative number; the one line names the file and the key as the file spells it."""
+    base = INTR if name.endswith(".intr") else {}
+    (tmp_path / name).write_text(json.dumps({**base, **values}))
+    with pytest.raises(InputError) as info:
+        load_intrinsics(tmp_path / name)
+    assert str(info.value) == f"{tmp_path / name}: {message}"
+
+
 def test_check_matrix_refuses_skew_and_bad_rows():
     with pytest.raises(InputError, match="no skew"):
         check_matrix([[500, 3, 320], [0, 500, 240], [0, 0, 1]])
