@@ -195,6 +195,19 @@ def test_a_reduced_image_keeps_its_range_out_of_the_medians(tmp_path):
                 roi=(10, 10, 11, 11))
 
 
+def test_a_reduction_to_less_than_8x8_pixels_is_one_line(tmp_path):
+    """A reduction that leaves less than 8 x 8 pixels (10 cm pixels asked for, 0.6 m away
+    through the Kinect's 57 degrees: 6 x 4 left) is an `InputError` naming the setting, not a
+    `Camera` that refuses its size."""
+    from graspjax.imagefiles.inputs import prepare
+    from graspjax.io import InputError
+
+    np.save(tmp_path / "d.npy", np.full((480, 640), 0.6, np.float32))
+    with pytest.raises(InputError, match=r"reducing 640x480 by 98 \(to pixels of "
+                                         r"image.full_pixel 0.1 m .* less than 8x8 pixels"):
+        prepare([tmp_path / "d.npy"], overrides=["image.full_pixel=0.1"])
+
+
 SENSORS = {  # file kind, size, fx = fy, camera tilt (deg), detection factor from the intrinsics
     "png_mm_640x480_13deg": ("png", (640, 480), 525.0, 13.0, 1),
     "float_m_nan_inf_1280x720_wide_30deg": ("npy", (1280, 720), 640.0, 30.0, 1),

@@ -294,9 +294,14 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     height, width = first.shape
     source = intrinsics.resolve(width, height)
     _check_range(first, paths[0], image, depth_scale)
-    reduction = input_reduction(first, source.camera(width, height, first_k), image)
+    camera = source.camera(width, height, first_k)
+    reduction = input_reduction(first, camera, image)
     small_w, small_h = width // reduction, height // reduction
-    full = reduced(source.camera(width, height, first_k), reduction)
+    if min(small_w, small_h) < 8:  # before a `Camera` of that size is made (it refuses one)
+        raise InputError(f"reducing {width}x{height} by {reduction} (to pixels of "
+                         f"image.full_pixel {image.full_pixel:g} m at the median depth, at most "
+                         "image.max_full_pixels) leaves less than 8x8 pixels")
+    full = reduced(camera, reduction)
     image = dataclasses.replace(image, downsample=detection_factor(first, full, image))
     _, coarse = block_factors(small_w, image)
     if min(small_w, small_h) // coarse < 8:
