@@ -139,6 +139,13 @@ def _bad_inputs(folder, tmp_path):
         ([a, "--top", "0"], "--top must be >= 1"),
         ([a, "--fx", "nan"], "the intrinsics must be finite numbers"),
         ([a, "--fx", "inf"], "the intrinsics must be finite numbers"),
+        # A focal length orders of magnitude off (once "camera resolution 0x0" as a traceback),
+        # or in millimetres:
+        ([a, "--fx", "1e5"], "the intrinsics from --fx 100000 --fy 100000 --cx 319.5 --cy 239.5 "
+                             "give the 640x480 images a 0.367 x 0.275 degree field of view"),
+        ([a, "--fx", "1e9"], "--fx 1e+09 --fy 1e+09 --cx 319.5 --cy 239.5 give the 640x480 "
+                             "images a 3.67e-05 x 2.75e-05 degree field of view"),
+        ([a, "--fx", "1.93"], "a 179 x 179 degree field of view, outside a depth camera's 5-150"),
         ([a, "--set", "image.top_k=2", "--set", "image.top_k=3"], "image.top_k is given twice"),
         ([a, "--set", "image.top_k=100"], "RealImageConfig.top_k must be in [1, 64]"),
         (["missing.npy"], "no such file"),

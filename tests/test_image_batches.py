@@ -208,6 +208,23 @@ def test_a_reduction_to_less_than_8x8_pixels_is_one_line(tmp_path):
         prepare([tmp_path / "d.npy"], overrides=["image.full_pixel=0.1"])
 
 
+def test_each_files_own_k_is_checked_for_a_plausible_field_of_view(tmp_path):
+    """Intrinsics that give the images a field of view no depth camera has (here a K whose
+    focal length is 100 times too long) are refused before anything is computed, naming the
+    file whose K it is."""
+    from graspjax.imagefiles.inputs import prepare
+    from graspjax.io import InputError
+
+    depth = np.full((480, 640), 0.6, np.float32)
+    k = np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]])
+    np.savez(tmp_path / "a.npz", depth=depth, K=k)
+    np.savez(tmp_path / "b.npz", depth=depth, K=k * [[100], [100], [1]])
+    assert prepare([tmp_path / "a.npz"]).intrinsics.describe(k) == "the file's K"
+    with pytest.raises(InputError, match=rf"the intrinsics from {tmp_path / 'b.npz'}'s K give "
+                                         r"the 640x480 images a 0.698 x 0.524 degree field"):
+        prepare([tmp_path])
+
+
 SENSORS = {  # file kind, size, fx = fy, camera tilt (deg), detection factor from the intrinsics
     "png_mm_640x480_13deg": ("png", (640, 480), 525.0, 13.0, 1),
     "float_m_nan_inf_1280x720_wide_30deg": ("npy", (1280, 720), 640.0, 30.0, 1),

@@ -24,6 +24,13 @@ from graspjax.io import InputError, load_intrinsics, load_mask, read_depth
 from graspjax.perception.workspace import block_factors
 
 DEPTH_SUFFIXES = (".npy", ".npz", ".png")
+#: The full opening angle (degrees) along each axis that intrinsics may give the images. Depth
+#: cameras for grasping see from about 20 degrees (long-range structured-light scanners) to
+#: about 120 (wide time-of-flight modes), and a pinhole model holds nothing near 180; 5-150
+#: leaves room for cropped images and still catches a focal length in another unit
+#: (millimetres: nearly 180 degrees) or orders of magnitude off (fx 1e5 for 640 columns: 0.37
+#: degrees, where the pixels' footprint would reduce the image to none).
+FIELD_OF_VIEW_DEG = (5.0, 150.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -259,6 +266,24 @@ def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_sc
                          "or the range)")
 
 
+def _plausible_camera(source: Intrinsics, width: int, height: int, path: Path,
+                     file_k: np.ndarray | None) -> Camera:
+    """The full-resolution camera of the `width` x `height` image at `path` (its own K
+    `file_k`, or None), refused in one line naming where its intrinsics come from when their
+    field of view lies outside `FIELD_OF_VIEW_DEG`."""
+    camera = source.camera(width, height, file_k)
+    fov = math.degrees(camera.fov_x), math.degrees(camera.fov_y)
+    low, high = FIELD_OF_VIEW_DEG
+    if not all(low <= angle <= high for angle in fov):
+        given = (f"{path}'s K" if source.values is None and file_k is not None
+                 else source.describe(file_k))
+        raise InputError(f"the intrinsics from {given} give the {width}x{height} images a "
+                         f"{fov[0]:.3g} x {fov[1]:.3g} degree field of view, outside a depth "
+                         f"camera's {low:g}-{high:g}: check the focal lengths (in pixels of "
+                         "these images)")
+    return camera
+
+
 def _workspace_box(roi: tuple[int, int, int, int], width: int, height: int) -> np.ndarray:
     """The workspace (H, W) bool of a box of columns x0 <= u < x1 and rows y0 <= v < y1."""
     x0, y0, x1, y1 = roi
@@ -294,7 +319,7 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     height, width = first.shape
     source = intrinsics.resolve(width, height)
     _check_range(first, paths[0], image, depth_scale)
-    camera = source.camera(width, height, first_k)
+    camera = _plausible_camera(source, width, height, paths[0], first_k)
     reduction = input_reduction(first, camera, image)
     small_w, small_h = width // reduction, height // reduction
     if min(small_w, small_h) < 8:  # before a `Camera` of that size is made (it refuses one)
@@ -337,6 +362,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             with_k, without = (paths[0], path) if first_k is not None else (path, paths[0])
             raise InputError(f"{with_k} holds its intrinsics K but {without} does not; give "
                              "the intrinsics for all images")
+        if i and source.values is None and k is not None:  # each file's own K
+            _plausible_camera(source, width, height, path, k)
         if i:  # the first was checked above
             _check_range(depth, path, image, depth_scale)
         if inputs.image.bin:
