@@ -123,6 +123,8 @@ def _bad_inputs(folder, tmp_path):
     Image.fromarray(np.ones((400, 640), np.uint8)).save(tmp_path / "mask.png")
     (tmp_path / "bad.intr").write_text("{not json")
     np.save(tmp_path / "small.npy", np.ones((100, 100), np.float32))
+    metres = np.nan_to_num(np.load(folder / "a.npy")[..., 0]).round().astype(np.uint16)
+    Image.fromarray(metres).save(tmp_path / "metres.png")  # a 16-bit PNG of whole metres: 0, 1
     a, b, intr = str(folder / "a.npy"), str(folder / "b.png"), str(folder / "cam.intr")
     return [
         ([str(tmp_path / "photo.png")], "is a colour image (640x480, 3 channels, uint8)"),
@@ -131,6 +133,13 @@ def _bad_inputs(folder, tmp_path):
         ([a, "--roi", "60,20,700,350"], "lies outside the 640x480 image"),
         ([b, "--depth-scale", "1"], "every pixel lies outside the depth range 0-10 m"),
         ([a, "--range", "0.1,0.2"], "every pixel lies outside the depth range 0.1-0.2 m"),
+        # Depths a thousandfold off (once "camera resolution 0x0" as a traceback):
+        ([str(tmp_path / "metres.png")], "metres.png: median depth 0.001 m (in the depth range "
+         "0-10 m) is implausible for a depth camera (0.05-20 m): check --depth-scale (metres "
+         "per unit of the PNG, now 0.001)"),
+        ([b, "--depth-scale", "1e-6"], "b.png: median depth 0.00749 m (in the depth range 0-10 "
+         "m) is implausible for a depth camera (0.05-20 m): check --depth-scale (metres per unit "
+         "of the PNG, now 1e-06)"),
         ([a, "--intrinsics", intr, "--fx", "500"], "not --fx/--fy/--cx/--cy and --intrinsics"),
         ([a, str(tmp_path / "small.npy")], "all images must have one size"),
         ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),

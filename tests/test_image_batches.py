@@ -225,6 +225,21 @@ def test_each_files_own_k_is_checked_for_a_plausible_field_of_view(tmp_path):
         prepare([tmp_path])
 
 
+def test_every_image_of_a_folder_needs_a_plausible_median_depth(tmp_path):
+    """A median depth (in the depth range) no depth camera reads, here a file of kilometres
+    after one of metres, is refused before anything is computed, naming that file."""
+    from graspjax.imagefiles.inputs import prepare
+    from graspjax.io import InputError
+
+    np.save(tmp_path / "a.npy", np.full((480, 640), 0.6, np.float32))
+    np.save(tmp_path / "b.npy", np.full((480, 640), 0.0006, np.float32))
+    assert prepare([tmp_path / "a.npy"]).reduction == 1
+    with pytest.raises(InputError, match=rf"{tmp_path / 'b.npy'}: median depth 0.0006 m \(in "
+                                         r"the depth range 0-10 m\) is implausible for a depth "
+                                         r"camera \(0.05-20 m\): its depth must be in metres"):
+        prepare([tmp_path])
+
+
 SENSORS = {  # file kind, size, fx = fy, camera tilt (deg), detection factor from the intrinsics
     "png_mm_640x480_13deg": ("png", (640, 480), 525.0, 13.0, 1),
     "float_m_nan_inf_1280x720_wide_30deg": ("npy", (1280, 720), 640.0, 30.0, 1),

@@ -31,6 +31,13 @@ DEPTH_SUFFIXES = (".npy", ".npz", ".png")
 #: (millimetres: nearly 180 degrees) or orders of magnitude off (fx 1e5 for 640 columns: 0.37
 #: degrees, where the pixels' footprint would reduce the image to none).
 FIELD_OF_VIEW_DEG = (5.0, 150.0)
+#: The median depth (m) an image's pixels in the depth range may have: depth cameras for
+#: grasping read from about 7 cm (close-range stereo) to 10-20 m at most (time-of-flight,
+#: stereo), and a scene is seen from within that; 5 cm - 20 m leaves room either side and
+#: still catches a wrong unit, a thousandfold off (metres in a 16-bit PNG read as millimetres:
+#: 1-2 mm; a depth scale of 1e-6 for millimetres: under 1 cm), where the pixels' footprint
+#: would reduce the image to none.
+MEDIAN_DEPTH_M = (0.05, 20.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -155,12 +162,17 @@ class Inputs:
         return (np.asarray(pixel, np.float64) + 0.5) * self.reduction - 0.5
 
 
+def in_range(depth: np.ndarray, image: RealImageConfig) -> np.ndarray:
+    """The image's valid depths in the depth range (n,) in metres: 0 and non-finite values
+    are no depth."""
+    return depth[np.isfinite(depth) & (depth > 0) & (depth >= image.min_depth)
+                 & (depth <= image.max_depth)]
+
+
 def pixel_footprint(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> float:
     """Metres per pixel of `camera` (along its coarser axis) at the image's median valid depth
-    (in the depth range; 0 and non-finite values are no depth)."""
-    valid = depth[np.isfinite(depth) & (depth > max(image.min_depth, 0.0))
-                  & (depth <= image.max_depth)]
-    return float(np.median(valid)) / min(camera.fx, camera.fy)
+    in the depth range (`in_range`)."""
+    return float(np.median(in_range(depth, image))) / min(camera.fx, camera.fy)
 
 
 def input_reduction(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> int:
@@ -256,14 +268,25 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
 
 
 def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_scale: float) -> None:
-    """Refuse an image none of whose pixels lies in the depth range (a wrong depth scale)."""
-    valid = depth[np.isfinite(depth) & (depth > 0)]
-    if not ((valid >= image.min_depth) & (valid <= image.max_depth)).any():
-        unit = f" with depth scale {depth_scale:g}" if path.suffix.lower() == ".png" else ""
+    """Refuse an image none of whose pixels lies in the depth range, or whose median depth
+    there lies outside `MEDIAN_DEPTH_M` (a wrong depth scale or unit)."""
+    png = path.suffix.lower() == ".png"
+    kept = in_range(depth, image)
+    if not kept.size:
+        valid = depth[np.isfinite(depth) & (depth > 0)]
+        unit = f" with depth scale {depth_scale:g}" if png else ""
         raise InputError(f"{path}: every pixel lies outside the depth range "
                          f"{image.min_depth:g}-{image.max_depth:g} m (its depths span "
                          f"{valid.min():.4g}-{valid.max():.4g} m{unit}; check the depth scale "
                          "or the range)")
+    median = float(np.median(kept))
+    low, high = MEDIAN_DEPTH_M
+    if not low <= median <= high:
+        hint = (f"check --depth-scale (metres per unit of the PNG, now {depth_scale:g})" if png
+                else "its depth must be in metres")
+        raise InputError(f"{path}: median depth {median:.3g} m (in the depth range "
+                         f"{image.min_depth:g}-{image.max_depth:g} m) is implausible for a depth "
+                         f"camera ({low:g}-{high:g} m): {hint}")
 
 
 def _plausible_camera(source: Intrinsics, width: int, height: int, path: Path,
