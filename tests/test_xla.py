@@ -4,12 +4,16 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 
 def test_importing_graspjax_starts_no_backend_so_xla_flags_apply():
     """XLA reads XLA_FLAGS when the first backend starts: the CLI's flags take effect only if
     importing graspjax (any of its modules) starts none, and XLA accepts every one of them."""
     code = """
 import os
+
+import pytest
 import importlib, pkgutil
 import graspjax
 for module in pkgutil.walk_packages(graspjax.__path__, "graspjax."):
@@ -51,3 +55,53 @@ def test_devices_take_memory_as_needed_unless_the_user_says_otherwise(monkeypatc
     assert main(bad_table) == 2
     assert os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] == "true"
     assert not (tmp_path / "run").exists()
+
+
+def test_the_compile_cache_is_created_private_and_refused_when_others_may_write_it(
+        tmp_path, monkeypatch, capsys):
+    """What the cache holds runs as code (exported programs are unpickled): the CLI creates it
+    private and refuses, in one line naming it and before anything is read from it or any run
+    starts, a cache folder (or a store in it) that others may write or another user owns."""
+    from graspjax.cli import main
+    from graspjax.io import InputError
+    from graspjax.runtime.xla import compilation_cache
+
+    cache = tmp_path / "new" / "cache"
+    monkeypatch.setenv("GRASPJAX_CACHE", str(cache))
+    monkeypatch.setattr("jax.config.update", lambda *args: None)  # the session's cache stays
+    compilation_cache()
+    assert cache.stat().st_mode & 0o777 == 0o700
+    for others in (0o002, 0o020):  # o+w, g+w
+        cache.chmod(0o755 | others)
+        with pytest.raises(InputError, match=f"the compile cache {cache} is writable by other"):
+            compilation_cache()
+        out = tmp_path / "run"
+        assert main(["run", "--setup", "1", "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert f"compile cache {cache} is writable" in err and err.count("\n") == 1
+        assert not out.exists()
+    cache.chmod(0o755)
+    compilation_cache()  # readable by others is fine: nobody else can put anything there
+    monkeypatch.setattr("os.geteuid", lambda: cache.stat().st_uid + 1)
+    with pytest.raises(InputError, match=f"the compile cache {cache} belongs to another user"):
+        compilation_cache()
+
+
+def test_a_store_in_the_cache_that_others_may_write_is_refused_before_it_is_read(tmp_path):
+    """`io.store`, which every read of the exported programs and resting poses goes through,
+    checks the cache and the store folder each time; `io.keep` creates both private."""
+    import jax
+
+    from graspjax.io import InputError, keep, store
+
+    session = jax.config.jax_compilation_cache_dir
+    jax.config.update("jax_compilation_cache_dir", str(tmp_path / "cache"))
+    try:
+        keep(store("exported") / "program", b"data")
+        folders = (tmp_path / "cache", store("exported"))
+        assert {p.stat().st_mode & 0o777 for p in folders} == {0o700}
+        (tmp_path / "cache" / "exported").chmod(0o777)
+        with pytest.raises(InputError, match="cache .*/cache/exported is writable by other"):
+            store("exported")
+    finally:
+        jax.config.update("jax_compilation_cache_dir", session)
