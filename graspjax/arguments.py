@@ -108,13 +108,13 @@ def ints(text: str, name: str, allowed) -> tuple[int, ...]:
 
 def jobs(args):
     """Jobs from --table or --setup/--objects, validated (no compilation yet)."""
-    from graspjax.batch.plan import Job, table_job
+    from graspjax.batch.plan import MAX_SEED, Job, table_job
     from graspjax.sim.objects import parse_letters
 
     if args.trials < 1:
         raise UsageError(f"--trials must be >= 1, got {args.trials}")
-    if args.seed < 0:
-        raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {args.seed}")
     if args.batch is not None and args.batch < 1:
         raise UsageError(f"--batch must be >= 1, got {args.batch}")
     if getattr(args, "max_views", 0) < 0:
@@ -201,11 +201,25 @@ def experiment_request(args, grid_items):
     fixed = parse_assignments(args.set or [])
     keys, points = (([], [({}, config)]) if grid_items is None
                     else grid(grid_items, config, fixed))
-    return Experiment(jobs=jobs(args), base=config, points=points, keys=keys, seed=args.seed,
-                      batch=args.batch, paired=getattr(args, "paired", False), preset=args.preset,
+    checked = jobs(args)
+    paired = getattr(args, "paired", False)
+    sweep_seeds(args.seed, len(points), paired)
+    return Experiment(jobs=checked, base=config, points=points, keys=keys, seed=args.seed,
+                      batch=args.batch, paired=paired, preset=args.preset,
                       save_views=args.save_views, max_views=args.max_views,
                       deterministic=not args.fast)
 
+
+def sweep_seeds(seed: int, points: int, paired: bool) -> None:
+    """A sweep's seeds within range: point i has seed `seed + i` (`batch.plan.plan`), or every
+    point `seed` when `paired` (`seed` itself is checked with the jobs)."""
+    from graspjax.batch.plan import MAX_SEED
+
+    last = seed if paired else seed + points - 1
+    if last > MAX_SEED:
+        raise UsageError(f"--seed {seed}: the sweep's {points} points take seeds {seed} to "
+                         f"{last} (point i: seed + i), past the largest seed {MAX_SEED}; give "
+                         f"--seed <= {MAX_SEED - points + 1}, or --paired")
 
 
 def detect_request(args):

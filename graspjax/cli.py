@@ -155,7 +155,8 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--objects", help="objects to attempt, e.g. a,b,c (default a-f)")
     p.add_argument("--trials", type=int, default=10,
                    help="trials per object (Setup 1) or rounds (Setups 2, 3); paper: 10")
-    p.add_argument("--seed", type=int, default=0, help="base seed of every layout and key")
+    p.add_argument("--seed", type=int, default=0,
+                   help="base seed of every layout and key (0 to 2147483647)")
     p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
                    help="paper: exact depth, the paper's checks, exact execution (default); "
                         "realistic: Kinect sensor, our wall check, execution error")
@@ -273,7 +274,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--trials", type=int, default=100,
                    help="worlds per object (Setup 1) or rounds (Setups 2, 3); a run's first "
                         "attempts with the same seed")
-    p.add_argument("--seed", type=int, default=0, help="base seed of every layout and key")
+    p.add_argument("--seed", type=int, default=0,
+                   help="base seed of every layout and key (0 to 2147483647)")
     p.add_argument("--preset", choices=["paper", "realistic"], default="paper")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. procedure.view_tilt_deg=30")

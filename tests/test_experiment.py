@@ -789,13 +789,35 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     # Issue 81: a zipped grid naming one key twice kept its last value alone.
     (["sweep", "--setup", "1", "--grid", "align.window_px:align.window_px=10:11"],
      "--grid align.window_px:align.window_px names align.window_px twice"),
+    # Seeds are int32 on the device: refused before the folder, not an OverflowError after it
+    (["run", "--setup", "1", "--seed", "2147483648"],
+     "--seed must be in [0, 2147483647], got 2147483648"),
+    (["sweep", "--setup", "1", "--seed", "2147483647", "--grid", "align.window_px=5,6"],
+     "the sweep's 2 points take seeds 2147483647 to 2147483648 (point i: seed + i), past the "
+     "largest seed 2147483647; give --seed <= 2147483646, or --paired"),
 ])
-def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, message):
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, monkeypatch, args, message):
+    def no_run(*args, **kwargs):
+        raise AssertionError("a run started")
+
+    monkeypatch.setattr(experiment, "run", no_run)  # refused while the arguments are checked
     out = tmp_path / "out"
     assert main([*args, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_the_largest_seed_is_taken_where_every_point_s_seed_stays_in_range():
+    from graspjax.arguments import experiment_request
+    from graspjax.cli import build_parser
+
+    sweep = ["sweep", "--setup", "1", "--grid", "align.window_px=5,6", "--out", "x"]
+    for args in (["run", "--setup", "1", "--seed", "2147483647", "--out", "x"],
+                 [*sweep, "--seed", "2147483646"], [*sweep, "--seed", "2147483647", "--paired"]):
+        parsed = build_parser().parse_args(args)
+        assert experiment_request(parsed, parsed.grid if args[0] == "sweep" else None).seed \
+            == parsed.seed
 
 
 def test_unwritable_output_directory(tmp_path, capsys):

@@ -25,6 +25,8 @@ import jax
 from graspjax.config import Config
 from graspjax.sim.objects import parse_letters
 
+MAX_SEED = 2**31 - 1  # a world's seed is an int32 on the device (`procedure.WorldSpec.seed`)
+
 
 @dataclasses.dataclass(frozen=True)
 class Job:
