@@ -34,6 +34,8 @@ from graspjax.tree import named_fields
 MAX_WINDOW_PX = 32  # largest Eq. 3 window (and triangle radius): the static size of the scored patch
 MAX_WALL_HEIGHT = 0.15  # the walls' modelled height (m); a bin of lower walls sinks them
 # into the table, so its wall height is a traced value
+MAX_PHASE_TIME = 60.0  # the longest duration of a simulated phase (s; the procedure's are under
+# 3 s): a duration becomes a count of segments (`SimConfig.segments`), an int32 on the device
 
 
 class ConfigError(ValueError):
@@ -326,15 +328,24 @@ class SimConfig:
     approach_tolerance: float = traced(0.015)  # hand further than this from its target: blocked (m)
     approach_force_limit: float = traced(20.0)  # contact force on the hand that stops the approach (N)
 
+    PHASE_TIMES = ("settle_time", "drop_settle_time", "group_settle_time", "pile_settle_time",
+                   "drop_interval", "push_time", "push_fade_time", "approach_time", "close_time",
+                   "lift_time", "hold_time")  # durations simulated as whole segments (s)
+
     def __post_init__(self):
         _positive(self, "timestep", "iterations", "ls_iterations", "impratio", "max_contact_points",
                   "max_contact_points_alone",
                   "object_friction", "hand_mass", "finger_mass", "finger_armature", "finger_kp",
-                  "finger_damping", "grip_timeconst", "segment_steps", "settle_time",
-                  "drop_settle_time", "group_settle_time", "pile_settle_time", "drop_interval",
-                  "push_time", "push_fade_time",
-                  "approach_time", "close_time", "lift_time", "hold_time", "lift_height",
+                  "finger_damping", "grip_timeconst", "lift_height",
                   "min_lift", "approach_tolerance", "approach_force_limit")
+        # Durations become step counts (`segments`): bounded, so that every count is small
+        # (at most 600,000 segments of one step) and fits the device's int32
+        _in_range(self, "timestep", 1e-4, 0.1)
+        _in_range(self, "segment_steps", 1, 1000)
+        for name in self.PHASE_TIMES:
+            value = getattr(self, name)
+            _require(0 < value <= MAX_PHASE_TIME,
+                     f"SimConfig.{name} must be > 0 and <= {MAX_PHASE_TIME:g} s, got {value!r}")
         _require(self.max_geom_pairs >= 0, "SimConfig.max_geom_pairs must be >= 0 (0: every pair)")
         _require(self.cone in ("elliptic", "pyramidal"),
                  f"SimConfig.cone must be 'elliptic' or 'pyramidal', got {self.cone!r}")

@@ -61,6 +61,14 @@ def test_stacked_configs_carry_one_value_per_world():
     (lambda: AlignConfig(window_px=0), "AlignConfig.window_px"),
     (lambda: AlignConfig(pixel_scale="metres"), "pixel_scale"),
     (lambda: DetectorConfig(min_grasp_depth=0.05), "min_grasp_depth"),
+    # durations become int32 step counts (`SimConfig.segments`): bounded, not an OverflowError
+    (lambda: override(Config(), ["sim.settle_time=1e9"]),
+     r"SimConfig.settle_time must be > 0 and <= 60 s, got 1000000000.0"),
+    (lambda: override(Config(), ["sim.hold_time=0"]), r"SimConfig.hold_time must be > 0"),
+    (lambda: override(Config(), ["sim.timestep=1e-9"]),
+     r"SimConfig.timestep must be in \[0.0001, 0.1\], got 1e-09"),
+    (lambda: override(Config(), ["sim.segment_steps=3000000000"]),
+     r"SimConfig.segment_steps must be in \[1, 1000\]"),
 ])
 def test_invalid_values_raise_one_line_errors(make, match):
     with pytest.raises(ConfigError, match=match) as info:

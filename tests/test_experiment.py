@@ -795,6 +795,8 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     (["sweep", "--setup", "1", "--seed", "2147483647", "--grid", "align.window_px=5,6"],
      "the sweep's 2 points take seeds 2147483647 to 2147483648 (point i: seed + i), past the "
      "largest seed 2147483647; give --seed <= 2147483646, or --paired"),
+    (["run", "--setup", "1", "--set", "sim.settle_time=1e9"],
+     "SimConfig.settle_time must be > 0 and <= 60 s, got 1000000000.0"),
 ])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, monkeypatch, args, message):
     def no_run(*args, **kwargs):
