@@ -103,6 +103,33 @@ def test_gzipped_attempts_give_the_same_report(tmp_path):
         load_attempts(tmp_path)
 
 
+def test_a_damaged_or_non_numeric_attempts_file_is_one_line_naming_it(tmp_path, capsys):
+    """A gzip file that is not one or is cut short, bytes that are not text, and a column the
+    report counts with that holds words: one line naming the file, exit 2, nothing written."""
+    import gzip
+
+    from graspjax.cli import main
+
+    text = _frame({(1, "a"): (7, 10)}).to_csv(index=False)
+    packed = gzip.compress(text.encode())
+    cases = [("attempts.csv.gz", b"not gzip", "is not a whole gzip file: Not a gzipped file"),
+             ("attempts.csv.gz", packed[:len(packed) // 2], "is not a whole gzip file"),
+             ("attempts.csv.gz", gzip.compress(b"\xff\xfe"), "is not UTF-8 text (byte 0"),
+             ("attempts.csv", text.replace(",1,SUCCESS", ",yes,SUCCESS", 1).encode(),
+              "success must be 0 or 1, row "),
+             ("attempts.csv", text.replace("\n1,", "\nx,", 1).encode(),
+              "setup must be a number, row 1 has 'x'")]
+    for i, (name, data, message) in enumerate(cases):
+        folder = tmp_path / str(i)
+        folder.mkdir()
+        (folder / name).write_bytes(data)
+        assert main(["report", str(folder)]) == 2
+        err = capsys.readouterr().err
+        assert f"{folder / name}" in err and message in err, err
+        assert err.count("\n") == 1 and "Traceback" not in err
+        assert [p.name for p in folder.iterdir()] == [name]
+
+
 def test_debug_figures_use_each_grid_points_own_configuration():
     """A sweep's saved attempt is drawn with its grid point's values, over the run's overrides
     (config.json as the CLI writes it; the file stem names the point)."""

@@ -9,11 +9,13 @@ from pathlib import Path
 import pandas as pd
 
 REQUIRED = ("setup", "object", "trial", "round", "seed", "success", "outcome", "reason")
+NUMBERS = ("setup", "trial", "seed", "success")  # columns the report counts with
 
 
 def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
-    """Attempt rows from CSV text, checking the columns the report needs and that every row is
-    complete (a file cut mid-row is refused: its last row would count as a failure)."""
+    """Attempt rows from CSV text, checking the columns the report needs, that those it counts
+    with hold numbers (`success` 0 or 1), and that every row is complete (a file cut mid-row is
+    refused: its last row would count as a failure)."""
     if not text.strip():
         raise ValueError(f"{name} has no attempts yet")
     if not text.endswith("\n"):
@@ -26,6 +28,15 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
         raise ValueError(f"{name} lacks columns: {', '.join(missing)}")
     if frame.empty:
         raise ValueError(f"{name} has no attempts")
+    for column in NUMBERS:
+        numbers = pd.to_numeric(frame[column], errors="coerce")
+        bad = numbers.isna() | (~numbers.isin([0, 1]) if column == "success" else False)
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            value = frame[column].iloc[row]
+            wanted = "0 or 1" if column == "success" else "a number"
+            found = "nothing" if pd.isna(value) else repr(str(value))
+            raise ValueError(f"{name}: {column} must be {wanted}, row {row + 1} has {found}")
     if "run_id" in frame.columns and frame["run_id"].nunique() > 1:
         ids = sorted(frame["run_id"].astype(str).unique())
         raise ValueError(f"{name} mixes the rows of {len(ids)} runs (run_id {', '.join(ids[:3])})")
@@ -33,16 +44,29 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
 
 
 def load_attempts(folder: str | Path) -> pd.DataFrame:
-    """Read `attempts.csv` (or a gzipped `attempts.csv.gz`) from a run or sweep folder."""
+    """Read `attempts.csv` (or a gzipped `attempts.csv.gz`) from a run or sweep folder; a file
+    that is not whole gzip or not UTF-8 text is a ValueError naming it."""
     import gzip
+    import zlib
 
     path = Path(folder) / "attempts.csv"
     if path.is_file():
-        return parse_attempts(path.read_text(), str(path))
-    if path.with_suffix(".csv.gz").is_file():
-        text = gzip.decompress(path.with_suffix(".csv.gz").read_bytes()).decode()
-        return parse_attempts(text, str(path.with_suffix(".csv.gz")))
-    raise FileNotFoundError(f"no attempts.csv in {folder}")
+        data = path.read_bytes()
+    elif path.with_suffix(".csv.gz").is_file():
+        path = path.with_suffix(".csv.gz")
+        packed = path.read_bytes()
+        try:
+            data = gzip.decompress(packed)
+        except (OSError, EOFError, zlib.error) as exc:  # not gzip, cut short, or damaged
+            raise ValueError(f"{path} is not a whole gzip file: {exc}") from None
+    else:
+        raise FileNotFoundError(f"no attempts.csv in {folder}")
+    try:
+        text = data.decode()
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path} is not UTF-8 text (byte {exc.start}: "
+                         f"{data[exc.start:exc.start + 1]!r})") from None
+    return parse_attempts(text, str(path))
 
 
 def planned_worlds(meta: dict) -> int:
