@@ -108,15 +108,16 @@ def ints(text: str, name: str, allowed) -> tuple[int, ...]:
 
 def jobs(args):
     """Jobs from --table or --setup/--objects, validated (no compilation yet)."""
-    from graspjax.batch.plan import MAX_SEED, Job, table_job
+    from graspjax.batch.plan import MAX_BATCH, MAX_SEED, Job, table_job
     from graspjax.sim.objects import parse_letters
 
     if args.trials < 1:
         raise UsageError(f"--trials must be >= 1, got {args.trials}")
     if not 0 <= args.seed <= MAX_SEED:
         raise UsageError(f"--seed must be in [0, {MAX_SEED}], got {args.seed}")
-    if args.batch is not None and args.batch < 1:
-        raise UsageError(f"--batch must be >= 1, got {args.batch}")
+    if args.batch is not None and not 1 <= args.batch <= MAX_BATCH:
+        raise UsageError(f"--batch must be in [1, {MAX_BATCH}] worlds per device call, got "
+                         f"{args.batch}")
     if getattr(args, "max_views", 0) < 0:
         raise UsageError(f"--max-views must be >= 0, got {args.max_views}")
     if getattr(args, "resume", False) and args.overwrite:

@@ -167,8 +167,8 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
     p.add_argument("--batch", type=int,
-                   help="worlds per device call (default: 2048 on a GPU, 10 on a CPU): a world's "
-                        "rows depend on its key, the device kind and this alone")
+                   help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a "
+                        "CPU): a world's rows depend on its key, the device kind and this alone")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --out (same command): only unfinished chunks run")
     p.add_argument("--overwrite", action="store_true", help="replace a run already in --out")
@@ -282,7 +282,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                    help="traced alignment values, e.g. align.window_px=5,15,30 (every "
                         "combination; one compiled program)")
-    p.add_argument("--batch", type=int, help="worlds per device call (default: 2048 on a GPU, 10 on a CPU)")
+    p.add_argument("--batch", type=int,
+                   help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a CPU)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

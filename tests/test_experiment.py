@@ -797,6 +797,9 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
      "largest seed 2147483647; give --seed <= 2147483646, or --paired"),
     (["run", "--setup", "1", "--set", "sim.settle_time=1e9"],
      "SimConfig.settle_time must be > 0 and <= 60 s, got 1000000000.0"),
+    # every chunk is padded to the batch: a million worlds took 4.2 GB of host memory
+    (["run", "--setup", "1", "--trials", "1", "--batch", "1000000"],
+     "--batch must be in [1, 65536] worlds per device call, got 1000000"),
 ])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, monkeypatch, args, message):
     def no_run(*args, **kwargs):
@@ -810,16 +813,16 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, monkeypatch
     assert not out.exists()
 
 
-def test_the_largest_seed_is_taken_where_every_point_s_seed_stays_in_range():
+def test_the_largest_seed_and_batch_are_taken_where_every_point_s_seed_stays_in_range():
     from graspjax.arguments import experiment_request
     from graspjax.cli import build_parser
 
     sweep = ["sweep", "--setup", "1", "--grid", "align.window_px=5,6", "--out", "x"]
-    for args in (["run", "--setup", "1", "--seed", "2147483647", "--out", "x"],
+    for args in (["run", "--setup", "1", "--seed", "2147483647", "--batch", "65536", "--out", "x"],
                  [*sweep, "--seed", "2147483646"], [*sweep, "--seed", "2147483647", "--paired"]):
         parsed = build_parser().parse_args(args)
-        assert experiment_request(parsed, parsed.grid if args[0] == "sweep" else None).seed \
-            == parsed.seed
+        request = experiment_request(parsed, parsed.grid if args[0] == "sweep" else None)
+        assert (request.seed, request.batch) == (parsed.seed, parsed.batch)
 
 
 def test_unwritable_output_directory(tmp_path, capsys):

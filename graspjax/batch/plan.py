@@ -26,6 +26,9 @@ from graspjax.config import Config
 from graspjax.sim.objects import parse_letters
 
 MAX_SEED = 2**31 - 1  # a world's seed is an int32 on the device (`procedure.WorldSpec.seed`)
+MAX_BATCH = 65_536  # worlds per device call: 32 times the GPU's default, whose six-object
+# rounds take 3.4 GiB of device memory (here about 110 GiB); every chunk is padded to it, so a
+# larger batch (a million: 4.2 GB on the host in 38 s before any device call) is a mistake
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,7 +142,9 @@ def round_attempts(setup: int, objects: tuple[str, ...], config: Config) -> int:
 def chunks(groups: list[Group], batch: int) -> list[Chunk]:
     """Each group's worlds cut into chunks of `batch`, one device call each (the last one
     padded by its program), numbered through the run. Neither the device count nor the group's
-    size changes a chunk's shape: a world plays in the same shape whatever the run."""
+    size changes a chunk's shape: a world plays in the same shape whatever the run. So a
+    `batch` beyond a group's worlds is kept, not cut to them (its rows would change: XLA's
+    floats depend on the shape), and bounded instead (`MAX_BATCH`)."""
     out = []
     for g, group in enumerate(groups):
         for start in range(0, len(group.worlds), batch):
