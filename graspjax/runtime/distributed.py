@@ -11,22 +11,62 @@ coordination of graspjax's own: no sockets, no lock files.
 
 from __future__ import annotations
 
+import threading
+
 from graspjax import privates
+from graspjax.io import InputError
 
 AUTO = "auto"  # `--distributed` alone: the launcher's environment says who is who
 BARRIER_TIMEOUT_MS = 7 * 24 * 3600 * 1000  # a week: a process that ends its share early waits
+JOIN_TIMEOUT_S = 300.0  # how long a process waits for every other to join (JAX's default)
+# JAX's own join timeout, never reached first: at its end JAX's client stops the process with
+# a native stack trace (a fatal error of its coordination agent), which no Python code catches
+_JAX_JOIN_TIMEOUT_S = 7 * 24 * 3600
 
 
-def initialize(spec: str) -> None:
-    """Join the run's processes: `AUTO`, or (coordinator "HOST:PORT", process count, index)."""
+def initialize(spec) -> None:
+    """Join the run's processes: `AUTO`, or (coordinator "HOST:PORT", process count, index).
+    Every process waits for all to join (`jax.distributed.initialize`): one that has not after
+    `JOIN_TIMEOUT_S` is an `InputError` naming it (when this process can tell which)."""
     import jax
 
     if spec == AUTO:
-        jax.distributed.initialize()
+        where = {}
     else:
         address, count, index = spec
-        jax.distributed.initialize(coordinator_address=address, num_processes=count,
-                                   process_id=index)
+        where = dict(coordinator_address=address, num_processes=count, process_id=index)
+    failed: list[BaseException] = []
+
+    def join() -> None:
+        try:
+            jax.distributed.initialize(**where, initialization_timeout=_JAX_JOIN_TIMEOUT_S)
+        except BaseException as exc:  # raised again by the caller's thread
+            failed.append(exc)
+
+    # In a thread of its own, so that this one stops waiting first; the process then ends
+    # (the CLI) long before JAX's own timeout.
+    joining = threading.Thread(target=join, name="join the run", daemon=True)
+    joining.start()
+    joining.join(JOIN_TIMEOUT_S)
+    if joining.is_alive():
+        raise InputError(_not_joined(spec))
+    if failed:
+        raise failed[0]
+
+
+def _not_joined(spec) -> str:
+    """The one line of a run whose processes did not all join in time."""
+    waited = f"within {JOIN_TIMEOUT_S:g} s"
+    if spec == AUTO:
+        return (f"--distributed: the run's processes did not all join {waited} (the launcher's "
+                "environment names them): see whether every one started")
+    address, count, index = spec
+    others = [i for i in range(count) if i != index]
+    missing = (f"process {others[0]}" if len(others) == 1
+               else f"some of processes {', '.join(map(str, others))}")
+    return (f"--distributed {address},{count},{index}: {missing} did not join the run at "
+            f"{address} {waited}: start every process I of the run with --distributed "
+            f"{address},{count},I, or check the address (process 0 serves it)")
 
 
 def process() -> tuple[int, int]:
