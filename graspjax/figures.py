@@ -16,11 +16,13 @@ def new_figure(width: float = 6.4, height: float = 4.8, dpi: int = 120) -> Figur
     return fig
 
 
-def png(fig: Figure, title: str = "") -> bytes:
-    """The figure as PNG bytes, laid out tightly, with `title` above it if given."""
+def png(fig: Figure, title: str = "", laid_out: bool = False) -> bytes:
+    """The figure as PNG bytes, with `title` above it if given, laid out tightly (unless
+    `laid_out`: the caller placed its parts)."""
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    if not laid_out:
+        fig.tight_layout()
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png")
     return buffer.getvalue()

@@ -57,7 +57,7 @@ PART_FILES = ("parts/attempts-[0-9]*.parquet", "parts/attempts-[0-9]*.csv",
 # `--overwrite` removes these and nothing else.
 OWN_FILES = ("config.json", LOCK, "attempts.csv", "attempts.csv.gz", "attempts.parquet",
              "rounds.csv", "rounds.csv.gz", "timings.csv", "summary.csv", "rounds_summary.csv",
-             "sweep_summary.csv", "table[12].md", "table[12].tex", "success_by_object.png",
+             "sweep_*.csv", "table[12].md", "table[12].tex", "success_by_object.png",
              "outcomes.png", "comparison.md", "comparison.png", "sweep_*.png", "planes.csv.gz",
              "planes_summary.csv", *PART_FILES, "views/p[0-9][0-9][0-9]_s[123]_r*.npz",
              "debug/p[0-9][0-9][0-9]_s[123]_r*.png")

@@ -42,6 +42,53 @@ def _frame(cells, extra=None):
     return pd.DataFrame(rows)
 
 
+def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
+    """A paired window study (5, 15, 25 px) on the same objects: the figure's title names the
+    preset, setups, trials and pairing, the paper's 15 px is marked, a panel per setup shows
+    first view and rescued stacked; McNemar's z against 15 px by hand."""
+    from graspjax.report.figures import sweep_figure, sweep_outputs, sweep_title, swept_points
+
+    parts = []
+    # Setup 1, object a, 10 trials: successes and rescues per window, same worlds (seed 0).
+    for window, success, rescued in ((5, [1] * 6 + [0] * 4, [0] * 10),
+                                     (15, [1] * 8 + [0] * 2, [1] * 2 + [0] * 8),
+                                     (25, [1] * 5 + [0] * 3 + [1] * 2, [0] * 10)):
+        part = _frame({(1, "a"): (0, 10), (3, "a"): (5, 10)})
+        part.loc[part["setup"] == 1, "success"] = success
+        part["rescued"] = 0
+        part.loc[part["setup"] == 1, "rescued"] = rescued
+        part["cfg.align.window_px"] = window
+        parts.append(part)
+    objects = object_outcomes(pd.concat(parts, ignore_index=True))
+    per = swept_points(objects, "cfg.align.window_px").set_index(["setup", "cfg.align.window_px"])
+    # 5 px against 15 px: trials 6, 7 lost, none gained: z = -2/sqrt(2); 25 px: trials 8, 9
+    # gained, 5, 6, 7 lost: z = -1/sqrt(5); 15 px against itself: 0.
+    assert per.loc[(1, 5), "z_vs_paper"] == pytest.approx(-2 / np.sqrt(2))
+    assert per.loc[(1, 25), "z_vs_paper"] == pytest.approx(-1 / np.sqrt(5))
+    assert per.loc[(1, 15), "z_vs_paper"] == 0 and per.loc[(3, 5), "z_vs_paper"] == 0
+    assert per.loc[(1, 15), ["rate_first_view", "rate_rescued"]].tolist() == pytest.approx([0.6, 0.2])
+    meta = {"preset": "paper", "paired": True, "jobs": [{"trials": 10, "setups": [1, 3]}]}
+    title = sweep_title("cfg.align.window_px", meta, [1, 3])
+    assert title == "align.window_px, paper preset, Setups 1, 3, 10 trials per cell, paired"
+    fig = sweep_figure(per.reset_index(), "cfg.align.window_px", title)
+    assert fig._suptitle.get_text() == title
+    panels = fig.axes
+    assert [ax.get_title().split(" (")[0] for ax in panels] == ["Setup 1", "Setup 3"]
+    for ax in panels:
+        ticks = [t.get_text() for t in ax.get_xticklabels()]
+        assert ticks == ["5", "15", "25"]
+        assert ax.get_xticklabels()[1].get_fontweight() == "bold"  # the paper's 15 px
+        assert all(line.get_linestyle() == "None" for line in ax.get_lines())  # caps alone:
+        # no line drawn from one category to the next
+        assert ax.get_legend() is None  # the legend sits below the panels, over no data
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert sorted(labels) == ["95 % interval", "first view", "rescued by a re-alignment",
+                              "the paper preset's value (15)"]
+    files = sweep_outputs(objects, meta)
+    assert files["sweep_align.window_px.png"][:8] == b"\x89PNG\r\n\x1a\n"
+    assert "z_vs_paper" in files["sweep_align.window_px.csv"].decode().splitlines()[0]
+
+
 def test_table_cells_put_ours_beside_the_paper():
     frame = _frame({(1, "a"): (9, 10), (1, "b"): (6, 10), (3, "a"): (5, 10), (1, "g"): (0, 4)})
     files = build(parse_attempts(frame.to_csv(index=False)))

@@ -59,9 +59,10 @@ __all__ = [
 
 
 def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
-          state: str = "") -> dict[str, bytes]:
+          state: str = "", meta: dict | None = None) -> dict[str, bytes]:
     """Every report file (name -> bytes) from the attempt rows (and the round rows); `state`
-    ("unfinished: n of N worlds", `run_state`) goes into every table's title."""
+    ("unfinished: n of N worlds", `run_state`) goes into every table's title, `meta` (the
+    run's config.json: preset, trials, pairing) into a sweep figure's."""
     objects = object_outcomes(frame)  # the tables count objects per round, as the paper's
     summary = summarize(objects)
     files = {"summary.csv": summary.to_csv(index=False).encode()}
@@ -77,7 +78,7 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
                 files[f"table{table}.tex"] = table_latex(summary, table, state).encode()
         files["success_by_object.png"] = success_figure(summary)
     files["outcomes.png"] = outcomes_figure(frame)  # every attempt
-    files.update(sweep_outputs(objects))
+    files.update(sweep_outputs(objects, meta))
     if varying_config(frame):
         order = point_order(frame)
         shared = shared_layouts(rounds)
@@ -99,7 +100,7 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
     folder = Path(folder)
     frame = load_attempts(folder)
     state = run_state(folder, frame)
-    files = build(frame, load_rounds(folder), state)
+    files = build(frame, load_rounds(folder), state, read_meta(folder))
     if state and read_meta(folder).get("finished"):  # the run finished meanwhile: report its whole rows
         return write_report(folder, debug)
     if debug:

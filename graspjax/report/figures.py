@@ -77,8 +77,103 @@ def outcomes_figure(frame: pd.DataFrame) -> bytes:
     return png(fig)
 
 
-def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
-    """Success against each swept parameter, per setup; a heat map for two-parameter grids."""
+def paper_value(key: str):
+    """The paper preset's value of a swept `cfg.` column (the paper's 15 px, 0.3, one
+    re-alignment; our reading where the paper is silent); None for a column that is no
+    setting."""
+    from graspjax.config import preset
+    from graspjax.tree import named_fields
+
+    return named_fields(preset("paper")).get(key[len("cfg."):])
+
+
+def swept_points(objects: pd.DataFrame, key: str) -> pd.DataFrame:
+    """Per value of the swept column `key` and setup: objects tried (`n`), successes, the
+    rate with its 95 % Wilson interval, the first-view and rescued rates, and McNemar's z
+    against the paper preset's value (`paper_value`), paired by world and object (setup,
+    seed, trial, object; an unpaired sweep's points share no world: z is nan). z > 0: this
+    value grasps more of the same objects."""
+    objects = objects.assign(first_view=objects["success"] * (1 - objects.get("rescued", 0)))
+    per = objects.groupby([key, "setup"], dropna=False).agg(
+        n=("success", "size"), successes=("success", "sum"),
+        first_view=("first_view", "sum")).reset_index()
+    per["rate"] = per["successes"] / per["n"]
+    per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
+    per["rate_first_view"] = per["first_view"] / per["n"]
+    per["rate_rescued"] = per["rate"] - per["rate_first_view"]
+    per["z_vs_paper"] = np.nan
+    paper = paper_value(key)
+    if paper is not None and (objects[key] == paper).any():
+        pair = ["setup", "seed", "trial", "object"]
+        reference = objects[objects[key] == paper][[*pair, "success"]]
+        joined = objects.merge(reference, on=pair, suffixes=("", "_paper"))
+        gained = (joined["success"] > joined["success_paper"]).groupby(
+            [joined[key], joined["setup"]]).sum()
+        lost = (joined["success"] < joined["success_paper"]).groupby(
+            [joined[key], joined["setup"]]).sum()
+        z = ((gained - lost) / np.sqrt((gained + lost).clip(lower=1))).rename("z")
+        per = per.drop(columns="z_vs_paper").merge(z.reset_index(), on=[key, "setup"], how="left")
+        per = per.rename(columns={"z": "z_vs_paper"})
+    return per.sort_values(["setup", key], kind="stable").reset_index(drop=True)
+
+
+def sweep_figure(per: pd.DataFrame, key: str, title: str):
+    """A study's figure: one panel per setup, a bar per swept value (categories, no line
+    between them), first view and rescued stacked, the 95 % interval of their sum, the paper
+    preset's value marked on its tick; the legend below the panels, over no data."""
+    setups = sorted(per["setup"].unique())
+    fig = new_figure(max(6.0, 3.4 * len(setups)), 3.9)
+    axes = fig.subplots(1, len(setups), squeeze=False, sharey=True)[0]
+    paper = paper_value(key)
+    for ax, setup in zip(axes, setups, strict=True):
+        part = per[per["setup"] == setup]
+        x = np.arange(len(part))
+        ax.bar(x, 100 * part["rate_first_view"], 0.7, color="tab:blue", label="first view")
+        ax.bar(x, 100 * part["rate_rescued"], 0.7, bottom=100 * part["rate_first_view"],
+               color="tab:purple", label="rescued by a re-alignment")
+        ax.errorbar(x, 100 * part["rate"], yerr=100 * np.maximum(0, np.vstack(
+            [part["rate"] - part["ci_low"], part["ci_high"] - part["rate"]])), fmt="none",
+            ecolor="black", capsize=3, label="95 % interval")
+        values = part[key].tolist()
+        ax.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in values])
+        if paper in values:
+            at = values.index(paper)
+            ax.get_xticklabels()[at].set_fontweight("bold")
+            ax.axvspan(at - 0.45, at + 0.45, color="tab:orange", alpha=0.25, lw=0, zorder=0,
+                       label=f"the paper preset's value ({paper:g})" if isinstance(paper, float)
+                       else f"the paper preset's value ({paper})")
+        ax.set_title(f"Setup {setup} (n = {int(part['n'].min())}"
+                     + (f"-{int(part['n'].max())}" if part["n"].nunique() > 1 else "")
+                     + " objects per value)", fontsize=9)
+        ax.set_xlabel(key[len("cfg."):])
+        ax.set_ylim(0, 105)
+    axes[0].set_ylabel("grasp success (%)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
+    return fig
+
+
+def sweep_title(key: str, meta: dict | None, setups) -> str:
+    """A study figure's title: what was swept, under which preset, in which setups, how many
+    trials, paired or not (from the run's `config.json`, where it has one)."""
+    meta = meta or {}
+    preset = meta.get("preset", "unknown")
+    trials = sorted({job.get("trials") for job in meta.get("jobs", [])} - {None})
+    title = (f"{key[len('cfg.'):]}, {preset} preset, Setup{'s' if len(setups) > 1 else ''} "
+             f"{', '.join(map(str, setups))}")
+    if trials:
+        title += f", {'/'.join(map(str, trials))} trials per cell"
+    if "paired" in meta:
+        title += ", paired" if meta["paired"] else ", unpaired"
+    return title
+
+
+def sweep_outputs(frame: pd.DataFrame, meta: dict | None = None) -> dict[str, bytes]:
+    """Success against each swept parameter, per setup (`frame`: the objects' outcomes,
+    `tables.object_outcomes`); a heat map for two-parameter grids. `meta`: the run's
+    config.json, for the figures' titles."""
     keys = varying_config(frame)
     if not keys:
         return {}
@@ -91,28 +186,13 @@ def sweep_outputs(frame: pd.DataFrame) -> dict[str, bytes]:
     axes = sweep_axes(frame)
     for axis in axes:
         key = axis[0]
-        per = frame.groupby([key, "setup"], dropna=False)["success"].agg(
-            n="size", successes="sum").reset_index()
-        per["rate"] = per["successes"] / per["n"]
-        per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
-        fig = new_figure(5.5, 3.8)
-        ax = fig.subplots()
-        for setup, part in per.groupby("setup"):
-            part = part.sort_values(key)
-            values = part[key].to_numpy()
-            numeric = np.issubdtype(values.dtype, np.number)
-            x = values if numeric else np.arange(len(values))
-            ax.errorbar(x, 100 * part["rate"], yerr=100 * np.maximum(0, np.vstack(
-                [part["rate"] - part["ci_low"], part["ci_high"] - part["rate"]])),
-                marker="o", capsize=3, label=f"Setup {setup}")
-            if not numeric:
-                ax.set_xticks(x, values)
-        ax.set_xlabel(" : ".join(k[len("cfg."):] for k in axis))
-        ax.set_ylabel("grasp success (%)")
-        ax.set_ylim(0, 105)
-        ax.legend(fontsize=8)
-        ax.set_title("other swept keys pooled" if len(axes) > 1 else "")
-        out[f"sweep_{key[len('cfg.'):]}.png"] = png(fig)
+        per = swept_points(frame, key)
+        name = key[len("cfg."):]
+        out[f"sweep_{name}.csv"] = per.to_csv(index=False).encode()
+        title = sweep_title(key, meta, sorted(per["setup"].unique()))
+        if len(axes) > 1:
+            title += "; other swept keys pooled"
+        out[f"sweep_{name}.png"] = png(sweep_figure(per, key, title), laid_out=True)
     if len(axes) == 2:
         keys = [axes[0][0], axes[1][0]]
         grid = frame.groupby(keys)["success"].mean().unstack(keys[1]) * 100
