@@ -15,8 +15,7 @@ from graspjax.perception import (
     align_tool,
     detect_grasp,
 )
-
-__version__ = "0.1.0"
+from graspjax.version import __version__
 
 __all__ = ["AlignConfig", "AlignReason", "Alignment", "Camera", "ConfigError", "DetectorConfig",
-           "Grasp", "GraspReason", "GripperConfig", "align_tool", "detect_grasp"]
+           "Grasp", "GraspReason", "GripperConfig", "__version__", "align_tool", "detect_grasp"]

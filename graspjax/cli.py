@@ -131,9 +131,14 @@ def cmd_assets(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from graspjax.report import write_report
+    from graspjax.provenance import made_by_other_code
+    from graspjax.report import read_meta, write_report
 
     folder = arguments.report_folder(args)
+    other = made_by_other_code(read_meta(folder))
+    if other:  # its rows stand; tables and figures drawn by this code may differ in form
+        print(f"graspjax: note: {folder} was {other}: its rows are kept, its tables and figures "
+              "are rebuilt by this code", file=sys.stderr)
     try:
         files, state = write_report(folder, debug=args.debug)
     except (FileNotFoundError, ValueError) as exc:

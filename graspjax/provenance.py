@@ -1,4 +1,6 @@
-"""What produced a result: package versions, the devices, the host and the command line.
+"""What produced a result: package versions, the code (a digest of graspjax's sources, and
+the git commit and whether the checkout had changes, when it is one), the devices, the host
+and the command line.
 
 Every run's `config.json`, every plane study's and every benchmark record carry it.
 """
@@ -7,11 +9,18 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
+import hashlib
+import pathlib
 import platform
 import shlex
+import subprocess
 import sys
 from importlib import metadata
 
+from graspjax.version import __version__
+
+SOURCES = pathlib.Path(__file__).resolve().parent  # the graspjax package, all of it
 PACKAGES = ("graspjax", "jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy", "pandas")
 _COMMAND: contextvars.ContextVar[tuple[str, ...] | None] = contextvars.ContextVar(
     "graspjax_command", default=None)  # the arguments `cli.main` was given
@@ -33,14 +42,14 @@ def provenance() -> dict:
     count), host and command line."""
     import jax
 
-    versions = {}
-    for name in PACKAGES:
+    versions = {"graspjax": __version__}  # this code's, whatever pip recorded at install
+    for name in PACKAGES[1:]:
         try:
             versions[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             versions[name] = None
     devices = jax.local_devices()
-    return {"versions": versions, "python": platform.python_version(),
+    return {"versions": versions, "code": code_identity(), "python": platform.python_version(),
             "devices": [f"{d.platform}:{getattr(d, 'device_kind', d)}:{d.id}" for d in devices],
             "device": {"platform": devices[0].platform,
                        "kind": getattr(devices[0], "device_kind", str(devices[0])),
@@ -48,6 +57,55 @@ def provenance() -> dict:
             "cpu": _cpu_model(),  # XLA:CPU compiles for its instruction set: CPU rows depend on it
             "host": platform.node(),
             "command": shlex.join(["graspjax", *_typed()])}
+
+
+@functools.cache
+def source_digest(root: pathlib.Path = SOURCES) -> str:
+    """A digest (sha256 hex) of the Python sources and data files under `root` (graspjax's):
+    any edit of the code that made a result changes it."""
+    digest = hashlib.sha256()
+    for path in sorted(p for pattern in ("*.py", "data/*") for p in root.rglob(pattern)):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+@functools.cache
+def code_identity() -> dict:
+    """Which code this is: `digest` (`source_digest`), and where the package lies in a git
+    checkout, its `commit` and whether the checkout differs from it (`dirty`; both None
+    elsewhere, or without git)."""
+    commit = dirty = None
+    try:
+        def git(*args: str) -> str:
+            return subprocess.run(["git", "-C", str(SOURCES.parent), *args], capture_output=True,
+                                  text=True, timeout=10, check=True).stdout.strip()
+
+        if pathlib.Path(git("rev-parse", "--show-toplevel")) == SOURCES.parent:
+            commit = git("rev-parse", "HEAD")
+            dirty = bool(git("status", "--porcelain", "--untracked-files=no"))
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return {"digest": source_digest(), "commit": commit, "dirty": dirty}
+
+
+def made_by_other_code(meta: dict) -> str:
+    """"" when a result's `config.json` (`meta`) was made by this code (the same source
+    digest) or says nothing of its code; else a few words on the code that made it."""
+    code = meta.get("code")
+    if not isinstance(code, dict) or not code.get("digest"):
+        return ""
+    if code["digest"] == source_digest():
+        return ""
+    made = (f"commit {str(code['commit'])[:10]}" + (" with changes" if code.get("dirty") else "")
+            if code.get("commit") else f"sources {str(code['digest'])[:10]}")
+    return f"made by other code ({made}; this is {_this_code()})"
+
+
+def _this_code() -> str:
+    here = code_identity()
+    return (f"commit {here['commit'][:10]}" + (" with changes" if here["dirty"] else "")
+            if here["commit"] else f"sources {here['digest'][:10]}")
 
 
 def _typed() -> tuple[str, ...]:

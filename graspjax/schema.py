@@ -52,7 +52,8 @@ PLANES_COLUMNS = (
     "view_tilt_deg",  # the re-aligned view's tilt from straight down
 )
 PROVENANCE_FIELDS = (
-    "versions",  # package -> version (jax, jaxlib, mujoco, mujoco-mjx, numpy, ...)
+    "versions",  # package -> version (graspjax's from graspjax/version.py, jax, mujoco, ...)
+    "code",  # digest of graspjax's sources; git commit and changes when run from a checkout
     "python",  # Python's version
     "devices",  # every local device, "platform:kind:id"
     "device",  # the first device's platform and kind, and the device count

@@ -108,6 +108,9 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
     assert meta["batch"] == 3 and meta["deterministic"] is True and meta["finished"]
     assert meta["preset"] == "paper"
     assert meta["devices"] and meta["devices"][0].startswith("cpu")
+    from graspjax.provenance import code_identity
+
+    assert meta["code"] == code_identity() and len(meta["code"]["digest"]) == 64
     timings = pd.read_csv(tiny_run / "timings.csv")
     assert list(timings["chunk"]) == [0, 1]
     first, second = timings.itertuples()

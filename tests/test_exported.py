@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from graspjax.provenance import source_digest
 from graspjax.runtime import exported
 
 
@@ -98,8 +99,8 @@ def test_an_edit_anywhere_in_the_package_changes_the_key(tmp_path):
                         ignore=shutil.ignore_patterns("__pycache__"))
     with open(edited / "procedure.py", "a") as source:
         source.write("# an edit\n")
-    assert exported._source_digest(same) == exported._source_digest()
-    assert exported._source_digest(edited) != exported._source_digest()
+    assert source_digest(same) == source_digest()
+    assert source_digest(edited) != source_digest()
 
 
 def test_an_unreadable_file_is_traced_again_and_replaced(store):

@@ -23,6 +23,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 from graspjax.io import InputError
+from graspjax.provenance import SOURCES
 from graspjax.runtime import exported, tracer
 
 
@@ -90,7 +91,7 @@ def trace_in_worker(p: Compilable) -> float | None:
     try:
         done = subprocess.run([sys.executable, "-c", command],
                               input=pickle.dumps(job), capture_output=True, env=env,
-                              cwd=exported.SOURCES.parent, timeout=WORKER_TIMEOUT_S)
+                              cwd=SOURCES.parent, timeout=WORKER_TIMEOUT_S)
     except subprocess.TimeoutExpired:
         raise WorkerFailed(f"the trace worker of {p.name} ran over {WORKER_TIMEOUT_S} s") from None
     if done.returncode < 0:

@@ -27,10 +27,10 @@ from collections.abc import Callable
 import jax
 
 from graspjax import io, privates
+from graspjax.provenance import source_digest
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
-SOURCES = pathlib.Path(__file__).resolve().parent.parent  # the graspjax package, all of it
 KEY_SETTINGS = ("jax_enable_x64", "jax_default_matmul_precision")  # JAX settings in a key
 
 
@@ -156,7 +156,7 @@ def _path(description: tuple, key: tuple) -> pathlib.Path | None:
     shapes = [(a.shape, str(a.dtype)) for a in jax.tree.leaves(key)]
     device = jax.local_devices()[0]
     text = repr((FORMAT, description, shapes, jax.tree.structure(key), _versions(),
-                _source_digest(), device.platform, device.device_kind,
+                source_digest(), device.platform, device.device_kind,
                 *(getattr(jax.config, name) for name in KEY_SETTINGS)))
     # Static fields' reprs may name memory addresses (MJX wraps its static numpy arrays): they
     # differ between processes. What those fields hold is fixed by the description and sources.
@@ -170,11 +170,3 @@ def _versions() -> tuple[str, ...]:
     return tuple(f"{name}=={importlib.metadata.version(name)}" for name in _PACKAGES)
 
 
-@functools.cache
-def _source_digest(root: pathlib.Path = SOURCES) -> str:
-    """A digest of the Python sources under `root` (graspjax's): any edit traces afresh."""
-    digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        digest.update(str(path.relative_to(root)).encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()

@@ -28,7 +28,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from graspjax.io import InputError
-from graspjax.runtime import exported, tracer
+from graspjax.provenance import SOURCES
+from graspjax.runtime import tracer
 
 MAX_DEFAULT = 4  # each process holds its own JAX client and programs: memory grows with them
 # JAX settings a helper takes from the run: those of a trace worker, and the compilation cache.
@@ -136,7 +137,7 @@ class Helper:
         # It runs in the folder that holds this graspjax package, so that it imports this one.
         self._process = subprocess.Popen([sys.executable, "-c", command, *map(str, sorted(cores or ()))],
                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=self._stderr, cwd=exported.SOURCES.parent)
+                                         stderr=self._stderr, cwd=SOURCES.parent)
         self._process.stdin.write(pickle.dumps(job))
         self._process.stdin.close()
         self._reader = threading.Thread(target=self._follow, args=(progress,), daemon=True,
