@@ -1,10 +1,11 @@
 """Every output's columns and labels in one place, importing neither JAX nor the simulator, so
 that reports and tables (`report/`) read a run's files without loading MJX.
 
-- `attempts.csv`: one row per attempt (`batch/rows.py` builds them from a chunk's records);
-  `FIRST_COLUMNS` lead, the record's columns follow, then a `cfg.<key>` column per grid key
-  and per value the run changed; rows sorted by `SORT` (`sort_attempts`).
-- `rounds.csv`: one row per settled Setup 2/3 layout; its density is `LAYOUT_COLUMNS`.
+- `attempts.csv`: one row per attempt (`batch/rows.py` builds them from a chunk's records),
+  its columns `ATTEMPT_COLUMNS` in order (`attempt_columns`); rows sorted by `SORT`
+  (`sort_attempts`).
+- `rounds.csv`: one row per settled Setup 2/3 layout, `ROUND_COLUMNS`; its density is
+  `LAYOUT_COLUMNS`.
 - `timings.csv`: one row per chunk, `TIMINGS_COLUMNS`.
 - `planes.csv.gz` (`graspjax planes`): one row per grid point and world, `PLANES_COLUMNS`.
 - `graspjax bench ... --out FILE.json`: one record per benchmark, `BENCH_FIELDS[what]` and then
@@ -18,39 +19,111 @@ import pandas as pd
 
 from graspjax.codes import Reason, Surface
 
-FIRST_COLUMNS = ["run_id", "point", "method", "setup", "object", "trial", "round", "attempt",
-                 "seed", "success", "outcome", "reason", "reorientations", "lifted_object"]
+# attempts.csv, column by column in file order ("{k}": one column per re-alignment allowed,
+# k = 1 ... `config.MAX_REORIENTATIONS`; "cfg.{key}": one per grid key and per value the run
+# changed from the defaults, after the others). docs/outputs.md is `outputs_markdown()`.
+ATTEMPT_COLUMNS = {
+    "run_id": "the run's id (settings that determine the rows, hashed; `outputs.run_id`)",
+    "point": "grid point of a sweep (0 in a run)",
+    "method": "the grasp method (`paper`, `highest-pca`, `antipodal`)",
+    "setup": "the paper's setup: 1 single, 2 grouped, 3 dense clutter",
+    "object": "the object the attempt is credited to (ground truth: the one its target point "
+              "lies on; \"\" for none)",
+    "trial": "trial of the object (Setup 1) or the round (Setups 2, 3)",
+    "round": "the round (Setups 2, 3; empty in Setup 1); joins rounds.csv",
+    "attempt": "attempt number in the world (0 first; -1: an object that got no attempt)",
+    "seed": "the seed the world's layout and noise derive from",
+    "success": "1 if the credited object was lifted and held, else 0",
+    "outcome": "what the executed grasp did (`codes.Outcome`; NOT_EXECUTED without a grasp)",
+    "reason": "the one reason of the outcome, as a label (`codes.Reason`)",
+    "reorientations": "re-alignments made before the grasp",
+    "lifted_object": "the object lifted (\"\" for none; may differ from the target)",
+    "chunk": "the chunk of worlds that played it (volatile: depends on --batch)",
+    "objects": "the world's objects (letters)",
+    "reason_code": "`reason` as its integer code (-1: not attempted)",
+    "grasp_found": "1 if a view held a grasp",
+    "first_view_grasp": "1 if the first view already held one (no re-alignment needed)",
+    "rescued": "1 if it succeeded with a grasp found only after a re-alignment",
+    "detect_reason": "the detection's reason in the last view searched (`GraspReason` name)",
+    "align_reason": "the last re-alignment's reason (`AlignReason` name; \"\" if none tried)",
+    "grasp_object": "the object under the planned grasp centre (ground truth; \"\" for none)",
+    "segment_precision": "share of the target surface the method took that lies on the "
+                         "credited object (ground truth; empty: none)",
+    "segment_recall": "share of the credited object's visible pixels in that surface",
+    "target_touching": "1.0 if the target touched another object when the robot looked "
+                       "(ground truth, never seen by the method)",
+    "target_resting": "1.0 if it rested on another object",
+    "target_covered": "1.0 if another object rested on it",
+    "target_gap_m": "its nearest outline distance to another object seen from above (m; "
+                    "negative: overlapping)",
+    "finger_clearance_m": "free space around the open fingers at the executed grasp pose to "
+                          "anything but the target and the table (m; negative: a finger inside a "
+                          "part)",
+    "rise_m": "how far the target rose after the hold (m; empty if not executed)",
+    "jaw_opening_m": "the jaws' opening after closing (m; empty if not executed)",
+    **{f"grasp_{name}_{axis}": f"the planned grasp's {what}, {axis} (world frame{unit})"
+       for name, what, unit in (("tcp", "point between the finger tips", ", m"),
+                                ("approach", "approach direction", ""),
+                                ("closing", "closing axis", ""))
+       for axis in "xyz"},
+    "realign{k}_surface": "what re-alignment k's chosen plane lies on (ground truth: "
+                          "`SURFACE_LABELS`; \"\" if not taken)",
+    "realign{k}_on_target": "share of that plane's inliers on the target (ground truth)",
+    "realign{k}_normal_error_deg": "its normal against the target's nearest true face (deg)",
+    "realign{k}_view_tilt_deg": "the re-aligned view's tilt from straight down (deg)",
+    "cfg.{key}": "the value of configuration key `key` at the row's grid point",
+}
 SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
 LAYOUT_COLUMNS = ("touching_fraction", "near_fraction", "stacked", "min_face_gap_m",
                   "spread_m")  # rounds.csv:
 # the settled layout's statistics (`rows.round_rows`)
-TIMINGS_COLUMNS = (
-    "chunk",  # the chunk's index in the run
-    "group",  # its group of worlds (one scene and static configuration: one program)
-    "scene",  # the scene's object letters
-    "worlds",  # worlds played (padding excluded)
-    "batch",  # the program's batch size (per call, all devices)
-    "attempts",  # attempts made
-    "program",  # traced here, by a worker process, or loaded from the exported store
-    "trace_s",  # seconds tracing the program (the group's first chunk only)
-    "compile_s",  # seconds compiling it (the group's first chunk only)
-    "started_s",  # when the chunk started playing, seconds after the run began
-    "wall_s",  # seconds it played
-    "peak_gib",  # the most memory in use so far on its device (GiB; empty where not reported)
-    "device",  # the local device that played it
-    "process",  # the helper process that played it (0: the run's own)
-)
-PLANES_COLUMNS = (
-    "point",  # grid point
-    "setup", "trial", "object",  # the world (Setups 2, 3: the round and its objects)
-    "target",  # the object the first view's target point lies on (ground truth; "" if none)
-    "first_view_grasp",  # the first view already holds a grasp (such a view does not re-align)
-    "plane_found",  # the plane scoring found a plane
-    "surface",  # what most of the chosen plane's inliers lie on (`SURFACE_LABELS`; ground truth)
-    "on_target",  # share of its inliers on the target (ground truth)
-    "normal_error_deg",  # its normal against the target's nearest true face
-    "view_tilt_deg",  # the re-aligned view's tilt from straight down
-)
+ROUND_COLUMNS = {  # rounds.csv, in file order
+    "point": "grid point", "method": "the grasp method", "seed": "the layout's seed",
+    "setup": "2 or 3", "round": "the round (the trial of every object in it)",
+    "objects": "the round's objects (letters)",
+    "touching_fraction": "objects in contact with another, once the layout settled",
+    "near_fraction": "objects whose outline seen from above lies within 2 mm of another's",
+    "stacked": "objects resting on another",
+    "min_face_gap_m": "median over objects of the nearest outline-to-outline distance (m; 0 "
+                      "touching)",
+    "spread_m": "largest distance between two objects' origins seen from above (m)",
+    "attempts": "attempts made in the round", "successes": "of them successful",
+    "grasp_success_rate": "successes / attempts",
+    "objects_placed": "objects in the round", "objects_removed": "objects lifted out",
+    "declutter_rate": "objects_removed / objects_placed",
+    "end": "how the round ended (`once each`; continued rounds: `empty`, `stuck`, `limit`)",
+}
+_TIMINGS_MEANING = {
+    "chunk": "the chunk's index in the run",
+    "group": "its group of worlds (one scene and static configuration: one program)",
+    "scene": "the scene's object letters",
+    "worlds": "worlds played (padding excluded)",
+    "batch": "the program's batch size (per call, all devices)",
+    "attempts": "attempts made",
+    "program": "traced here, by a worker process, or loaded from the exported store",
+    "trace_s": "seconds tracing the program (the group's first chunk only)",
+    "compile_s": "seconds compiling it (the group's first chunk only)",
+    "started_s": "when the chunk started playing, seconds after the run began",
+    "wall_s": "seconds it played",
+    "peak_gib": "the most memory in use so far on its device (GiB; empty where not reported)",
+    "device": "the local device that played it",
+    "process": "the helper process that played it (0: the run's own)",
+}
+TIMINGS_COLUMNS = tuple(_TIMINGS_MEANING)
+_PLANES_MEANING = {
+    "point": "grid point",
+    "setup": "the world's setup",
+    "trial": "its trial (Setups 2, 3: the round)",
+    "object": "its object (Setups 2, 3: the round's objects)",
+    "target": "the object the first view's target point lies on (ground truth; \"\" if none)",
+    "first_view_grasp": "the first view already holds a grasp (such a view does not re-align)",
+    "plane_found": "the plane scoring found a plane",
+    "surface": "what most of the chosen plane's inliers lie on (`SURFACE_LABELS`; ground truth)",
+    "on_target": "share of its inliers on the target (ground truth)",
+    "normal_error_deg": "its normal against the target's nearest true face (deg)",
+    "view_tilt_deg": "the re-aligned view's tilt from straight down (deg)",
+}
+PLANES_COLUMNS = tuple(_PLANES_MEANING)
 PROVENANCE_FIELDS = (
     "versions",  # package -> version (graspjax's from graspjax/version.py, jax, mujoco, ...)
     "code",  # digest of graspjax's sources; git commit and changes when run from a checkout
@@ -99,6 +172,54 @@ BENCH_FIELDS = {
         "deterministic",  # XLA's deterministic GPU ops were on
     ),
 }
+def attempt_columns(reorientations: int, keys: list[str]) -> list[str]:
+    """attempts.csv's header: `ATTEMPT_COLUMNS` with `reorientations` re-alignments' columns
+    and the `cfg.` columns of `keys`."""
+    names = []
+    for name in ATTEMPT_COLUMNS:
+        if "{k}" in name:
+            names += [name.format(k=k) for k in range(1, reorientations + 1)]
+        elif name == "cfg.{key}":
+            names += [f"cfg.{key}" for key in keys]
+        else:
+            names.append(name)
+    return names
+
+
+def outputs_markdown() -> str:
+    """docs/outputs.md: every column of the files a run writes, from this module."""
+    def table(columns) -> str:
+        return "| column | meaning |\n|---|---|\n" + "".join(
+            f"| `{name}` | {text} |\n" for name, text in columns)
+
+    def described(names, comments) -> list[tuple[str, str]]:
+        return [(name, comments.get(name, "")) for name in names]
+
+    return "\n".join([
+        "# What a run writes, column by column",
+        "",
+        "Generated from `graspjax/schema.py` (`outputs_markdown`); `tests/test_schema.py` keeps "
+        "the two alike.",
+        "",
+        "## attempts.csv (and attempts.parquet): one row per attempt",
+        "",
+        "Sorted by point, setup, trial (the round in Setups 2, 3), attempt (objects that got "
+        "none last), object. `{k}`: one column per re-alignment allowed (1-3); `cfg.{key}`: "
+        "one per grid key and per value the run changed from the defaults.",
+        "",
+        table(ATTEMPT_COLUMNS.items()),
+        "## rounds.csv: one row per settled Setup 2/3 round",
+        "",
+        table(ROUND_COLUMNS.items()),
+        "## timings.csv: one row per chunk",
+        "",
+        table(described(TIMINGS_COLUMNS, _TIMINGS_MEANING)),
+        "## planes.csv.gz (`graspjax planes`): one row per grid point and world",
+        "",
+        table(described(PLANES_COLUMNS, _PLANES_MEANING)),
+    ])
+
+
 REASON_LABELS = np.array([Reason(r).label if r in Reason._value2member_map_ else ""
                           for r in range(max(Reason) + 1)], dtype=object)  # Reason -> label
 SURFACE_LABELS = np.array([s.name.lower().replace("_", " ") if s != Surface.NONE else ""

@@ -22,10 +22,11 @@ import pytest
 from graspjax import experiment
 from graspjax.batch import plan, program
 from graspjax.cli import main
-from graspjax.config import Config, override
+from graspjax.config import MAX_REORIENTATIONS, Config, override
 from graspjax.procedure import steps
 from graspjax.runtime import exported, players
 from graspjax.saved_views import attempt_name
+from graspjax.schema import ROUND_COLUMNS, attempt_columns
 
 # Objects a and c alone (Setup 1), 3 trials each: 6 worlds, in chunks of 3 (c needs a re-alignment).
 TINY = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--seed", "3", "--quiet",
@@ -94,6 +95,7 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
                    "reorientations", "lifted_object", "grasp_tcp_x", "grasp_closing_z",
                    "cfg.align.window_px", "chunk", "point"):
         assert column in frame.columns, column
+    assert list(frame.columns) == attempt_columns(MAX_REORIENTATIONS, ["align.window_px"])
     assert len(frame) == 6 and set(frame["success"]) <= {0, 1}
     assert sorted(zip(frame["object"], frame["trial"], strict=True)) == [
         (c, t) for c in "ac" for t in range(3)]
@@ -353,8 +355,7 @@ def test_rounds_csv_says_how_dense_the_layouts_were(rounds_runs):
 
     rounds = pd.read_csv(rounds_runs[1] / "rounds.csv")
     assert sorted(zip(rounds.setup, rounds["round"], strict=True)) == [(2, 0), (2, 1), (3, 0), (3, 1)]
-    assert set(rounds.columns) >= {"touching_fraction", "near_fraction", "stacked", "min_face_gap_m",
-                                   "spread_m"}
+    assert list(rounds.columns) == list(ROUND_COLUMNS)
     cfg = LayoutConfig()
     group = rounds[rounds.setup == 2]
     assert ((group.min_face_gap_m >= cfg.gap_min - 0.002)

@@ -6,7 +6,16 @@ import pathlib
 import pandas as pd
 
 from graspjax.codes import Outcome, Reason, Surface
-from graspjax.schema import REASON_LABELS, SURFACE_LABELS, TIMINGS_COLUMNS, sort_attempts
+from graspjax.schema import (
+    ATTEMPT_COLUMNS,
+    REASON_LABELS,
+    ROUND_COLUMNS,
+    SURFACE_LABELS,
+    TIMINGS_COLUMNS,
+    attempt_columns,
+    outputs_markdown,
+    sort_attempts,
+)
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent / "graspjax"
 
@@ -34,3 +43,18 @@ def test_attempts_sort_unattempted_objects_last():
                           "attempt": [-1, 1, 0], "object": ["a", "b", "c"]})
     assert list(sort_attempts(frame)["object"]) == ["c", "b", "a"]
     assert TIMINGS_COLUMNS[0] == "chunk" and len(set(TIMINGS_COLUMNS)) == len(TIMINGS_COLUMNS)
+
+
+def test_docs_outputs_md_is_the_schema():
+    """docs/outputs.md lists every column of every file, as schema.py describes them (regenerate:
+    python3 -c "from graspjax.schema import outputs_markdown; print(outputs_markdown(), end='')"
+    > docs/outputs.md)."""
+    assert (ROOT.parent / "docs" / "outputs.md").read_text() == outputs_markdown()
+    assert all(text.strip() for text in (*ATTEMPT_COLUMNS.values(), *ROUND_COLUMNS.values()))
+
+
+def test_the_header_expands_the_re_alignments_and_the_grid_keys():
+    header = attempt_columns(2, ["align.window_px"])
+    assert header[:4] == ["run_id", "point", "method", "setup"]
+    assert [c for c in header if c.startswith("realign")][-1] == "realign2_view_tilt_deg"
+    assert header[-1] == "cfg.align.window_px" and not any("{" in c for c in header)

@@ -1,5 +1,5 @@
 """Records -> rows: a chunk's records become `attempts.csv` and `rounds.csv` rows (their
-first columns, labels and sort are defined in `schema.py`).
+columns, in order, their labels and sort are defined in `schema.py`).
 
 An attempt row names its world (grid point, setup, object, trial; in Setups 2 and 3 the round,
 which is the trial of every object in it, and joins `rounds.csv`; seed), says what
@@ -26,7 +26,7 @@ from graspjax.codes import Outcome
 from graspjax.config import MAX_REORIENTATIONS, Config, differences
 from graspjax.perception import AlignReason, GraspReason
 from graspjax.procedure import Record
-from graspjax.schema import FIRST_COLUMNS, REASON_LABELS, SURFACE_LABELS
+from graspjax.schema import REASON_LABELS, ROUND_COLUMNS, SURFACE_LABELS, attempt_columns
 from graspjax.sim.clutter import LayoutStats
 from graspjax.tree import named_fields
 
@@ -57,8 +57,11 @@ def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     values = [named_fields(p) for p in run.points]
     for key in run.config_columns():
         frame[f"cfg.{key}"] = [values[p][key] for p in frame["point"]]
-    rest = [c for c in frame.columns if c not in FIRST_COLUMNS]
-    return frame[FIRST_COLUMNS + rest]
+    columns = attempt_columns(MAX_REORIENTATIONS, run.config_columns())
+    unknown = sorted(set(frame.columns) - set(columns))
+    if unknown:  # a column the schema does not describe: a bug, not a user's mistake
+        raise RuntimeError(f"attempt columns missing from schema.ATTEMPT_COLUMNS: {unknown}")
+    return frame.reindex(columns=columns)
 
 
 def _record_rows(letters: tuple[str, ...], worlds: tuple[WorldKey, ...], records: list[Record]
@@ -149,7 +152,7 @@ def round_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
         objects_placed=placed[keep], objects_removed=removed[keep],
         declutter_rate=removed[keep] / placed[keep],
         end=[_round_end(tried[w], success[w], removed[w], placed[w], run.points[worlds[w].point])
-             for w in keep])
+             for w in keep])[list(ROUND_COLUMNS)]
 
 
 def _round_end(tried: np.ndarray, success: np.ndarray, removed: int, placed: int,
