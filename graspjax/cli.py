@@ -130,6 +130,36 @@ def cmd_assets(args) -> int:
     return 0
 
 
+def cmd_config(args) -> int:
+    """List the configuration keys: default per preset, unit, traced or static, meaning."""
+    import csv
+
+    from graspjax.config import PRESETS, keys
+
+    presets = [args.preset] if args.preset else list(PRESETS)
+    found = keys(presets, args.prefix)
+    if args.format == "json":
+        print(json.dumps([{"key": k.name, "defaults": k.defaults, "unit": k.unit,
+                           "kind": "traced" if k.traced else "static", "meaning": k.meaning}
+                          for k in found], indent=1))
+        return 0
+    rows = [["key", *presets, "unit", "kind", "meaning"]]
+    rows += [[k.name, *(_setting(k.defaults[p]) for p in presets), k.unit,
+              "traced" if k.traced else "static", k.meaning] for k in found]
+    if args.format == "csv":
+        csv.writer(sys.stdout, lineterminator="\n").writerows(rows)
+        return 0
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]) - 1)]
+    for row in rows:
+        print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=False)) + "  " + row[-1])
+    return 0
+
+
+def _setting(value) -> str:
+    """A default as `--set` takes it (`true`, not `True`)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
 def cmd_report(args) -> int:
     from graspjax.report import write_report
 
@@ -288,6 +318,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_planes)
+
+    p = sub.add_parser("config", help="list the configuration keys --set takes: default per "
+                       "preset, unit, traced (a sweep compiles once) or static, meaning")
+    p.add_argument("prefix", nargs="?", default="", metavar="PREFIX",
+                   help="only the keys that start with this, e.g. align.")
+    p.add_argument("--preset", choices=["paper", "realistic"],
+                   help="only this preset's defaults (default: every preset's)")
+    p.add_argument("--format", choices=["text", "csv", "json"], default="text",
+                   help="aligned text (default), CSV or JSON")
+    p.set_defaults(func=cmd_config)
 
     p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
     p.add_argument("folder", help="a run or sweep output directory")

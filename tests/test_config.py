@@ -229,3 +229,49 @@ def test_the_reference_results_were_made_without_the_labels():
         meta = json.loads((folder / "config.json").read_text())
         assert meta["config"]["perception.oracle"] is False, folder
         assert "perception.oracle" not in meta["grid"], folder
+
+
+def test_every_key_is_listed_once_with_its_meaning_read_from_its_comment():
+    from graspjax.config import keys
+
+    listed = keys()
+    assert [k.name for k in listed] == list(named_fields(Config()))  # one row per key, in order
+    lacking = [k.name for k in listed if not k.meaning]
+    assert not lacking, f"fields without a trailing comment in config.py: {lacking}"
+    by_name = {k.name: k for k in listed}
+    # continuation comment lines belong to the field above them, not to the next one
+    assert by_name["align.anchor"].meaning.endswith("docs/departures.md)")
+    assert by_name["align.anchor_band"].meaning == 'anchor="centre": depth band of z_min\'s surface (m)'
+
+
+def test_listed_defaults_units_and_kinds_per_preset():
+    from graspjax.config import keys
+
+    by_name = {k.name: k for k in keys()}
+    assert by_name["align.window_px"].defaults == {"paper": 15, "realistic": 15}
+    assert by_name["align.distance_threshold"].defaults == {"paper": 0.3, "realistic": 0.3}
+    assert by_name["camera.sensor"].defaults == {"paper": "ideal", "realistic": "kinect"}
+    assert by_name["procedure.tcp_error"].defaults == {"paper": 0.0, "realistic": 0.002}
+    for key, text in PRESETS["realistic"].items():  # every value a preset sets is listed
+        assert str(by_name[key].defaults["realistic"]).lower() == text
+    assert by_name["align.window_px"].traced and by_name["align.distance_threshold"].traced
+    assert not by_name["align.num_triangles"].traced and not by_name["camera.sensor"].traced
+    assert sum(k.traced for k in keys()) == len(jax.tree.leaves(Config()))  # the leaves: traced
+    units = {name: by_name[name].unit for name in ("align.window_px", "sim.timestep",
+                                                   "gripper.grip_force", "camera.fov_x_deg",
+                                                   "align.distance_threshold", "align.refit")}
+    assert units == {"align.window_px": "pixels", "sim.timestep": "s", "gripper.grip_force": "N",
+                     "camera.fov_x_deg": "deg", "align.distance_threshold": "pixel units",
+                     "align.refit": ""}
+    assert list(keys(["realistic"])[0].defaults) == ["realistic"]
+
+
+def test_keys_by_prefix_and_an_unknown_prefix_is_one_line_with_a_suggestion():
+    from graspjax.config import keys
+
+    assert [k.name for k in keys(prefix="align.")] == [f"align.{f.name}"
+                                                      for f in dataclasses.fields(AlignConfig)]
+    assert [k.name for k in keys(prefix="camera.sen")] == ["camera.sensor"]
+    with pytest.raises(ConfigError, match=r"^no configuration key starts with 'algn\.' "
+                                          r"\(did you mean align\.\?\)$"):
+        keys(prefix="algn.")
