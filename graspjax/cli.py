@@ -109,9 +109,10 @@ def cmd_planes(args) -> int:
     re-alignment's plane for every grid point of traced alignment values."""
     from graspjax.experiment import plane_study
 
-    jobs, config, points, keys = arguments.plane_request(args)
+    jobs, config, points, keys, config_file = arguments.plane_request(args)
     summary, timings, out = plane_study(jobs, config, points, keys, args.seed, args.batch,
-                                        args.preset, args.out, args.overwrite, args.quiet)
+                                        args.preset, args.out, args.overwrite, args.quiet,
+                                        config_file)
     print(summary.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
     print(f"{timings['views_scored']:,} views scored in {timings['score_s']:.2f} s "
           f"({timings['views_per_s']:,.0f} views/s; compile {timings['score_compile_s']:.1f} s, "
@@ -179,6 +180,11 @@ def cmd_report(args) -> int:
     return 0
 
 
+CONFIG_HELP = ("settings file: the dotted keys of --set with their values, in TOML ([align] "
+               "window_px = 12, or align.window_px = 12) or YAML (with PyYAML); a key may not "
+               "be given by --set as well (keys: graspjax config)")
+
+
 def _add_experiment_arguments(p) -> None:
     p.add_argument("--table", help="paper preset: 1 (a-f, Setups 1-3), 2 (g-l, Setup 1) or 1,2")
     p.add_argument("--setup", help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
@@ -196,6 +202,7 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
+    p.add_argument("--config", metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--batch", type=int,
                    help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a "
                         "CPU): a world's rows depend on its key, the device kind and this alone")
@@ -309,6 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", choices=["paper", "realistic"], default="paper")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. procedure.view_tilt_deg=30")
+    p.add_argument("--config", metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                    help="traced alignment values, e.g. align.window_px=5,15,30 (every "
                         "combination; one compiled program)")

@@ -26,8 +26,10 @@ import functools
 import inspect
 import io
 import math
+import os
 import re
 import tokenize
+import tomllib
 import typing
 from collections.abc import Iterable, Mapping
 from typing import Any, Literal
@@ -556,6 +558,57 @@ def override(config: Any, assignments: Mapping[str, str] | Iterable[str]) -> Any
         close = difflib.get_close_matches(key, list(named_fields(config)), n=1)
         hint = f" (did you mean {close[0]}?)" if close else ""
         raise ConfigError(f"unknown configuration key {key!r}{hint}") from None
+
+
+def settings_file(path: str) -> dict[str, str]:
+    """The dotted keys and values of a settings file (`--config`): TOML (nested tables
+    `[align] window_px = 12` or dotted keys `align.window_px = 12`), or YAML where PyYAML is
+    installed; the values as `--set` texts, for `override`. One-line `ConfigError`s name the
+    file (and the key)."""
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix not in (".toml", ".yaml", ".yml"):
+        raise ConfigError(f"--config {path}: give a .toml file (or .yaml, .yml with PyYAML)")
+    try:
+        with open(path, "rb") as file:
+            data = file.read()
+    except OSError as exc:
+        raise ConfigError(f"--config {path}: {exc.strerror or exc}") from None
+    if suffix == ".toml":
+        try:
+            table = tomllib.loads(data.decode())
+        except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise ConfigError(f"--config {path}: not valid TOML ({exc})") from None
+    else:
+        try:
+            import yaml
+        except ImportError:
+            raise ConfigError(f"--config {path}: reading YAML needs PyYAML (pip install pyyaml); or give "
+                              "the settings as .toml") from None
+        try:
+            table = yaml.safe_load(data) or {}
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"--config {path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        if not isinstance(table, dict):
+            raise ConfigError(f"--config {path}: holds no key: value settings")
+    out: dict[str, str] = {}
+
+    def flatten(table: dict, prefix: str) -> None:
+        for key, value in table.items():
+            name = f"{prefix}{key}"
+            if isinstance(value, dict):
+                flatten(value, name + ".")
+            elif name in out:
+                raise ConfigError(f"--config {path}: {name} is given twice")
+            elif isinstance(value, bool):
+                out[name] = str(value).lower()
+            elif isinstance(value, int | float | str):
+                out[name] = str(value)
+            else:
+                raise ConfigError(f"--config {path}: {name} takes one number, true/false or word, "
+                                  f"got {value!r}")
+
+    flatten(table, "")
+    return out
 
 
 def differences(config: Any, reference: Any) -> dict[str, Any]:

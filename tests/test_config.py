@@ -1,5 +1,7 @@
 import dataclasses
 import math
+import sys
+import types
 
 import jax
 import mujoco
@@ -275,3 +277,54 @@ def test_keys_by_prefix_and_an_unknown_prefix_is_one_line_with_a_suggestion():
     with pytest.raises(ConfigError, match=r"^no configuration key starts with 'algn\.' "
                                           r"\(did you mean align\.\?\)$"):
         keys(prefix="algn.")
+
+
+def test_a_settings_file_gives_dotted_keys_as_set_texts(tmp_path):
+    from graspjax.config import settings_file
+
+    path = tmp_path / "s.toml"
+    path.write_text('method = "antipodal"\n"camera.sensor" = "kinect"\n'
+                    "[align]\nwindow_px = 12\ndistance_threshold = 0.25\n"
+                    "[detect]\nwall_check = true\n[sim.x]\n")
+    assert settings_file(str(path)) == {
+        "method": "antipodal", "camera.sensor": "kinect", "align.window_px": "12",
+        "align.distance_threshold": "0.25", "detect.wall_check": "true"}
+    path.write_text("align.window_px = 12\nalign.min_turn_deg = 1e1\n")  # dotted keys
+    assert settings_file(str(path)) == {"align.window_px": "12", "align.min_turn_deg": "10.0"}
+    assert override(Config(), settings_file(str(path))).align.min_turn_deg == 10.0
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("missing.toml", None, "--config {path}: No such file or directory"),
+    ("bad.toml", "[align\nwindow_px = 1\n", "--config {path}: not valid TOML (Expected ']'"),
+    ("list.toml", "align.window_px = [5, 15]\n",
+     "--config {path}: align.window_px takes one number, true/false or word, got [5, 15]"),
+    ("twice.toml", '"align.window_px" = 5\n[align]\nwindow_px = 6\n',
+     "--config {path}: align.window_px is given twice"),
+    ("s.json", "{}", "--config {path}: give a .toml file (or .yaml, .yml with PyYAML)"),
+    ("s.yaml", "align:\n  window_px: 12\n",
+     "--config {path}: reading YAML needs PyYAML (pip install pyyaml); or give the settings as .toml"),
+])
+def test_a_bad_settings_file_is_one_line_naming_it(tmp_path, monkeypatch, name, text, message):
+    from graspjax.config import settings_file
+
+    monkeypatch.setitem(sys.modules, "yaml", None)  # as where PyYAML is missing
+    path = tmp_path / name
+    if text is not None:
+        path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        settings_file(str(path))
+    assert str(info.value).startswith(message.format(path=path)) and "\n" not in str(info.value)
+
+
+def test_a_yaml_settings_file_is_read_where_pyyaml_is_installed(tmp_path, monkeypatch):
+    from graspjax.config import settings_file
+
+    read = []
+    fake = types.SimpleNamespace(YAMLError=ValueError, safe_load=lambda data: read.append(data)
+                                 or {"align": {"window_px": 12}, "detect.wall_check": True})
+    monkeypatch.setitem(sys.modules, "yaml", fake)  # PyYAML's safe_load: the parsed mapping
+    path = tmp_path / "s.yml"
+    path.write_text("align:\n  window_px: 12\ndetect.wall_check: true\n")
+    assert settings_file(str(path)) == {"align.window_px": "12", "detect.wall_check": "true"}
+    assert read == [path.read_bytes()]
