@@ -162,7 +162,8 @@ def grid(items: list[str], base, fixed=()):
     keys = [k for axis in axes for k in axis[0]]
     twice = sorted({k for k in keys if keys.count(k) > 1} | (set(keys) & set(fixed)))
     if twice:
-        raise UsageError(f"{twice[0]} is given twice (in two --grid, or in --grid and --set)")
+        raise UsageError(f"{twice[0]} is given twice (in two --grid, or in --grid and --set or "
+                         "--config)")
     points = []
     for combo in itertools.product(*axes):
         assignment = {k: v for part in combo for k, v in part.items()}
@@ -192,14 +193,39 @@ def part(text: str | None) -> tuple[int, int]:
     return part, parts
 
 
+def settings(args):
+    """A run's, sweep's or plane study's configuration: its preset with the settings of
+    `--config FILE`, `--method` and every `--set` applied, a key given by two of them an error.
+    Returns (config, the keys of --config and --set (key -> value text), what config.json
+    records of the file: {"path", "settings"}, or None without --config)."""
+    from graspjax.config import ConfigError, override, parse_assignments, preset, settings_file
+
+    method = [f"method={args.method}"] if getattr(args, "method", None) else []
+    given = parse_assignments(method + (args.set or []))
+    path = args.config
+    from_file = settings_file(path) if path else {}
+    twice = [key for key in given if key in from_file]
+    if twice:
+        raise UsageError(f"{twice[0]} is given twice (in --config {path} and on the command line)")
+    base = preset(args.preset)
+    try:
+        config = override(base, {**from_file, **given})
+    except ConfigError:
+        if from_file:  # the file's own mistake names the file
+            try:
+                override(base, from_file)
+            except ConfigError as exc:
+                raise ConfigError(f"--config {path}: {exc}") from None
+        raise
+    fixed = {**from_file, **parse_assignments(args.set or [])}
+    return config, fixed, {"path": path, "settings": from_file} if path else None
+
+
 def experiment_request(args, grid_items):
     """The checked `Experiment` of a run (no grid) or sweep, before anything compiles."""
-    from graspjax.config import override, parse_assignments, preset
     from graspjax.experiment import Experiment
 
-    method = [f"method={args.method}"] if args.method else []
-    config = override(preset(args.preset), method + (args.set or []))
-    fixed = parse_assignments(args.set or [])
+    config, fixed, config_file = settings(args)
     keys, points = (([], [({}, config)]) if grid_items is None
                     else grid(grid_items, config, fixed))
     checked = jobs(args)
@@ -208,7 +234,7 @@ def experiment_request(args, grid_items):
     return Experiment(jobs=checked, base=config, points=points, keys=keys, seed=args.seed,
                       batch=args.batch, paired=paired, preset=args.preset,
                       save_views=args.save_views, max_views=args.max_views,
-                      deterministic=not args.fast)
+                      deterministic=not args.fast, config_file=config_file)
 
 
 def sweep_seeds(seed: int, points: int, paired: bool) -> None:
@@ -284,19 +310,18 @@ def bench_request(args) -> dict:
 
 
 def plane_request(args):
-    """`graspjax planes`' checked request: (jobs, config, points, keys); the grid may vary
-    only traced alignment values, so that every point shares one compiled program."""
+    """`graspjax planes`' checked request: (jobs, config, points, keys, the --config file's
+    record (`settings`)); the grid may vary only traced alignment values, so that every point
+    shares one compiled program."""
     import jax
 
-    from graspjax.config import override, preset
-
-    config = override(preset(args.preset), args.set or [])
-    keys, points = grid(args.grid, config) if args.grid else ([], [({}, config)])
+    config, fixed, config_file = settings(args)
+    keys, points = grid(args.grid, config, fixed) if args.grid else ([], [({}, config)])
     bad = [k for k in keys if not k.startswith("align.")]
     if bad or any(jax.tree.structure(c) != jax.tree.structure(config) for _, c in points):
         raise UsageError("planes --grid takes traced align.* values that compile once (e.g. "
                          f"align.window_px, align.distance_threshold), got {', '.join(keys)}")
-    return jobs(args), config, points, keys
+    return jobs(args), config, points, keys, config_file
 
 
 def distributed(text: str | None, part: str | None):

@@ -109,9 +109,10 @@ def cmd_planes(args) -> int:
     re-alignment's plane for every grid point of traced alignment values."""
     from graspjax.experiment import plane_study
 
-    jobs, config, points, keys = arguments.plane_request(args)
+    jobs, config, points, keys, config_file = arguments.plane_request(args)
     summary, timings, out = plane_study(jobs, config, points, keys, args.seed, args.batch,
-                                        args.preset, args.out, args.overwrite, args.quiet)
+                                        args.preset, args.out, args.overwrite, args.quiet,
+                                        config_file)
     print(summary.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
     print(f"{timings['views_scored']:,} views scored in {timings['score_s']:.2f} s "
           f"({timings['views_per_s']:,.0f} views/s; compile {timings['score_compile_s']:.1f} s, "
@@ -128,6 +129,36 @@ def cmd_assets(args) -> int:
     for path in write_assets(args.folder):
         print(path)
     return 0
+
+
+def cmd_config(args) -> int:
+    """List the configuration keys: default per preset, unit, traced or static, meaning."""
+    import csv
+
+    from graspjax.config import PRESETS, keys
+
+    presets = [args.preset] if args.preset else list(PRESETS)
+    found = keys(presets, args.prefix)
+    if args.format == "json":
+        print(json.dumps([{"key": k.name, "defaults": k.defaults, "unit": k.unit,
+                           "kind": "traced" if k.traced else "static", "meaning": k.meaning}
+                          for k in found], indent=1))
+        return 0
+    rows = [["key", *presets, "unit", "kind", "meaning"]]
+    rows += [[k.name, *(_setting(k.defaults[p]) for p in presets), k.unit,
+              "traced" if k.traced else "static", k.meaning] for k in found]
+    if args.format == "csv":
+        csv.writer(sys.stdout, lineterminator="\n").writerows(rows)
+        return 0
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]) - 1)]
+    for row in rows:
+        print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=False)) + "  " + row[-1])
+    return 0
+
+
+def _setting(value) -> str:
+    """A default as `--set` takes it (`true`, not `True`)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
 
 
 def cmd_report(args) -> int:
@@ -154,6 +185,11 @@ def cmd_report(args) -> int:
     return 0
 
 
+CONFIG_HELP = ("settings file: the dotted keys of --set with their values, in TOML ([align] "
+               "window_px = 12, or align.window_px = 12) or YAML (with PyYAML); a key may not "
+               "be given by --set as well (keys: graspjax config)")
+
+
 def _add_experiment_arguments(p) -> None:
     p.add_argument("--table", help="paper preset: 1 (a-f, Setups 1-3), 2 (g-l, Setup 1) or 1,2")
     p.add_argument("--setup", help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
@@ -171,6 +207,7 @@ def _add_experiment_arguments(p) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. align.window_px=10")
+    p.add_argument("--config", metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--batch", type=int,
                    help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a "
                         "CPU): a world's rows depend on its key, the device kind and this alone")
@@ -284,6 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", choices=["paper", "realistic"], default="paper")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a configuration value, e.g. procedure.view_tilt_deg=30")
+    p.add_argument("--config", metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                    help="traced alignment values, e.g. align.window_px=5,15,30 (every "
                         "combination; one compiled program)")
@@ -293,6 +331,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_planes)
+
+    p = sub.add_parser("config", help="list the configuration keys --set takes: default per "
+                       "preset, unit, traced (a sweep compiles once) or static, meaning")
+    p.add_argument("prefix", nargs="?", default="", metavar="PREFIX",
+                   help="only the keys that start with this, e.g. align.")
+    p.add_argument("--preset", choices=["paper", "realistic"],
+                   help="only this preset's defaults (default: every preset's)")
+    p.add_argument("--format", choices=["text", "csv", "json"], default="text",
+                   help="aligned text (default), CSV or JSON")
+    p.set_defaults(func=cmd_config)
 
     p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
     p.add_argument("folder", help="a run or sweep output directory")

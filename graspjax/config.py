@@ -18,10 +18,18 @@ parsing each string by the field's declared type.
 
 from __future__ import annotations
 
+import ast
 import copy
 import dataclasses
 import difflib
+import functools
+import inspect
+import io
 import math
+import os
+import re
+import tokenize
+import tomllib
 import typing
 from collections.abc import Iterable, Mapping
 from typing import Any, Literal
@@ -167,7 +175,8 @@ class DetectorConfig:
 class AlignConfig:
     """End-tool alignment by plane scoring (paper section 3.2, Eq. 2 and 3)."""
 
-    hypotheses: Literal["triangles", "random"] = "triangles"  # paper: fixed triangles around A
+    hypotheses: Literal["triangles", "random"] = "triangles"  # the plane hypotheses: fixed
+    # triangles around A (the paper) or random triangles (`num_random`)
     num_triangles: int = 8  # triangles around the point A (paper: 8, 45 degrees apart)
     anchor: Literal["nearest", "centre"] = "nearest"  # A, "a point in the z_min": z_min itself
     # (the paper's Fig. 4: A, B, C at z_min), or the pixel nearest the centroid of z_min's
@@ -242,8 +251,8 @@ class BaselineConfig:
 class CameraConfig:
     """The tool camera: the paper's Kinect, downsampled; exact depth or a Kinect sensor model."""
 
-    width: int = 160  # working resolution (paper: Kinect 640 x 480, downsampled)
-    height: int = 120
+    width: int = 160  # working resolution: columns (pixels; paper: Kinect 640 x 480, downsampled)
+    height: int = 120  # working resolution: rows (pixels)
     fov_x_deg: float = 57.0  # Kinect horizontal field of view
     fov_y_deg: float = 43.0  # Kinect vertical field of view
     min_range: float = traced(0.05)  # nearer returns are invalid (m)
@@ -367,15 +376,18 @@ class SimConfig:
 class LayoutConfig:
     """Random object layouts of the three setups (paper Fig. 7; docs/simulation.md)."""
 
-    workspace: float = traced(0.08)  # Setup 1: object centre U(-this, this)^2; Setup 2: group offset
+    workspace: float = traced(0.08)  # Setup 1: object centre U(-this, this)^2; Setup 2: group
+    # offset (m)
     drop_height: float = traced(0.01)  # Setup 1: lowest point above the table at the drop (m)
     gap_min: float = traced(0.005)  # Setup 2: smallest face-to-face gap between members (m)
     gap_max: float = traced(0.03)  # Setup 2: largest gap to the member placed beside (m)
     bin: bool = traced(False)  # Setup 3: the pile lies on the open table, as the paper's "dense
     # cluttered scenes with multiple overlapping objects" (Fig. 7); true: it is dropped into the
     # bin below instead (our named variant, `--set layout.bin=true`; the paper shows no bin)
-    pile_gap_min: float = traced(-0.02)  # Setup 3 on the table: the group of Setup 2 placed
-    pile_gap_max: float = traced(0.0)  # "within minimal distance and sometimes even [...]
+    pile_gap_min: float = traced(-0.02)  # Setup 3 on the table: the most an object's outline
+    # overlaps the member it is placed beside, negative (m; see pile_gap_max)
+    pile_gap_max: float = traced(0.0)  # Setup 3 on the table: the group of Setup 2 placed
+    # "within minimal distance and sometimes even [...]
     # overlapping": each object's outline touches (0) or overlaps by up to 2 cm (half the
     # hexagon d's 4.5 cm across flats; about half of any of a-f's narrowest side) the member it
     # is placed beside, and overlaps no other member by more (m). An overlapping object is
@@ -548,6 +560,57 @@ def override(config: Any, assignments: Mapping[str, str] | Iterable[str]) -> Any
         raise ConfigError(f"unknown configuration key {key!r}{hint}") from None
 
 
+def settings_file(path: str) -> dict[str, str]:
+    """The dotted keys and values of a settings file (`--config`): TOML (nested tables
+    `[align] window_px = 12` or dotted keys `align.window_px = 12`), or YAML where PyYAML is
+    installed; the values as `--set` texts, for `override`. One-line `ConfigError`s name the
+    file (and the key)."""
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix not in (".toml", ".yaml", ".yml"):
+        raise ConfigError(f"--config {path}: give a .toml file (or .yaml, .yml with PyYAML)")
+    try:
+        with open(path, "rb") as file:
+            data = file.read()
+    except OSError as exc:
+        raise ConfigError(f"--config {path}: {exc.strerror or exc}") from None
+    if suffix == ".toml":
+        try:
+            table = tomllib.loads(data.decode())
+        except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise ConfigError(f"--config {path}: not valid TOML ({exc})") from None
+    else:
+        try:
+            import yaml
+        except ImportError:
+            raise ConfigError(f"--config {path}: reading YAML needs PyYAML (pip install pyyaml); or give "
+                              "the settings as .toml") from None
+        try:
+            table = yaml.safe_load(data) or {}
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"--config {path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        if not isinstance(table, dict):
+            raise ConfigError(f"--config {path}: holds no key: value settings")
+    out: dict[str, str] = {}
+
+    def flatten(table: dict, prefix: str) -> None:
+        for key, value in table.items():
+            name = f"{prefix}{key}"
+            if isinstance(value, dict):
+                flatten(value, name + ".")
+            elif name in out:
+                raise ConfigError(f"--config {path}: {name} is given twice")
+            elif isinstance(value, bool):
+                out[name] = str(value).lower()
+            elif isinstance(value, int | float | str):
+                out[name] = str(value)
+            else:
+                raise ConfigError(f"--config {path}: {name} takes one number, true/false or word, "
+                                  f"got {value!r}")
+
+    flatten(table, "")
+    return out
+
+
 def differences(config: Any, reference: Any) -> dict[str, Any]:
     """Dotted names and values where `config` differs from `reference`."""
     theirs = named_fields(reference)
@@ -703,3 +766,69 @@ class RealImageConfig:
         _require(self.min_target_pixels <= self.target_window_px ** 2,
                  "RealImageConfig.min_target_pixels must be <= target_window_px ** 2")
         _require(self.seed >= 0, f"RealImageConfig.seed must be >= 0, got {self.seed!r}")
+
+
+# ---------------------------------------------------------------------------
+# What each key means: the comments of the fields, read from this source
+
+
+@functools.cache
+def _comments(cls: type) -> dict[str, str]:
+    """Each field of the config class `cls` and its comment (the one after it and the
+    comment-only lines below it, joined into one line)."""
+    source = inspect.getsource(cls)
+    lines = source.splitlines()
+    trailing = {token.start[0]: token.string.lstrip("#").strip()
+                for token in tokenize.generate_tokens(io.StringIO(source).readline)
+                if token.type == tokenize.COMMENT}
+    out = {}
+    for node in ast.parse(source).body[0].body:
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            parts, row = [trailing.get(node.end_lineno, "")], node.end_lineno
+            while row < len(lines) and lines[row].lstrip().startswith("#"):
+                parts.append(lines[row].lstrip().lstrip("#").strip())
+                row += 1
+            out[node.target.id] = " ".join(p for p in parts if p)
+    return out
+
+
+_UNITS = re.compile(r"\((m|s|N|kg|deg|N/m|N s/m|pixels|pixel units|(?:native|detection|support|"
+                    r"full-resolution) pixels)[;),]")
+
+
+@dataclasses.dataclass(frozen=True)
+class Key:
+    """One configuration key as `graspjax config` lists it."""
+
+    name: str  # dotted, as --set takes it
+    defaults: dict[str, Any]  # preset name -> its value
+    unit: str  # the unit the comment gives ("" for counts, switches, choices, ratios)
+    traced: bool  # a sweep over it compiles once (`traced`); else static
+    meaning: str  # the field's comment in this file
+
+
+def keys(presets: Iterable[str] = tuple(PRESETS), prefix: str = "") -> list[Key]:
+    """Every key of `Config` that starts with `prefix`, with its default in each of `presets`,
+    its unit, kind and meaning; a prefix no key starts with is a `ConfigError`."""
+    values = {name: named_fields(preset(name)) for name in presets}
+    names = list(named_fields(Config()))
+    if not any(name.startswith(prefix) for name in names):
+        sections = sorted({name.rpartition(".")[0] + "." for name in names if "." in name})
+        close = difflib.get_close_matches(prefix, sections + names, n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise ConfigError(f"no configuration key starts with {prefix!r}{hint}")
+
+    def walk(obj: Any, prefix: str) -> Iterable[Key]:
+        for f in dataclasses.fields(obj):
+            value = getattr(obj, f.name)
+            if dataclasses.is_dataclass(value):
+                yield from walk(value, f"{prefix}{f.name}.")
+                continue
+            name, meaning = prefix + f.name, _comments(type(obj)).get(f.name, "")
+            unit = _UNITS.search(meaning)
+            yield Key(name, {p: v[name] for p, v in values.items()},
+                      unit.group(1) if unit else "deg" if f.name.endswith("_deg")
+                      else "pixels" if f.name.endswith("_px") else "",
+                      bool(f.metadata.get("traced")), meaning)
+
+    return [key for key in walk(Config(), "") if key.name.startswith(prefix)]

@@ -78,6 +78,7 @@ class Experiment:
     save_views: str  # none, failed or all
     max_views: int
     deterministic: bool  # XLA's deterministic GPU ops (not --fast)
+    config_file: dict | None = None  # --config: {"path", "settings" (key -> value text)}
 
     @property
     def sweep(self) -> bool:
@@ -134,6 +135,22 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
                     compile_first)
 
 
+def run_meta(experiment: Experiment, batch: int) -> dict:
+    """What a run's config.json holds at its start: its id (`outputs.run_id`: the same for
+    the same settings, however given), every setting, what --config gave, the provenance."""
+    meta = {"seed": experiment.seed, "paired": experiment.paired, "preset": experiment.preset,
+            "jobs": [dataclasses.asdict(j) for j in experiment.jobs],
+            "overrides": differences(experiment.base, Config()),
+            "config_file": experiment.config_file,
+            "grid": {k: [p[0][k] for p in experiment.points] for k in experiment.keys},
+            "points": len(experiment.points),
+            "config": named_fields(experiment.base),
+            "batch": batch, "deterministic": experiment.deterministic,
+            "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": experiment.save_views,
+            **provenance()}
+    return {"run_id": run_id(meta), **meta}
+
+
 def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int, quiet: bool,
          processes: int, distributed: bool, compile_first: bool) -> RunResult:
     """`run`, with the folder checked and locked."""
@@ -145,16 +162,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     batch = experiment.batch or default_batch()
     configs, groups = _grouped(experiment)
     planned = chunks(groups, batch)
-    meta = {"seed": experiment.seed, "paired": experiment.paired, "preset": experiment.preset,
-            "jobs": [dataclasses.asdict(j) for j in experiment.jobs],
-            "overrides": differences(experiment.base, Config()),
-            "grid": {k: [p[0][k] for p in experiment.points] for k in experiment.keys},
-            "points": len(experiment.points),
-            "config": named_fields(experiment.base),
-            "batch": batch, "deterministic": experiment.deterministic,
-            "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": experiment.save_views,
-            **provenance()}
-    meta = {"run_id": run_id(meta), **meta}
+    meta = run_meta(experiment, batch)
     columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
     ours = [c for c in planned if c.index % parts == part]
     if distributed and part > 0:
@@ -290,10 +298,12 @@ def play_helper_share(job: Assignment, progress) -> None:
 
 def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str], Config]],
                 keys: list[str], seed: int, batch: int | None, preset: str, out: str | Path,
-                overwrite: bool = False, quiet: bool = False) -> tuple[pd.DataFrame, dict, Path]:
+                overwrite: bool = False, quiet: bool = False,
+                config_file: dict | None = None) -> tuple[pd.DataFrame, dict, Path]:
     """`graspjax planes`: settle the worlds, take each first view and judge the re-alignment's
     plane for every grid point (traced `align.*` values) into `out`: planes.csv.gz,
-    planes_summary.csv, config.json. Returns the summary, the timings and the folder."""
+    planes_summary.csv, config.json (with `config_file`, what --config gave). Returns the
+    summary, the timings and the folder."""
     from graspjax import planes
 
     out = check_output_folder(out, overwrite=overwrite)
@@ -310,7 +320,8 @@ def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str]
             rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
         summary = planes.summarize(rows, grid)
         meta = {"seed": seed, "preset": preset, "jobs": [dataclasses.asdict(j) for j in jobs],
-                "overrides": differences(base, Config()), "grid": grid, "batch": batch,
+                "overrides": differences(base, Config()), "config_file": config_file,
+                "grid": grid, "batch": batch,
                 "config": named_fields(base), "timings": timings, **provenance()}
         write_atomic(out / "planes.csv.gz",
                      gzip.compress(rows.to_csv(index=False).encode(), mtime=0))

@@ -1,5 +1,6 @@
 """`graspjax detect` end to end: one image, a folder of real-looking images, one-line errors."""
 
+import io
 import json
 import subprocess
 import sys
@@ -253,3 +254,32 @@ def test_bench_detect_takes_the_preset_as_detect_does(tmp_path, monkeypatch):
     config, image = seen["bench"]
     assert config.detect.wall_check and not Config().detect.wall_check
     assert image.max_targets == 3 != RealImageConfig().max_targets
+
+
+def test_config_lists_every_key_with_each_preset_s_default(capsys):
+    from graspjax.config import Config
+    from graspjax.tree import named_fields
+
+    assert main(["config"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["key", "paper", "realistic", "unit", "kind", "meaning"]
+    assert [line.split()[0] for line in lines[1:]] == list(named_fields(Config()))
+    row = next(line for line in lines if line.startswith("camera.sensor "))
+    assert row.split()[1:5] == ["ideal", "kinect", "static", "exact"]
+    assert main(["config", "--preset", "realistic", "--format", "csv", "align.win"]) == 0
+    frame = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False)
+    assert frame.to_dict("records") == [
+        {"key": "align.window_px", "realistic": "15", "unit": "pixels", "kind": "traced",
+         "meaning": "inlier window in x, y and z (pixels), around window_centre"},
+        {"key": "align.window_centre", "realistic": "triangle", "unit": "", "kind": "static",
+         "meaning": frame.meaning[1]}]
+    assert main(["config", "--format", "json", "detect.wall_check"]) == 0
+    [record] = json.loads(capsys.readouterr().out)
+    assert record["defaults"] == {"paper": False, "realistic": True} and record["kind"] == "traced"
+
+
+def test_config_with_an_unknown_prefix_is_one_line_and_exit_2(capsys):
+    assert main(["config", "algn."]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == ("graspjax: error: no configuration key starts with 'algn.' "
+                            "(did you mean align.?)\n") and not captured.out

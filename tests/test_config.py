@@ -1,5 +1,7 @@
 import dataclasses
 import math
+import sys
+import types
 
 import jax
 import mujoco
@@ -229,3 +231,100 @@ def test_the_reference_results_were_made_without_the_labels():
         meta = json.loads((folder / "config.json").read_text())
         assert meta["config"]["perception.oracle"] is False, folder
         assert "perception.oracle" not in meta["grid"], folder
+
+
+def test_every_key_is_listed_once_with_its_meaning_read_from_its_comment():
+    from graspjax.config import keys
+
+    listed = keys()
+    assert [k.name for k in listed] == list(named_fields(Config()))  # one row per key, in order
+    lacking = [k.name for k in listed if not k.meaning]
+    assert not lacking, f"fields without a trailing comment in config.py: {lacking}"
+    by_name = {k.name: k for k in listed}
+    # continuation comment lines belong to the field above them, not to the next one
+    assert by_name["align.anchor"].meaning.endswith("docs/departures.md)")
+    assert by_name["align.anchor_band"].meaning == 'anchor="centre": depth band of z_min\'s surface (m)'
+
+
+def test_listed_defaults_units_and_kinds_per_preset():
+    from graspjax.config import keys
+
+    by_name = {k.name: k for k in keys()}
+    assert by_name["align.window_px"].defaults == {"paper": 15, "realistic": 15}
+    assert by_name["align.distance_threshold"].defaults == {"paper": 0.3, "realistic": 0.3}
+    assert by_name["camera.sensor"].defaults == {"paper": "ideal", "realistic": "kinect"}
+    assert by_name["procedure.tcp_error"].defaults == {"paper": 0.0, "realistic": 0.002}
+    for key, text in PRESETS["realistic"].items():  # every value a preset sets is listed
+        assert str(by_name[key].defaults["realistic"]).lower() == text
+    assert by_name["align.window_px"].traced and by_name["align.distance_threshold"].traced
+    assert not by_name["align.num_triangles"].traced and not by_name["camera.sensor"].traced
+    assert sum(k.traced for k in keys()) == len(jax.tree.leaves(Config()))  # the leaves: traced
+    units = {name: by_name[name].unit for name in ("align.window_px", "sim.timestep",
+                                                   "gripper.grip_force", "camera.fov_x_deg",
+                                                   "align.distance_threshold", "align.refit")}
+    assert units == {"align.window_px": "pixels", "sim.timestep": "s", "gripper.grip_force": "N",
+                     "camera.fov_x_deg": "deg", "align.distance_threshold": "pixel units",
+                     "align.refit": ""}
+    assert list(keys(["realistic"])[0].defaults) == ["realistic"]
+
+
+def test_keys_by_prefix_and_an_unknown_prefix_is_one_line_with_a_suggestion():
+    from graspjax.config import keys
+
+    assert [k.name for k in keys(prefix="align.")] == [f"align.{f.name}"
+                                                      for f in dataclasses.fields(AlignConfig)]
+    assert [k.name for k in keys(prefix="camera.sen")] == ["camera.sensor"]
+    with pytest.raises(ConfigError, match=r"^no configuration key starts with 'algn\.' "
+                                          r"\(did you mean align\.\?\)$"):
+        keys(prefix="algn.")
+
+
+def test_a_settings_file_gives_dotted_keys_as_set_texts(tmp_path):
+    from graspjax.config import settings_file
+
+    path = tmp_path / "s.toml"
+    path.write_text('method = "antipodal"\n"camera.sensor" = "kinect"\n'
+                    "[align]\nwindow_px = 12\ndistance_threshold = 0.25\n"
+                    "[detect]\nwall_check = true\n[sim.x]\n")
+    assert settings_file(str(path)) == {
+        "method": "antipodal", "camera.sensor": "kinect", "align.window_px": "12",
+        "align.distance_threshold": "0.25", "detect.wall_check": "true"}
+    path.write_text("align.window_px = 12\nalign.min_turn_deg = 1e1\n")  # dotted keys
+    assert settings_file(str(path)) == {"align.window_px": "12", "align.min_turn_deg": "10.0"}
+    assert override(Config(), settings_file(str(path))).align.min_turn_deg == 10.0
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("missing.toml", None, "--config {path}: No such file or directory"),
+    ("bad.toml", "[align\nwindow_px = 1\n", "--config {path}: not valid TOML (Expected ']'"),
+    ("list.toml", "align.window_px = [5, 15]\n",
+     "--config {path}: align.window_px takes one number, true/false or word, got [5, 15]"),
+    ("twice.toml", '"align.window_px" = 5\n[align]\nwindow_px = 6\n',
+     "--config {path}: align.window_px is given twice"),
+    ("s.json", "{}", "--config {path}: give a .toml file (or .yaml, .yml with PyYAML)"),
+    ("s.yaml", "align:\n  window_px: 12\n",
+     "--config {path}: reading YAML needs PyYAML (pip install pyyaml); or give the settings as .toml"),
+])
+def test_a_bad_settings_file_is_one_line_naming_it(tmp_path, monkeypatch, name, text, message):
+    from graspjax.config import settings_file
+
+    monkeypatch.setitem(sys.modules, "yaml", None)  # as where PyYAML is missing
+    path = tmp_path / name
+    if text is not None:
+        path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        settings_file(str(path))
+    assert str(info.value).startswith(message.format(path=path)) and "\n" not in str(info.value)
+
+
+def test_a_yaml_settings_file_is_read_where_pyyaml_is_installed(tmp_path, monkeypatch):
+    from graspjax.config import settings_file
+
+    read = []
+    fake = types.SimpleNamespace(YAMLError=ValueError, safe_load=lambda data: read.append(data)
+                                 or {"align": {"window_px": 12}, "detect.wall_check": True})
+    monkeypatch.setitem(sys.modules, "yaml", fake)  # PyYAML's safe_load: the parsed mapping
+    path = tmp_path / "s.yml"
+    path.write_text("align:\n  window_px: 12\ndetect.wall_check: true\n")
+    assert settings_file(str(path)) == {"align.window_px": "12", "detect.wall_check": "true"}
+    assert read == [path.read_bytes()]

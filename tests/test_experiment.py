@@ -784,7 +784,7 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     (["sweep", "--setup", "1", "--grid", "align.window_px=10,15", "--grid", "align.window_px=5"],
      "align.window_px is given twice"),
     (["sweep", "--setup", "1", "--grid", "align.window_px=10,15", "--set", "align.window_px=5"],
-     "align.window_px is given twice (in two --grid, or in --grid and --set)"),
+     "align.window_px is given twice (in two --grid, or in --grid and --set or --config)"),
     (["sweep", "--setup", "1", "--grid", "align.window_px=10,10"],
      "--grid gives one point twice (align.window_px=10 and align.window_px=10)"),
     (["sweep", "--setup", "1", "--grid", "align.distance_threshold=0.3,0.30"], "one point twice"),
@@ -896,3 +896,86 @@ def test_figure_names_stay_in_the_folder_and_are_distinct(tmp_path):
         got = experiment.figure_names(paths)
         assert got == names
         assert all(Path(n).name == n and (tmp_path / n).parent == tmp_path for n in got)
+
+
+def _request(args):
+    from graspjax.arguments import experiment_request
+    from graspjax.cli import build_parser
+
+    parsed = build_parser().parse_args([*args, "--out", "x"])
+    return experiment_request(parsed, parsed.grid if args[0] == "sweep" else None)
+
+
+def test_a_settings_file_is_the_same_run_as_its_sets_and_config_json_records_it(tmp_path):
+    import dataclasses
+
+    settings = tmp_path / "s.toml"
+    settings.write_text('method = "antipodal"\n[align]\nwindow_px = 12\n[camera]\nsensor = "kinect"\n')
+    sets = ["--set", "method=antipodal", "--set", "align.window_px=12", "--set", "camera.sensor=kinect"]
+    for command in (["run", "--setup", "1"], ["sweep", "--setup", "1", "--grid", "align.min_inliers=5,9"]):
+        from_file = _request([*command, "--config", str(settings)])
+        from_sets = _request([*command, *sets])
+        assert from_file.config_file == {"path": str(settings), "settings": {
+            "method": "antipodal", "align.window_px": "12", "camera.sensor": "kinect"}}
+        assert dataclasses.replace(from_file, config_file=None) == from_sets
+        meta, other = experiment.run_meta(from_file, 10), experiment.run_meta(from_sets, 10)
+        assert meta["run_id"] == other["run_id"] and meta["overrides"] == other["overrides"] == {
+            "method": "antipodal", "align.window_px": 12, "camera.sensor": "kinect"}
+        assert meta["config_file"] == from_file.config_file and other["config_file"] is None
+    # a file and --set of other keys add up; their order does not matter (one validation)
+    settings.write_text("sim.min_lift = 0.15\n")  # above the default lift_height: fixed by --set
+    both = _request(["run", "--setup", "1", "--config", str(settings), "--set", "sim.lift_height=0.2"])
+    assert (both.base.sim.min_lift, both.base.sim.lift_height) == (0.15, 0.2)
+
+
+@pytest.mark.parametrize("text, args, message", [
+    ("[align]\nwindow_px = 12\n", ["--set", "align.window_px=12"],
+     "align.window_px is given twice (in --config {path} and on the command line)"),
+    ('method = "antipodal"\n', ["--method", "paper"],
+     "method is given twice (in --config {path} and on the command line)"),
+    ("[align]\nwindw_px = 12\n", [],
+     "--config {path}: unknown configuration key 'align.windw_px' (did you mean align.window_px?)"),
+    ("align.window_px = 1.5\n", [], "--config {path}: align.window_px must be int, got '1.5'"),
+    ("align.window_px = 40\n", [], "--config {path}: AlignConfig.window_px must be in [1, 32], got 40"),
+    ('camera = "kinect"\n', [], "--config {path}: unknown configuration key 'camera'"),
+    ("align.window_px = 12\n", ["--set", "align.windw_px=3"],  # the --set's mistake: no file named
+     "graspjax: error: unknown configuration key 'align.windw_px' (did you mean align.window_px?)"),
+    ("[align\n", [], "--config {path}: not valid TOML"),
+    (None, [], "--config {path}: No such file or directory"),
+])
+def test_a_bad_settings_file_is_one_line_exit_2_nothing_written(tmp_path, capsys, monkeypatch, text,
+                                                                args, message):
+    monkeypatch.setattr(experiment, "run", lambda *a, **k: pytest.fail("a run started"))
+    path, out = tmp_path / "s.toml", tmp_path / "out"
+    if text is not None:
+        path.write_text(text)
+    assert main(["run", "--setup", "1", "--config", str(path), *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message.format(path=path) in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_a_grid_over_a_key_of_the_settings_file_is_refused(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text("align.window_px = 12\n")
+    for command in (["sweep", "--setup", "1", "--grid", "align.window_px=5,15"],
+                    ["planes", "--setup", "1", "--grid", "align.window_px=5,15"]):
+        assert main([*command, "--config", str(path), "--out", str(tmp_path / "out")]) == 2
+        assert capsys.readouterr().err == ("graspjax: error: align.window_px is given twice (in two "
+                                           "--grid, or in --grid and --set or --config)\n")
+    assert not (tmp_path / "out").exists()
+
+
+def test_planes_takes_a_settings_file_as_run_does(tmp_path):
+    from graspjax.arguments import plane_request
+    from graspjax.cli import build_parser
+
+    path = tmp_path / "s.toml"
+    path.write_text("[procedure]\nview_tilt_deg = 30\n")
+    common = ["planes", "--setup", "1", "--grid", "align.window_px=5,15", "--out", "x"]
+    *request, config_file = plane_request(build_parser().parse_args([*common, "--config", str(path)]))
+    *same, none = plane_request(build_parser().parse_args([*common, "--set",
+                                                           "procedure.view_tilt_deg=30"]))
+    assert request == same and request[1].procedure.view_tilt_deg == 30.0
+    assert config_file == {"path": str(path), "settings": {"procedure.view_tilt_deg": "30"}}
+    assert none is None
