@@ -396,6 +396,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("graspjax: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # its reader stopped reading (`graspjax config | head`): no error
+        return 0
     except OSError as exc:  # a write failed: a full disk, a read-only folder, a file size limit
         where = f": {exc.filename}" if exc.filename else ""
         print(f"graspjax: error: {exc.strerror or exc}{where} (a run keeps every chunk it "

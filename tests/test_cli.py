@@ -283,3 +283,10 @@ def test_config_with_an_unknown_prefix_is_one_line_and_exit_2(capsys):
     captured = capsys.readouterr()
     assert captured.err == ("graspjax: error: no configuration key starts with 'algn.' "
                             "(did you mean align.?)\n") and not captured.out
+
+
+def test_a_reader_that_stops_early_is_no_error():
+    """`graspjax config | head -1`: the command ends quietly when its reader closes the pipe."""
+    done = subprocess.run(f"{sys.executable} -m graspjax.cli config | head -1", shell=True,
+                          capture_output=True, text=True, timeout=120)
+    assert done.stdout.startswith("key") and "error" not in done.stderr
