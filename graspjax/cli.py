@@ -61,6 +61,8 @@ def _run_experiment(args, grid_items=None) -> int:
     from graspjax import experiment
 
     request = arguments.experiment_request(args, grid_items)
+    if args.dry_run:
+        return _dry_run(request, args)
     from graspjax.runtime import players
 
     try:
@@ -89,6 +91,41 @@ def _run_experiment(args, grid_items=None) -> int:
         if (result.folder / name).exists() and grid_items is None:
             print((result.folder / name).read_text())
     return 0
+
+
+def _dry_run(request, args) -> int:
+    """--dry-run: what the run would play and how long it would take; nothing is traced,
+    compiled or written."""
+    import jax
+
+    from graspjax.batch.plan import default_batch
+    from graspjax.experiment import planned_groups
+    from graspjax.outputs import check_output_folder
+
+    check_output_folder(args.out, args.resume, args.overwrite)  # refused now as it would be
+    groups = planned_groups(request)
+    device = jax.devices()[0]
+    batch = request.batch or default_batch()
+    print(f"{len(request.points)} grid point(s), {sum(g.worlds for g in groups)} worlds in "
+          f"{sum(g.chunks for g in groups)} chunks of up to {batch}, {len(groups)} program(s); "
+          f"{jax.device_count()} {getattr(device, 'device_kind', device.platform)} device(s)")
+    for g in groups:
+        estimate = "no timings recorded here" if g.seconds is None else f"about {_s(g.seconds)}"
+        print(f"  {g.scene} (Setup {', '.join(map(str, g.setups))}): {g.worlds} worlds, "
+              f"{g.chunks} chunk(s), program {'stored' if g.stored else 'to trace and compile'}, "
+              f"{estimate}")
+    known = [g.seconds for g in groups if g.seconds is not None]
+    if len(known) == len(groups):
+        print(f"estimated: about {_s(sum(known))} on one device (chunks of several programs "
+              "overlap, several devices or processes share them)")
+    else:
+        print(f"estimated: unknown for {len(groups) - len(known)} program(s) (a run records "
+              "its timings for the next estimate)")
+    return 0
+
+
+def _s(seconds: float) -> str:
+    return f"{seconds:.1f} s" if seconds < 10 else f"{seconds:.0f} s"
 
 
 def cmd_run(args) -> int:
@@ -232,6 +269,10 @@ def _add_experiment_arguments(p) -> None:
                    help="keep the images, detections and planes of these attempts (views/*.npz)")
     p.add_argument("--max-views", type=int, default=100,
                    help="keep views of at most this many attempts (default 100)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the worlds, chunks and programs the run would play, which "
+                        "programs are stored, and an estimated time from the timings last "
+                        "recorded on this device kind; run nothing, write nothing")
     p.add_argument("--compile-first", action="store_true",
                    help="load or compile every program on every device before the first chunk "
                         "(benchmarks: timings.csv then times play alone; the same rows)")

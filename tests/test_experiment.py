@@ -151,6 +151,21 @@ def test_peak_memory_is_the_device_s_in_gib():
     assert program.peak_gib(Device(None)) is None  # the CPU's answer
 
 
+def test_a_dry_run_tells_the_plan_and_estimates_the_run_it_precedes(tiny_run, tmp_path, capsys):
+    """--dry-run after the tiny run (which recorded its timings): the worlds, chunks and
+    programs, the programs stored, nothing written; its estimate is within 2x of what the same
+    run then takes (play, trace and compile, as timings.csv records them)."""
+    out = tmp_path / "again"
+    assert main(["run", *TINY, "--out", str(out), "--dry-run"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("1 grid point(s), 6 worlds in 2 chunks of up to 3, ")
+    assert "to trace" not in printed and "program stored" in printed and not out.exists()
+    estimate = float(re.search(r"estimated: about ([0-9.]+) s on one device", printed).group(1))
+    assert main(["run", *TINY, "--out", str(out)]) == 0
+    measured = pd.read_csv(out / "timings.csv")[["wall_s", "trace_s", "compile_s"]].to_numpy().sum()
+    assert measured / 2 <= max(estimate, 0.1) <= 2 * max(measured, 0.05), (estimate, measured)
+
+
 def test_same_seed_same_attempts(tiny_run, tmp_path):
     again = tmp_path / "again"
     assert main(["run", *TINY, "--out", str(again)]) == 0
