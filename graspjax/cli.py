@@ -211,7 +211,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--depth-scale", type=float, default=0.001,
                    help="metres per unit of a 16-bit .png (default 0.001: millimetres)")
     g = p.add_argument_group("intrinsics (full-resolution pixels; one way at most; default: "
-                             "each .npz's K, else the Kinect's 57 x 43 degrees)")
+                             "each .npz's K, else the Kinect's 57 x 43 degrees, with a one-line "
+                             "warning on stderr)")
     g.add_argument("--intrinsics", metavar="FILE",
                    help="JSON with fx, fy, cx, cy (or K), a gqcnn .intr, or a 3x3 .npy/.txt")
     g.add_argument("--K", metavar="FX,0,CX,0,FY,CY,0,0,1", help="the 3x3 matrix, row by row")

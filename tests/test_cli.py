@@ -52,7 +52,16 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     out_json, out_png = tmp_path / "r.json", tmp_path / "r.png"
     assert main(["detect", str(kinect_scene / name), "--json", str(out_json), "--top", "2",
                  "--figure", str(out_png)]) == 0  # the second grasp outlined in the figure
-    printed = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    printed = json.loads(captured.out)
+    # No intrinsics given, none in the file: the Kinect's, never silently (one line on stderr).
+    warnings = [w for w in captured.err.splitlines() if w.startswith("graspjax: warning:")]
+    kinect = Camera.kinect(640, 480)
+    assert warnings == [f"graspjax: warning: no intrinsics given and none in the files: assuming "
+                        f"a Kinect v1's 57 x 43 degree field of view (fx {kinect.fx:.1f}, fy "
+                        f"{kinect.fy:.1f} for 640x480); give the camera's own with --intrinsics "
+                        "FILE, --K, --fx/--fy/--cx/--cy or --fov-x/--fov-y"]
+    assert printed["camera"]["fx"] == pytest.approx(kinect.fx)
     assert printed == json.loads(out_json.read_text())
     assert printed["method"] == "paper" and len(printed["candidates"]) == 2
     grasp = printed["grasp"]
@@ -70,12 +79,21 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     assert out_png.read_bytes()[:8] == PNG
 
 
+def test_detect_help_says_what_happens_without_intrinsics(capsys):
+    with pytest.raises(SystemExit):
+        main(["detect", "--help"])
+    assert "else the Kinect's 57 x 43 degrees, with a one-line warning on stderr" in " ".join(
+        capsys.readouterr().out.split())
+
+
 def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
     cam = Camera.kinect(640, 480)
     args = ["detect", str(kinect_scene / "scene.npy"), "--fx", str(cam.fx), "--fy", str(cam.fy),
             "--downsample", "2", "--set", "gripper.opening=0.04"]
     assert main(args) == 0
-    printed = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    printed = json.loads(captured.out)
+    assert "warning" not in captured.err  # the intrinsics were given
     assert not printed["found"] and printed["reason"] == "TOO_WIDE"  # 5 cm does not fit 4 cm
     assert printed["camera"]["fx"] == pytest.approx(cam.fx) and printed["downsample"] == 2
 

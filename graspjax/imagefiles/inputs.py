@@ -12,7 +12,7 @@ import dataclasses
 import math
 import typing
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -307,6 +307,15 @@ def _plausible_camera(source: Intrinsics, width: int, height: int, path: Path,
     return camera
 
 
+def assumed_camera(camera: Camera) -> str:
+    """The one line that says images without intrinsics are taken with the Kinect's field of
+    view (`camera`, at the images' size), and how to give the real ones."""
+    return (f"no intrinsics given and none in the files: assuming a Kinect v1's "
+            f"{KINECT_FOV_X_DEG:g} x {KINECT_FOV_Y_DEG:g} degree field of view (fx {camera.fx:.1f}, "
+            f"fy {camera.fy:.1f} for {camera.width}x{camera.height}); give the camera's own with "
+            "--intrinsics FILE, --K, --fx/--fy/--cx/--cy or --fov-x/--fov-y")
+
+
 def _workspace_box(roi: tuple[int, int, int, int], width: int, height: int) -> np.ndarray:
     """The workspace (H, W) bool of a box of columns x0 <= u < x1 and rows y0 <= v < y1."""
     x0, y0, x1, y1 = roi
@@ -323,12 +332,16 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             intrinsics: IntrinsicsRequest = IntrinsicsRequest(),
             roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
             depth_range: tuple[float, float] | None = None, downsample: int | None = None,
-            overrides: Sequence[str] = (), bin: bool = False) -> Inputs:
+            overrides: Sequence[str] = (), bin: bool = False,
+            warn: Callable[[str], None] = warnings.warn) -> Inputs:
     """Read and check every input; nothing is computed yet but, with `bin`, each image's bin
     interior (`bins.bin_interior`), which narrows that image's workspace: a bin found in every
     image, so that images of several bins (or of one bin that moved) each get their own, and
     an image without one stops the run before anything is written. Every image is read here
-    once, to check it (its size, its intrinsics, its depth range) and find its bin."""
+    once, to check it (its size, its intrinsics, its depth range) and find its bin.
+
+    Images without intrinsics (none given, none in the files) are taken with the Kinect's field
+    of view, never silently: `warn` gets one line saying so (`assumed_camera`)."""
     paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
@@ -343,6 +356,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     source = intrinsics.resolve(width, height)
     _check_range(first, paths[0], image, depth_scale)
     camera = _plausible_camera(source, width, height, paths[0], first_k)
+    if source.values is None and first_k is None:
+        warn(assumed_camera(camera))
     reduction = input_reduction(first, camera, image)
     small_w, small_h = width // reduction, height // reduction
     if min(small_w, small_h) < 8:  # before a `Camera` of that size is made (it refuses one)
