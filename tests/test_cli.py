@@ -135,6 +135,24 @@ def test_npz_intrinsics_are_used_when_none_are_given(real_folder, capsys):
                                atol=0.004)
 
 
+def test_detect_on_an_organised_point_cloud_needs_no_intrinsics(kinect_scene, tmp_path, capsys):
+    """The Kinect scene as an .npz holding only `xyz` (back-projected by hand): the intrinsics
+    come from its points, so no warning, and the grasp is the depth image's."""
+    cam = Camera.kinect(640, 480)
+    z = np.load(kinect_scene / "scene.npy").astype(np.float64)
+    v, u = np.indices(z.shape)
+    xyz = np.stack([(u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z], -1)
+    np.savez(tmp_path / "cloud.npz", xyz=xyz.astype(np.float32))
+    assert main(["detect", str(tmp_path / "cloud.npz")]) == 0
+    captured = capsys.readouterr()
+    printed = json.loads(captured.out)
+    assert "warning" not in captured.err and printed["camera"]["source"] == "the file's K"
+    for key in ("fx", "fy", "cx", "cy"):
+        assert printed["camera"][key] == pytest.approx(getattr(cam, key), abs=1e-2)
+    assert printed["found"]
+    np.testing.assert_allclose(printed["grasp"]["position"], [0.01, -0.02, 0.55], atol=0.005)
+
+
 def _bad_inputs(folder, tmp_path):
     """(arguments, expected message) of user mistakes, with the files they need."""
     Image.fromarray(np.zeros((480, 640, 3), np.uint8)).save(tmp_path / "photo.png")
@@ -154,10 +172,10 @@ def _bad_inputs(folder, tmp_path):
         # Depths a thousandfold off (once "camera resolution 0x0" as a traceback):
         ([str(tmp_path / "metres.png")], "metres.png: median depth 0.001 m (in the depth range "
          "0-10 m) is implausible for a depth camera (0.05-20 m): check --depth-scale (metres "
-         "per unit of the PNG, now 0.001)"),
+         "per unit of the image, now 0.001)"),
         ([b, "--depth-scale", "1e-6"], "b.png: median depth 0.00749 m (in the depth range 0-10 "
          "m) is implausible for a depth camera (0.05-20 m): check --depth-scale (metres per unit "
-         "of the PNG, now 1e-06)"),
+         "of the image, now 1e-06)"),
         ([a, "--intrinsics", intr, "--fx", "500"], "not --fx/--fy/--cx/--cy and --intrinsics"),
         ([a, str(tmp_path / "small.npy")], "all images must have one size"),
         ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),

@@ -20,10 +20,10 @@ import numpy as np
 from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
 from graspjax.config import Config, RealImageConfig, override
 from graspjax.imagefiles.bins import bin_interior
-from graspjax.io import InputError, load_intrinsics, load_mask, read_depth
+from graspjax.io import InputError, load_intrinsics, load_mask, read_depth, scaled_depth
 from graspjax.perception.workspace import block_factors
 
-DEPTH_SUFFIXES = (".npy", ".npz", ".png")
+DEPTH_SUFFIXES = (".npy", ".npz", ".png", ".tif", ".tiff")
 #: The full opening angle (degrees) along each axis that intrinsics may give the images. Depth
 #: cameras for grasping see from about 20 degrees (long-range structured-light scanners) to
 #: about 120 (wide time-of-flight modes), and a pinhole model holds nothing near 180; 5-150
@@ -250,7 +250,7 @@ def split_overrides(items: Sequence[str]) -> tuple[Config, RealImageConfig]:
 
 
 def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
-    """The image paths, a directory standing for its depth files (.npy, .npz, .png), sorted."""
+    """The image paths, a directory standing for its depth files (`DEPTH_SUFFIXES`), sorted."""
     paths = []
     for image in images:
         path = Path(image)
@@ -258,7 +258,7 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
             inside = sorted(p for p in path.iterdir()
                             if p.is_file() and p.suffix.lower() in DEPTH_SUFFIXES)
             if not inside:
-                raise InputError(f"directory {path} holds no .npy, .npz or .png files")
+                raise InputError(f"directory {path} holds no {', '.join(DEPTH_SUFFIXES)} files")
             paths += inside
         else:
             paths.append(path)
@@ -270,11 +270,11 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
 def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_scale: float) -> None:
     """Refuse an image none of whose pixels lies in the depth range, or whose median depth
     there lies outside `MEDIAN_DEPTH_M` (a wrong depth scale or unit)."""
-    png = path.suffix.lower() == ".png"
+    scaled = scaled_depth(path)  # integer units of the depth scale, not metres
     kept = in_range(depth, image)
     if not kept.size:
         valid = depth[np.isfinite(depth) & (depth > 0)]
-        unit = f" with depth scale {depth_scale:g}" if png else ""
+        unit = f" with depth scale {depth_scale:g}" if scaled else ""
         raise InputError(f"{path}: every pixel lies outside the depth range "
                          f"{image.min_depth:g}-{image.max_depth:g} m (its depths span "
                          f"{valid.min():.4g}-{valid.max():.4g} m{unit}; check the depth scale "
@@ -282,7 +282,7 @@ def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_sc
     median = float(np.median(kept))
     low, high = MEDIAN_DEPTH_M
     if not low <= median <= high:
-        hint = (f"check --depth-scale (metres per unit of the PNG, now {depth_scale:g})" if png
+        hint = (f"check --depth-scale (metres per unit of the image, now {depth_scale:g})" if scaled
                 else "its depth must be in metres")
         raise InputError(f"{path}: median depth {median:.3g} m (in the depth range "
                          f"{image.min_depth:g}-{image.max_depth:g} m) is implausible for a depth "
