@@ -69,6 +69,22 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     assert abs(grasp["width"] - 0.05) < 0.005
     # The box top centre (0.01, 0.02, 0.05) in the world is (0.01, -0.02, 0.55) in the camera.
     np.testing.assert_allclose(grasp["position"], [0.01, -0.02, 0.55], atol=0.005)
+    # Its pose: the camera looks straight down, so the approach (z column) is the optical axis
+    # and the closing axis (x column) lies in the image plane: a turn about z.
+    pose = np.array(grasp["pose"])
+    c, s = pose[0, 0], pose[1, 0]
+    np.testing.assert_allclose(pose[:3, :3], [[c, -s, 0], [s, c, 0], [0, 0, 1]], atol=1e-6)
+    for g in [grasp, *printed["candidates"]]:
+        pose = np.array(g["pose"])
+        rotation = pose[:3, :3]
+        np.testing.assert_allclose(rotation.T @ rotation, np.eye(3), atol=1e-6)
+        assert np.linalg.det(rotation) == pytest.approx(1.0, abs=1e-6)
+        np.testing.assert_allclose(rotation[:, 0], g["closing_axis"], atol=1e-6)
+        np.testing.assert_allclose(rotation[:, 2], grasp["approach"], atol=1e-6)
+        np.testing.assert_allclose(rotation[:, 1], np.cross(grasp["approach"], g["closing_axis"]),
+                                   atol=1e-6)
+        np.testing.assert_allclose(pose[:3, 3], g["position"], atol=1e-7)
+        assert pose[3].tolist() == [0, 0, 0, 1]
     assert printed["working_resolution"] == [640, 480] and printed["downsample"] == 1
     assert printed["support_resolution"] == [160, 120] and printed["window"] == 192
     # Straight down at the table: no virtual view is needed.
@@ -113,6 +129,17 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     assert (table["view"] == "virtual").all() and (table["reason"] == "FOUND").all()
     top = scene.to_camera(scene.top)
     np.testing.assert_allclose(table[["x", "y", "z"]].to_numpy(), np.tile(top, (3, 1)), atol=0.004)
+    # Each row's pose (row by row): columns the closing axis, approach x it, the approach (here
+    # a virtual view's, tilted), translation G.
+    pose = table[[f"pose_{i}{j}" for i in range(4) for j in range(4)]].to_numpy().reshape(-1, 4, 4)
+    closing = table[["axis_x", "axis_y", "axis_z"]].to_numpy()
+    approach = table[["approach_x", "approach_y", "approach_z"]].to_numpy()
+    np.testing.assert_allclose(pose[:, :3, 0], closing, atol=1e-5)
+    np.testing.assert_allclose(pose[:, :3, 1], np.cross(approach, closing), atol=1e-5)
+    np.testing.assert_allclose(pose[:, :3, 2], approach, atol=1e-5)
+    np.testing.assert_allclose(pose[:, :3, 3], table[["x", "y", "z"]].to_numpy(), atol=1e-5)
+    np.testing.assert_allclose(np.linalg.det(pose[:, :3, :3]), 1.0, atol=1e-5)
+    assert abs(approach[0, 2]) < 0.99  # the virtual view's axis is not the optical axis
     np.testing.assert_allclose(table["support_tilt_deg"], 13.0, atol=0.1)
     assert (table["compute_ms"] > 0).all() and table["width"].between(0.035, 0.045).all()
     assert (table["method"] == "paper").all() and (table["landing_fall"] >= 0.008).all()
