@@ -341,7 +341,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     once, to check it (its size, its intrinsics, its depth range) and find its bin.
 
     Images without intrinsics (none given, none in the files) are taken with the Kinect's field
-    of view, never silently: `warn` gets one line saying so (`assumed_camera`)."""
+    of view, never silently: `warn` gets one line saying so (`assumed_camera`), once every
+    input passed its checks (a mistake stays the one line of its `InputError`)."""
     paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
@@ -356,8 +357,6 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     source = intrinsics.resolve(width, height)
     _check_range(first, paths[0], image, depth_scale)
     camera = _plausible_camera(source, width, height, paths[0], first_k)
-    if source.values is None and first_k is None:
-        warn(assumed_camera(camera))
     reduction = input_reduction(first, camera, image)
     small_w, small_h = width // reduction, height // reduction
     if min(small_w, small_h) < 8:  # before a `Camera` of that size is made (it refuses one)
@@ -406,6 +405,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             _check_range(depth, path, image, depth_scale)
         if inputs.image.bin:
             interiors.append(np.packbits(_bin_of(inputs, path, depth, k), axis=-1))
+    if source.values is None and first_k is None:  # once all is checked: a mistake is one line
+        warn(assumed_camera(camera))
     return dataclasses.replace(inputs, bins=np.stack(interiors)) if interiors else inputs
 
 
