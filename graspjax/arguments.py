@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 
 from graspjax.io import check_writable
 
@@ -275,7 +276,8 @@ def detect_request(args):
     inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=intrinsics(args),
                      roi=roi(args.roi), mask=args.mask, depth_range=depth_range(args.range),
                      downsample=args.downsample, bin=args.bin,
-                     overrides=detect_settings(args.preset, args.top, args.set, args.method))
+                     overrides=detect_settings(args.preset, args.top, args.set, args.method),
+                     warn=lambda line: print(f"graspjax: warning: {line}", file=sys.stderr))
     return inputs, outputs, args.batch, many
 
 

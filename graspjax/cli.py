@@ -289,14 +289,18 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("detect", help="detect grasps on depth images (real cameras welcome)")
     p.add_argument("images", nargs="+", metavar="IMAGE",
                    help="depth images of one size: .npy (H, W) or (H, W, 1) in metres, .npz with "
-                        "'depth' (m) and optionally 'K', or a 16-bit .png (see --depth-scale); "
-                        "a directory stands for its .npy, .npz and .png files")
+                        "'depth' (m) and optionally 'K', or with an organised point cloud 'xyz' "
+                        "(H, W, 3; m, camera frame; intrinsics fitted to it), a 16-bit .png or "
+                        ".tif (see --depth-scale), a float32 .tif in metres; a directory stands "
+                        "for its .npy, .npz, .png, .tif and .tiff files")
     p.add_argument("--depth-scale", type=float, default=0.001,
-                   help="metres per unit of a 16-bit .png (default 0.001: millimetres)")
+                   help="metres per unit of a 16-bit .png or .tif (default 0.001: millimetres)")
     g = p.add_argument_group("intrinsics (full-resolution pixels; one way at most; default: "
-                             "each .npz's K, else the Kinect's 57 x 43 degrees)")
+                             "each .npz's K, else the Kinect's 57 x 43 degrees, with a one-line "
+                             "warning on stderr)")
     g.add_argument("--intrinsics", metavar="FILE",
-                   help="JSON with fx, fy, cx, cy (or K), a gqcnn .intr, or a 3x3 .npy/.txt")
+                   help="JSON with fx, fy, cx, cy (or K), Open3D's PinholeCameraIntrinsic JSON, "
+                        "a ROS camera_info .yaml, a gqcnn .intr, or a 3x3 .npy/.txt")
     g.add_argument("--K", metavar="FX,0,CX,0,FY,CY,0,0,1", help="the 3x3 matrix, row by row")
     g.add_argument("--fx", type=float, help="focal length in pixels")
     g.add_argument("--fy", type=float, help="focal length in pixels (default: --fx)")

@@ -5,6 +5,18 @@ and the output schema (`schema.py`) read them without loading JAX's simulator.
 
 from enum import IntEnum
 
+import numpy as np
+
+
+def names(kind: type[IntEnum], codes):
+    """The names of integer codes of `kind` (host values, not traced ones): a str for one code
+    (`GraspReason(4)` -> 'NO_ANTIPODAL'), an array of str of `codes`' shape for a batch. The
+    result classes' `reason_name` properties use it; the int codes stay in the arrays."""
+    codes = np.asarray(codes)
+    if codes.ndim == 0:
+        return kind(int(codes)).name
+    return np.array([kind(int(c)).name for c in codes.ravel()]).reshape(codes.shape)
+
 
 class GraspReason(IntEnum):
     """Why `detect_grasp` found (0) or did not find a grasp.

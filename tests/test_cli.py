@@ -53,7 +53,16 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     out_json, out_png = tmp_path / "r.json", tmp_path / "r.png"
     assert main(["detect", str(kinect_scene / name), "--json", str(out_json), "--top", "2",
                  "--figure", str(out_png)]) == 0  # the second grasp outlined in the figure
-    printed = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    printed = json.loads(captured.out)
+    # No intrinsics given, none in the file: the Kinect's, never silently (one line on stderr).
+    warnings = [w for w in captured.err.splitlines() if w.startswith("graspjax: warning:")]
+    kinect = Camera.kinect(640, 480)
+    assert warnings == [f"graspjax: warning: no intrinsics given and none in the files: assuming "
+                        f"a Kinect v1's 57 x 43 degree field of view (fx {kinect.fx:.1f}, fy "
+                        f"{kinect.fy:.1f} for 640x480); give the camera's own with --intrinsics "
+                        "FILE, --K, --fx/--fy/--cx/--cy or --fov-x/--fov-y"]
+    assert printed["camera"]["fx"] == pytest.approx(kinect.fx)
     assert printed == json.loads(out_json.read_text())
     assert printed["method"] == "paper" and len(printed["candidates"]) == 2
     grasp = printed["grasp"]
@@ -61,6 +70,22 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     assert abs(grasp["width"] - 0.05) < 0.005
     # The box top centre (0.01, 0.02, 0.05) in the world is (0.01, -0.02, 0.55) in the camera.
     np.testing.assert_allclose(grasp["position"], [0.01, -0.02, 0.55], atol=0.005)
+    # Its pose: the camera looks straight down, so the approach (z column) is the optical axis
+    # and the closing axis (x column) lies in the image plane: a turn about z.
+    pose = np.array(grasp["pose"])
+    c, s = pose[0, 0], pose[1, 0]
+    np.testing.assert_allclose(pose[:3, :3], [[c, -s, 0], [s, c, 0], [0, 0, 1]], atol=1e-6)
+    for g in [grasp, *printed["candidates"]]:
+        pose = np.array(g["pose"])
+        rotation = pose[:3, :3]
+        np.testing.assert_allclose(rotation.T @ rotation, np.eye(3), atol=1e-6)
+        assert np.linalg.det(rotation) == pytest.approx(1.0, abs=1e-6)
+        np.testing.assert_allclose(rotation[:, 0], g["closing_axis"], atol=1e-6)
+        np.testing.assert_allclose(rotation[:, 2], grasp["approach"], atol=1e-6)
+        np.testing.assert_allclose(rotation[:, 1], np.cross(grasp["approach"], g["closing_axis"]),
+                                   atol=1e-6)
+        np.testing.assert_allclose(pose[:3, 3], g["position"], atol=1e-7)
+        assert pose[3].tolist() == [0, 0, 0, 1]
     assert printed["working_resolution"] == [640, 480] and printed["downsample"] == 1
     assert printed["support_resolution"] == [160, 120] and printed["window"] == 192
     # Straight down at the table: no virtual view is needed.
@@ -71,12 +96,21 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     assert out_png.read_bytes()[:8] == PNG
 
 
+def test_detect_help_says_what_happens_without_intrinsics(capsys):
+    with pytest.raises(SystemExit):
+        main(["detect", "--help"])
+    assert "else the Kinect's 57 x 43 degrees, with a one-line warning on stderr" in " ".join(
+        capsys.readouterr().out.split())
+
+
 def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
     cam = Camera.kinect(640, 480)
     args = ["detect", str(kinect_scene / "scene.npy"), "--fx", str(cam.fx), "--fy", str(cam.fy),
             "--downsample", "2", "--set", "gripper.opening=0.04"]
     assert main(args) == 0
-    printed = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    printed = json.loads(captured.out)
+    assert "warning" not in captured.err  # the intrinsics were given
     assert not printed["found"] and printed["reason"] == "TOO_WIDE"  # 5 cm does not fit 4 cm
     assert printed["camera"]["fx"] == pytest.approx(cam.fx) and printed["downsample"] == 2
 
@@ -96,6 +130,17 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     assert (table["view"] == "virtual").all() and (table["reason"] == "FOUND").all()
     top = scene.to_camera(scene.top)
     np.testing.assert_allclose(table[["x", "y", "z"]].to_numpy(), np.tile(top, (3, 1)), atol=0.004)
+    # Each row's pose (row by row): columns the closing axis, approach x it, the approach (here
+    # a virtual view's, tilted), translation G.
+    pose = table[[f"pose_{i}{j}" for i in range(4) for j in range(4)]].to_numpy().reshape(-1, 4, 4)
+    closing = table[["axis_x", "axis_y", "axis_z"]].to_numpy()
+    approach = table[["approach_x", "approach_y", "approach_z"]].to_numpy()
+    np.testing.assert_allclose(pose[:, :3, 0], closing, atol=1e-5)
+    np.testing.assert_allclose(pose[:, :3, 1], np.cross(approach, closing), atol=1e-5)
+    np.testing.assert_allclose(pose[:, :3, 2], approach, atol=1e-5)
+    np.testing.assert_allclose(pose[:, :3, 3], table[["x", "y", "z"]].to_numpy(), atol=1e-5)
+    np.testing.assert_allclose(np.linalg.det(pose[:, :3, :3]), 1.0, atol=1e-5)
+    assert abs(approach[0, 2]) < 0.99  # the virtual view's axis is not the optical axis
     np.testing.assert_allclose(table["support_tilt_deg"], 13.0, atol=0.1)
     assert (table["compute_ms"] > 0).all() and table["width"].between(0.035, 0.045).all()
     assert (table["method"] == "paper").all() and (table["landing_fall"] >= 0.008).all()
@@ -118,6 +163,24 @@ def test_npz_intrinsics_are_used_when_none_are_given(real_folder, capsys):
                                atol=0.004)
 
 
+def test_detect_on_an_organised_point_cloud_needs_no_intrinsics(kinect_scene, tmp_path, capsys):
+    """The Kinect scene as an .npz holding only `xyz` (back-projected by hand): the intrinsics
+    come from its points, so no warning, and the grasp is the depth image's."""
+    cam = Camera.kinect(640, 480)
+    z = np.load(kinect_scene / "scene.npy").astype(np.float64)
+    v, u = np.indices(z.shape)
+    xyz = np.stack([(u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z], -1)
+    np.savez(tmp_path / "cloud.npz", xyz=xyz.astype(np.float32))
+    assert main(["detect", str(tmp_path / "cloud.npz")]) == 0
+    captured = capsys.readouterr()
+    printed = json.loads(captured.out)
+    assert "warning" not in captured.err and printed["camera"]["source"] == "the file's K"
+    for key in ("fx", "fy", "cx", "cy"):
+        assert printed["camera"][key] == pytest.approx(getattr(cam, key), abs=1e-2)
+    assert printed["found"]
+    np.testing.assert_allclose(printed["grasp"]["position"], [0.01, -0.02, 0.55], atol=0.005)
+
+
 def _bad_inputs(folder, tmp_path):
     """(arguments, expected message) of user mistakes, with the files they need."""
     Image.fromarray(np.zeros((480, 640, 3), np.uint8)).save(tmp_path / "photo.png")
@@ -137,10 +200,10 @@ def _bad_inputs(folder, tmp_path):
         # Depths a thousandfold off (once "camera resolution 0x0" as a traceback):
         ([str(tmp_path / "metres.png")], "metres.png: median depth 0.001 m (in the depth range "
          "0-10 m) is implausible for a depth camera (0.05-20 m): check --depth-scale (metres "
-         "per unit of the PNG, now 0.001)"),
+         "per unit of the image, now 0.001)"),
         ([b, "--depth-scale", "1e-6"], "b.png: median depth 0.00749 m (in the depth range 0-10 "
          "m) is implausible for a depth camera (0.05-20 m): check --depth-scale (metres per unit "
-         "of the PNG, now 1e-06)"),
+         "of the image, now 1e-06)"),
         ([a, "--intrinsics", intr, "--fx", "500"], "not --fx/--fy/--cx/--cy and --intrinsics"),
         ([a, str(tmp_path / "small.npy")], "all images must have one size"),
         ([str(folder / "c.npz"), a], "c.npz holds its intrinsics K but"),

@@ -67,6 +67,18 @@ def test_opening_decides_what_fits(camera, detect, render):
     assert _reason(small) == GraspReason.TOO_WIDE
 
 
+def test_reasons_by_name(camera, detect, render):
+    """`reason_name` names the int code the arrays keep: a str for one image, an array of str
+    for a batch."""
+    fits, too_wide = (jnp.asarray(render([box(size)]))
+                      for size in ((0.04, 0.09, 0.04), (0.09, 0.10, 0.04)))
+    one = detect(too_wide, camera)
+    assert one.reason_name == "TOO_WIDE" and int(one.reason) == GraspReason.TOO_WIDE
+    batched = jax.jit(jax.vmap(detect_grasp, in_axes=(0, None)))(jnp.stack([fits, too_wide]),
+                                                                  camera)
+    np.testing.assert_array_equal(batched.reason_name, ["FOUND", "TOO_WIDE"])
+
+
 @pytest.mark.parametrize("sides, yaw_deg", [(6, 0.0), (6, 20.0), (6, 45.0), (8, 13.0)])
 def test_prisms_with_parallel_sides_are_grasped_flat_to_flat(camera, detect, render, sides,
                                                              yaw_deg):

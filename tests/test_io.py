@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from graspjax.camera import Camera
 from graspjax.io import (
     InputError,
     check_depth,
@@ -13,6 +14,7 @@ from graspjax.io import (
     read_depth,
     write_atomic,
 )
+from graspjax.synthetic import analytic_depth, box, rot_x, top_down_pose
 
 K = np.array([[525.0, 0.0, 319.5], [0.0, 520.0, 239.5], [0.0, 0.0, 1.0]])
 
@@ -68,14 +70,163 @@ def test_bad_png_npz_and_unknown_formats(tmp_path):
     with pytest.raises(InputError, match=r"colour image \(12x10, 3 channels, uint8\)"):
         read_depth(tmp_path / "rgb.png")
     np.savez(tmp_path / "x.npz", rgb=np.zeros((10, 10, 3), np.uint8))
-    with pytest.raises(InputError, match="no 'depth' array .*rgb"):
+    with pytest.raises(InputError, match="no 'depth' or 'xyz' array .*rgb"):
         read_depth(tmp_path / "x.npz")
     np.savez(tmp_path / "k.npz", depth=np.ones((10, 10), np.float32), K=np.eye(2))
     with pytest.raises(InputError, match="3x3"):
         read_depth(tmp_path / "k.npz")
-    (tmp_path / "b.tiff").write_bytes(b"x")
+    (tmp_path / "b.jpg").write_bytes(b"x")
     with pytest.raises(InputError, match="unknown depth format"):
-        read_depth(tmp_path / "b.tiff")
+        read_depth(tmp_path / "b.jpg")
+    (tmp_path / "b.ply").write_bytes(b"ply")
+    with pytest.raises(InputError, match=r"\.ply point clouds are not read; save .* 'xyz'"):
+        read_depth(tmp_path / "b.ply")
+
+
+def test_tiff_float_metres_and_16_bit_scaled(tmp_path):
+    """A float32 TIFF (Pillow's mode F) is metres as it stands; a 16-bit one (mode I;16) is
+    units of the depth scale; a colour or 8-bit TIFF is refused in one line."""
+    depth = np.full((20, 30), 0.7315, np.float32)
+    depth[2, 3] = 0.0
+    Image.fromarray(depth).save(tmp_path / "m.tif")
+    Image.fromarray((depth * 1e4).round().astype(np.uint16)).save(tmp_path / "u.tiff")
+    with Image.open(tmp_path / "m.tif") as f, Image.open(tmp_path / "u.tiff") as u:
+        assert (f.mode, u.mode) == ("F", "I;16")
+    got, k = read_depth(tmp_path / "m.tif")
+    np.testing.assert_array_equal(got, depth)
+    assert k is None
+    np.testing.assert_allclose(read_depth(tmp_path / "u.tiff", depth_scale=1e-4)[0], depth,
+                               atol=1e-7)
+    Image.fromarray(np.zeros((10, 10), np.uint8)).save(tmp_path / "a.tif")
+    with pytest.raises(InputError, match="expected a single-channel TIFF .* got mode L") as info:
+        read_depth(tmp_path / "a.tif")
+    assert "\n" not in str(info.value)
+    Image.fromarray(np.zeros((10, 12, 3), np.uint8)).save(tmp_path / "rgb.tif")
+    with pytest.raises(InputError, match="colour image"):
+        read_depth(tmp_path / "rgb.tif")
+
+
+def _organised_cloud(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """A box on a table seen 20 degrees off vertical (`analytic_depth`), its depth (H, W) and
+    its points (H, W, 3) back-projected by hand: x = (u - cx) z / fx, y = (v - cy) z / fy; no
+    depth (0) is the point (0, 0, 0), as camera drivers write it."""
+    rotation, eye = top_down_pose(0.6)
+    depth = analytic_depth(camera, rot_x(np.deg2rad(20.0)) @ rotation, eye,
+                           [box((0.05, 0.09, 0.05), (0.01, 0.02, 0.0), 0.35)])
+    v, u = np.indices(depth.shape)
+    z = np.nan_to_num(depth).astype(np.float64)
+    xyz = np.stack([(u - camera.cx) * z / camera.fx, (v - camera.cy) * z / camera.fy, z], -1)
+    return depth, xyz
+
+
+def test_organised_point_cloud_npz_gives_depth_and_fitted_intrinsics(tmp_path):
+    """`xyz` alone: depth is its z, K fitted to its points (fx != fy, cx != cy: a swap shows);
+    a K in the file wins; points not organised (shuffled) or no cloud at all are refused."""
+    camera = Camera(64, 48, 80.0, 70.0, 30.25, 25.5)
+    depth, xyz = _organised_cloud(camera)
+    np.savez(tmp_path / "c.npz", xyz=xyz.astype(np.float32))
+    got, k = read_depth(tmp_path / "c.npz")
+    np.testing.assert_allclose(got, xyz[..., 2], atol=0)
+    np.testing.assert_allclose(k, [[80.0, 0, 30.25], [0, 70.0, 25.5], [0, 0, 1]], atol=1e-3)
+    own = np.array([[81.0, 0, 32.0], [0, 71.0, 24.0], [0, 0, 1]])
+    np.savez(tmp_path / "own.npz", xyz=xyz, K=own)
+    np.testing.assert_array_equal(read_depth(tmp_path / "own.npz")[1], own)
+    shuffled = np.random.default_rng(0).permutation(xyz.reshape(-1, 3)).reshape(xyz.shape)
+    np.savez(tmp_path / "s.npz", xyz=shuffled)
+    with pytest.raises(InputError, match="fit no pinhole camera .* expected an organised cloud"):
+        read_depth(tmp_path / "s.npz")
+    np.savez(tmp_path / "flat.npz", xyz=xyz.reshape(-1, 3))
+    with pytest.raises(InputError, match=r"organised point cloud \(H, W, 3\).*\(3072, 3\)"):
+        read_depth(tmp_path / "flat.npz")
+
+
+def test_open3d_intrinsics_json_is_column_major(tmp_path):
+    """Open3D writes `intrinsic_matrix` column by column: [fx, 0, 0, 0, fy, 0, cx, cy, 1]."""
+    (tmp_path / "o3d.json").write_text(json.dumps({
+        "width": 640, "height": 480,
+        "intrinsic_matrix": [525.0, 0.0, 0.0, 0.0, 520.0, 0.0, 319.5, 239.5, 1.0]}))
+    assert load_intrinsics(tmp_path / "o3d.json") == {"fx": 525.0, "fy": 520.0, "cx": 319.5,
+                                                      "cy": 239.5, "width": 640, "height": 480}
+    (tmp_path / "rows.json").write_text(json.dumps({  # written row by row: refused, not swapped
+        "width": 640, "height": 480,
+        "intrinsic_matrix": [525.0, 0.0, 319.5, 0.0, 520.0, 239.5, 0.0, 0.0, 1.0]}))
+    with pytest.raises(InputError, match=r"intrinsic_matrix \(column by column\): expected"):
+        load_intrinsics(tmp_path / "rows.json")
+    (tmp_path / "short.json").write_text(json.dumps({"intrinsic_matrix": [525.0, 0.0]}))
+    with pytest.raises(InputError, match="list of 9 numbers"):
+        load_intrinsics(tmp_path / "short.json")
+
+
+ROS1_YAML = """\
+image_width: 640
+image_height: 480
+camera_name: "depth camera"  # a comment
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [525.0, 0.0, 319.5,
+         0.0, 520.0, 239.5,
+         0.0, 0.0, 1.0]
+distortion_model: plumb_bob
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [0.0, 0.0, 0.0, 0.0, 0.0]
+projection_matrix:
+  rows: 3
+  cols: 4
+  data: [530.0, 0, 320.0, 0, 0, 525.0, 240.0, 0, 0, 0, 1, 0]
+"""
+
+ROS2_YAML = """\
+header:
+  stamp:
+    sec: 0
+    nanosec: 0
+  frame_id: camera_depth_optical_frame
+height: 480
+width: 640
+distortion_model: plumb_bob
+d:
+- 0.0
+- 0.0
+k:
+- 525.0
+- 0.0
+- 319.5
+- 0.0
+- 520.0
+- 239.5
+- 0.0
+- 0.0
+- 1.0
+r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+---
+"""
+
+
+@pytest.mark.parametrize("text", [ROS1_YAML, ROS2_YAML])
+def test_ros_camera_info_yaml(tmp_path, text):
+    """ROS's camera_matrix (row by row; the projection matrix beside it is not taken) and ROS
+    2's k list give the same intrinsics and image size."""
+    (tmp_path / "info.yaml").write_text(text)
+    assert load_intrinsics(tmp_path / "info.yaml") == {"fx": 525.0, "fy": 520.0, "cx": 319.5,
+                                                       "cy": 239.5, "width": 640, "height": 480}
+
+
+@pytest.mark.parametrize("text, match", [
+    ("image_width: 640\n", "no camera_matrix \\(ROS\\) or k \\(ROS 2\\)"),
+    ("camera_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 2]\n", "list of 9 numbers"),
+    ("camera_matrix:\n  rows: 3\n  cols: 4\n  data: [1, 2]\n", "must be 3x3, got rows 3, cols 4"),
+    ("k: [525, 0, 319.5, 0, 520, 239.5, 0, 0\n", "unclosed list"),
+    ("k: [525, 0, 319.5, 0, 520, 239.5, 0, 0, 1]\nwidth: wide\n", 'width must be a number'),
+    ("just text\n", "expected 'key: value'"),
+])
+def test_bad_camera_info_yaml(tmp_path, text, match):
+    (tmp_path / "info.yml").write_text(text)
+    with pytest.raises(InputError, match=match) as info:
+        load_intrinsics(tmp_path / "info.yml")
+    assert "\n" not in str(info.value)
 
 
 def test_check_depth_accepts_nan_as_invalid():

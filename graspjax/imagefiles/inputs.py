@@ -12,7 +12,7 @@ import dataclasses
 import math
 import typing
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -20,10 +20,10 @@ import numpy as np
 from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
 from graspjax.config import Config, RealImageConfig, override
 from graspjax.imagefiles.bins import bin_interior
-from graspjax.io import InputError, load_intrinsics, load_mask, read_depth
+from graspjax.io import InputError, load_intrinsics, load_mask, read_depth, scaled_depth
 from graspjax.perception.workspace import block_factors
 
-DEPTH_SUFFIXES = (".npy", ".npz", ".png")
+DEPTH_SUFFIXES = (".npy", ".npz", ".png", ".tif", ".tiff")
 #: The full opening angle (degrees) along each axis that intrinsics may give the images. Depth
 #: cameras for grasping see from about 20 degrees (long-range structured-light scanners) to
 #: about 120 (wide time-of-flight modes), and a pinhole model holds nothing near 180; 5-150
@@ -250,7 +250,7 @@ def split_overrides(items: Sequence[str]) -> tuple[Config, RealImageConfig]:
 
 
 def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
-    """The image paths, a directory standing for its depth files (.npy, .npz, .png), sorted."""
+    """The image paths, a directory standing for its depth files (`DEPTH_SUFFIXES`), sorted."""
     paths = []
     for image in images:
         path = Path(image)
@@ -258,7 +258,7 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
             inside = sorted(p for p in path.iterdir()
                             if p.is_file() and p.suffix.lower() in DEPTH_SUFFIXES)
             if not inside:
-                raise InputError(f"directory {path} holds no .npy, .npz or .png files")
+                raise InputError(f"directory {path} holds no {', '.join(DEPTH_SUFFIXES)} files")
             paths += inside
         else:
             paths.append(path)
@@ -270,11 +270,11 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
 def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_scale: float) -> None:
     """Refuse an image none of whose pixels lies in the depth range, or whose median depth
     there lies outside `MEDIAN_DEPTH_M` (a wrong depth scale or unit)."""
-    png = path.suffix.lower() == ".png"
+    scaled = scaled_depth(path)  # integer units of the depth scale, not metres
     kept = in_range(depth, image)
     if not kept.size:
         valid = depth[np.isfinite(depth) & (depth > 0)]
-        unit = f" with depth scale {depth_scale:g}" if png else ""
+        unit = f" with depth scale {depth_scale:g}" if scaled else ""
         raise InputError(f"{path}: every pixel lies outside the depth range "
                          f"{image.min_depth:g}-{image.max_depth:g} m (its depths span "
                          f"{valid.min():.4g}-{valid.max():.4g} m{unit}; check the depth scale "
@@ -282,7 +282,7 @@ def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_sc
     median = float(np.median(kept))
     low, high = MEDIAN_DEPTH_M
     if not low <= median <= high:
-        hint = (f"check --depth-scale (metres per unit of the PNG, now {depth_scale:g})" if png
+        hint = (f"check --depth-scale (metres per unit of the image, now {depth_scale:g})" if scaled
                 else "its depth must be in metres")
         raise InputError(f"{path}: median depth {median:.3g} m (in the depth range "
                          f"{image.min_depth:g}-{image.max_depth:g} m) is implausible for a depth "
@@ -307,6 +307,15 @@ def _plausible_camera(source: Intrinsics, width: int, height: int, path: Path,
     return camera
 
 
+def assumed_camera(camera: Camera) -> str:
+    """The one line that says images without intrinsics are taken with the Kinect's field of
+    view (`camera`, at the images' size), and how to give the real ones."""
+    return (f"no intrinsics given and none in the files: assuming a Kinect v1's "
+            f"{KINECT_FOV_X_DEG:g} x {KINECT_FOV_Y_DEG:g} degree field of view (fx {camera.fx:.1f}, "
+            f"fy {camera.fy:.1f} for {camera.width}x{camera.height}); give the camera's own with "
+            "--intrinsics FILE, --K, --fx/--fy/--cx/--cy or --fov-x/--fov-y")
+
+
 def _workspace_box(roi: tuple[int, int, int, int], width: int, height: int) -> np.ndarray:
     """The workspace (H, W) bool of a box of columns x0 <= u < x1 and rows y0 <= v < y1."""
     x0, y0, x1, y1 = roi
@@ -323,12 +332,17 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             intrinsics: IntrinsicsRequest = IntrinsicsRequest(),
             roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
             depth_range: tuple[float, float] | None = None, downsample: int | None = None,
-            overrides: Sequence[str] = (), bin: bool = False) -> Inputs:
+            overrides: Sequence[str] = (), bin: bool = False,
+            warn: Callable[[str], None] = warnings.warn) -> Inputs:
     """Read and check every input; nothing is computed yet but, with `bin`, each image's bin
     interior (`bins.bin_interior`), which narrows that image's workspace: a bin found in every
     image, so that images of several bins (or of one bin that moved) each get their own, and
     an image without one stops the run before anything is written. Every image is read here
-    once, to check it (its size, its intrinsics, its depth range) and find its bin."""
+    once, to check it (its size, its intrinsics, its depth range) and find its bin.
+
+    Images without intrinsics (none given, none in the files) are taken with the Kinect's field
+    of view, never silently: `warn` gets one line saying so (`assumed_camera`), once every
+    input passed its checks (a mistake stays the one line of its `InputError`)."""
     paths = expand_images(images)
     if not (depth_scale > 0 and math.isfinite(depth_scale)):
         raise InputError(f"the depth scale must be > 0, got {depth_scale!r}")
@@ -391,6 +405,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             _check_range(depth, path, image, depth_scale)
         if inputs.image.bin:
             interiors.append(np.packbits(_bin_of(inputs, path, depth, k), axis=-1))
+    if source.values is None and first_k is None:  # once all is checked: a mistake is one line
+        warn(assumed_camera(camera))
     return dataclasses.replace(inputs, bins=np.stack(interiors)) if interiors else inputs
 
 

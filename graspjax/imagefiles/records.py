@@ -1,5 +1,14 @@
 """One record per real image, in the three forms a detection run gives: JSON, a CSV row, and
-the printed line."""
+the printed line.
+
+Every grasp (the record's `grasp` and each of its `candidates`) is also a `pose`, a 4x4
+homogeneous transform from the gripper's frame to the camera's (OpenCV: x right, y down, z
+forward; metres): its columns are the gripper's x axis = the closing direction
+(`closing_axis`), y = z x x (along the jaws' edges), z = the approach direction (`approach`,
+into the scene), and its translation the grasp centre G (`position`) on the target's top
+surface; the jaws reach `depth` below G along z. The frame is the simulated gripper's
+(`geometry.frame_from_axes`). The CSV gives it as `pose_00` ... `pose_33`, row by row.
+"""
 
 from __future__ import annotations
 
@@ -8,27 +17,36 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from graspjax.codes import SupportReason, TargetReason
+from graspjax.geometry import frame_from_axes
 from graspjax.imagefiles.batches import Detection
 from graspjax.imagefiles.inputs import Inputs
 from graspjax.io import jsonable
-from graspjax.perception import AlignReason, GraspReason
 from graspjax.perception.workspace import block_factors
 
 
+def grasp_pose(position, closing_axis, approach) -> np.ndarray | None:
+    """A grasp as a 4x4 pose in the camera frame (the module's convention): rotation columns
+    closing axis, approach x closing axis, approach; translation the grasp centre. None
+    where there is no grasp (a non-finite position)."""
+    if not np.isfinite(position).all():
+        return None
+    pose = np.eye(4)
+    pose[:3, :3] = np.asarray(frame_from_axes(np.asarray(approach), np.asarray(closing_axis)))
+    pose[:3, 3] = position
+    return pose
+
+
 def record(d: Detection, inputs: Inputs) -> dict:
-    """The record of one image's `Detection` (JSON values: lists, numbers, strings, None)."""
+    """The record of one image's `Detection` (JSON values: lists, numbers, strings, None);
+    each grasp's `pose` as the module docstring says."""
     r, camera = d.result, d.camera
     g, a, s, ranked = r.grasp, r.alignment, r.support, r.ranked
-    target_ok = int(r.target_reason) == TargetReason.FOUND
-    reason = (GraspReason(int(g.reason)).name if target_ok
-              else TargetReason(int(r.target_reason)).name)
     fine, coarse = block_factors(inputs.width, inputs.image)
     return jsonable({
         "image": str(d.path),
         "method": inputs.config.method,
         "found": bool(r.found),
-        "reason": reason,
+        "reason": r.reason_name,
         "size": list(inputs.source_size),
         "full_resolution": [inputs.width, inputs.height],
         "input_reduction": inputs.reduction,
@@ -42,40 +60,44 @@ def record(d: Detection, inputs: Inputs) -> dict:
                       "bin": inputs.image.bin,
                       "range": [inputs.image.min_depth, inputs.image.max_depth],
                       "pixels": int(d.workspace.sum())},
-        "support_plane": {"found": bool(s.found), "reason": SupportReason(int(s.reason)).name,
+        "support_plane": {"found": bool(s.found), "reason": s.reason_name,
                           "normal": s.normal, "distance": s.distance,
                           "tilt_deg": np.rad2deg(s.tilt), "inliers": int(s.inliers),
                           "inlier_fraction": s.fraction},
         "view": "virtual" if bool(r.virtual) else "camera",
         "view_rotation": r.rotation,
         "window_camera": {"fx": r.view.fx, "fy": r.view.fy, "cx": r.view.cx, "cy": r.view.cy},
-        "target": {"reason": TargetReason(int(r.target_reason)).name,
+        "target": {"reason": r.target_reason_name,
                    "attempts": int(r.attempts),
-                   "attempt_reasons": [GraspReason(int(x)).name for x in r.attempt_reasons if x >= 0],
+                   "attempt_reasons": r.attempt_reason_names,
                    "pixel": inputs.source_pixel(r.target_pixel), "point": r.target_point,
                    "height": r.target_height},
-        "grasp": {"found": bool(r.found), "reason": GraspReason(int(g.reason)).name,
+        "grasp": {"found": bool(r.found), "reason": g.reason_name,
                   "position": r.position, "closing_axis": r.closing_axis,
-                  "approach": r.approach, "width": g.width, "depth": g.depth,
+                  "approach": r.approach,
+                  "pose": grasp_pose(r.position, r.closing_axis, r.approach),
+                  "width": g.width, "depth": g.depth,
                   "contact_width": ranked.contact_width[0], "clearance": ranked.clearance[0],
                   "landing_fall": ranked.landing[0],
                   "score": ranked.score[0], "surface_depth": g.surface_depth,
                   "pixel": inputs.source_pixel(r.pixel),
                   "surface_pixels": int(g.surface_pixels),
                   "valid_candidates": int(g.candidates.valid.sum())},
-        "candidates": [_candidate(ranked, k, inputs) for k in range(len(ranked.valid))
+        "candidates": [_candidate(ranked, k, r.approach, inputs) for k in range(len(ranked.valid))
                        if ranked.valid[k]],
-        "alignment": {"found": bool(a.found), "reason": AlignReason(int(a.reason)).name,
+        "alignment": {"found": bool(a.found), "reason": a.reason_name,
                       "normal": r.plane_normal, "point": r.plane_point,
                       "inliers": int(a.inliers), "counts": a.counts},
         "timing": {"load_ms": 1e3 * d.load_s, "compute_ms": 1e3 * d.compute_s},
     })
 
 
-def _candidate(ranked, k: int, inputs: Inputs) -> dict:
-    """The record of the grasp ranked k + 1 (JSON values; its pixel in the file's)."""
+def _candidate(ranked, k: int, approach, inputs: Inputs) -> dict:
+    """The record of the grasp ranked k + 1 (JSON values; its pixel in the file's); every
+    grasp of an image shares the `approach` (the view's axis)."""
     return {"rank": k + 1, "score": ranked.score[k], "target": int(ranked.attempt[k]) + 1,
             "position": ranked.position[k], "closing_axis": ranked.closing_axis[k],
+            "pose": grasp_pose(ranked.position[k], ranked.closing_axis[k], approach),
             "pixel": inputs.source_pixel(ranked.pixel[k]), "width": ranked.width[k],
             "contact_width": ranked.contact_width[k], "depth": ranked.depth[k],
             "clearance": ranked.clearance[k], "landing_fall": ranked.landing[k],
@@ -90,7 +112,7 @@ CSV_COLUMNS = [
     "clearance", "landing_fall", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
     "support", "support_nx", "support_ny", "support_nz", "support_distance", "support_tilt_deg",
     "support_inlier_fraction", "alignment", "align_nx", "align_ny", "align_nz", "load_ms",
-    "compute_ms", "method", "placed_by",
+    "compute_ms", "method", "placed_by", *(f"pose_{i}{j}" for i in range(4) for j in range(4)),
 ]
 
 
@@ -106,9 +128,10 @@ def csv_rows(rec: dict) -> list[list]:
     rows = [image + [c["rank"], c["score"], c["target"], *c["position"], *c["closing_axis"],
                      *approach, c["width"], c["contact_width"], c["depth"], c["clearance"],
                      c["landing_fall"], *c["pixel"]] + rest + [c["placed_by"]]
+            + [v for row in c["pose"] for v in row]
             for c in rec["candidates"]]
     return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 5 + [None, None] + rest
-                    + [None]]
+                    + [None] + [None] * 16]
 
 
 def csv_bytes(records: Sequence[dict]) -> bytes:

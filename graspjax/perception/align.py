@@ -28,7 +28,7 @@ import jax.numpy as jnp
 from jax import lax
 
 from graspjax.camera import Camera
-from graspjax.codes import AlignReason
+from graspjax.codes import AlignReason, names
 from graspjax.config import MAX_WINDOW_PX, AlignConfig
 from graspjax.perception.cluster import nearest_pixel, surface_cluster, valid_mask
 from graspjax.tree import pytree_dataclass
@@ -50,6 +50,11 @@ class Alignment:
     counts: jax.Array  # (N,) int32 inliers of every hypothesis (0 if invalid)
     valid: jax.Array  # (N,) bool hypothesis corners in view, valid and not collinear
     ranking: jax.Array  # (N,) int32 hypotheses by inlier count, most first (those that turn first)
+
+    @property
+    def reason_name(self):
+        """`reason` by name (`AlignReason`): a str, or an array of str for a batch; on the host."""
+        return names(AlignReason, self.reason)
 
 
 def _hypothesis_corners(anchor: jax.Array, config: AlignConfig, key) -> jax.Array:

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.codes import GraspReason
+from graspjax.codes import GraspReason, names
 from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.contour import Edges
 from graspjax.perception.reasons import furthest_reason
@@ -54,6 +54,11 @@ class Grasp:
     edges: Edges  # the straight edges (K)
     candidates: TBeams  # every placement proposed: the T-beam's K*K (a baseline's own; in
     # `detect_real_image`, with the contour search, its antipodal pairs after them)
+
+    @property
+    def reason_name(self):
+        """`reason` by name (`GraspReason`): a str, or an array of str for a batch; on the host."""
+        return names(GraspReason, self.reason)
 
 
 def sample_nearest(image: jax.Array, uv: jax.Array, fill) -> tuple[jax.Array, jax.Array]:

@@ -50,7 +50,7 @@ import numpy as np
 from jax import lax
 
 from graspjax.camera import Camera
-from graspjax.codes import GraspReason
+from graspjax.codes import GraspReason, TargetReason, names
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_method
@@ -127,6 +127,25 @@ class RealImageDetection:
     alignment: Alignment  # align_tool's full result on the reported target, in its window
     ranked: RankedGrasps  # the best `top_k` grasps (the first is the one above)
     views: RealImageViews  # the images the steps worked on (for figures)
+
+    # Reasons by name (the int codes above stay for the arrays); one image, on the host.
+    @property
+    def target_reason_name(self) -> str:
+        """`target_reason` by name (`TargetReason`)."""
+        return names(TargetReason, self.target_reason)
+
+    @property
+    def attempt_reason_names(self) -> list[str]:
+        """The `GraspReason` name of each target tried, in order."""
+        return [names(GraspReason, x) for x in np.asarray(self.attempt_reasons) if x >= 0]
+
+    @property
+    def reason_name(self) -> str:
+        """The image's one reason: the grasp's (`GraspReason`) when a target was found, else
+        the target's (`TargetReason`)."""
+        if int(self.target_reason) == TargetReason.FOUND:
+            return self.grasp.reason_name
+        return self.target_reason_name
 
 
 @dataclasses.dataclass(frozen=True)

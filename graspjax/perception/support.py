@@ -29,7 +29,7 @@ import jax
 import jax.numpy as jnp
 
 from graspjax.camera import Camera
-from graspjax.codes import SupportReason
+from graspjax.codes import SupportReason, names
 from graspjax.config import RealImageConfig
 from graspjax.perception.cluster import valid_mask
 from graspjax.tree import pytree_dataclass
@@ -46,6 +46,11 @@ class SupportPlane:
     tilt: jax.Array  # () angle between the normal and the optical axis (rad)
     inliers: jax.Array  # () int32 grid pixels within `plane_threshold` of the best plane (found or not)
     fraction: jax.Array  # () inliers / valid grid pixels
+
+    @property
+    def reason_name(self):
+        """`reason` by name (`SupportReason`): a str, or an array of str for a batch; on the host."""
+        return names(SupportReason, self.reason)
 
 
 def no_support() -> SupportPlane:
