@@ -9,7 +9,7 @@ import math
 import re
 import sys
 
-from graspjax.io import check_writable
+from graspjax.disk import check_writable
 
 
 class UsageError(Exception):

@@ -16,7 +16,8 @@ import sys
 from graspjax import arguments
 from graspjax.arguments import UsageError
 from graspjax.config import METHODS, ConfigError
-from graspjax.io import InputError, check_writable
+from graspjax.disk import check_writable
+from graspjax.io import InputError
 from graspjax.runtime import distributed
 
 
@@ -43,7 +44,7 @@ def cmd_bench(args) -> int:
     request = arguments.bench_request(args)
     result, text = measure(args.what, **request, progress=lambda m: print(m, file=sys.stderr))
     if args.out:
-        from graspjax.io import jsonable, write_atomic
+        from graspjax.disk import jsonable, write_atomic
 
         write_atomic(args.out, (json.dumps(jsonable(result), indent=2) + "\n").encode())
     print(text)
@@ -98,34 +99,17 @@ def _dry_run(request, args) -> int:
     compiled or written."""
     import jax
 
+    from graspjax.batch.estimate import plan_lines
     from graspjax.batch.plan import default_batch
     from graspjax.experiment import planned_groups
     from graspjax.outputs import check_output_folder
 
     check_output_folder(args.out, args.resume, args.overwrite)  # refused now as it would be
-    groups = planned_groups(request)
     device = jax.devices()[0]
-    batch = request.batch or default_batch()
-    print(f"{len(request.points)} grid point(s), {sum(g.worlds for g in groups)} worlds in "
-          f"{sum(g.chunks for g in groups)} chunks of up to {batch}, {len(groups)} program(s); "
-          f"{jax.device_count()} {getattr(device, 'device_kind', device.platform)} device(s)")
-    for g in groups:
-        estimate = "no timings recorded here" if g.seconds is None else f"about {_s(g.seconds)}"
-        print(f"  {g.scene} (Setup {', '.join(map(str, g.setups))}): {g.worlds} worlds, "
-              f"{g.chunks} chunk(s), program {'stored' if g.stored else 'to trace and compile'}, "
-              f"{estimate}")
-    known = [g.seconds for g in groups if g.seconds is not None]
-    if len(known) == len(groups):
-        print(f"estimated: about {_s(sum(known))} on one device (chunks of several programs "
-              "overlap, several devices or processes share them)")
-    else:
-        print(f"estimated: unknown for {len(groups) - len(known)} program(s) (a run records "
-              "its timings for the next estimate)")
+    print("\n".join(plan_lines(planned_groups(request), len(request.points),
+                               request.batch or default_batch(), jax.device_count(),
+                               getattr(device, "device_kind", device.platform))))
     return 0
-
-
-def _s(seconds: float) -> str:
-    return f"{seconds:.1f} s" if seconds < 10 else f"{seconds:.0f} s"
 
 
 def cmd_run(args) -> int:

@@ -16,7 +16,6 @@ import gzip
 import importlib
 import json
 import os
-import re
 import sys
 import threading
 import time
@@ -24,11 +23,12 @@ from pathlib import Path
 
 import pandas as pd
 
+from graspjax.batch import estimate
 from graspjax.batch.plan import Group, Job, chunks, default_batch, plan, share
 from graspjax.batch.program import program, run_chunks
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.config import Config, differences
-from graspjax.io import jsonable, keep, store, write_atomic
+from graspjax.disk import jsonable, write_atomic
 from graspjax.outputs import RunFolder, check_output_folder, remove_own_files, run_id, writing
 from graspjax.provenance import provenance
 from graspjax.runtime.compiles import trace_workers
@@ -242,7 +242,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     if not files:
         return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
     if (out / "timings.csv").is_file() and not resume:  # a resumed run's are partly old
-        record_timings(groups, batch, experiment.save_views != "none",
+        estimate.record_timings(groups, batch, experiment.save_views != "none",
                        pd.read_csv(out / "timings.csv"))
     clock.append(time.perf_counter())
     from graspjax.report import write_report
@@ -261,77 +261,11 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                      seconds)
 
 
-@dataclasses.dataclass(frozen=True)
-class PlannedGroup:
-    """One program's share of a run, as `--dry-run` tells it before anything runs."""
-
-    scene: str  # the scene's object letters
-    setups: tuple[int, ...]
-    worlds: int  # worlds it plays (every grid point)
-    chunks: int  # device calls of `batch` worlds
-    stored: bool  # its program loads from the store of exported programs (no trace)
-    seconds: float | None  # estimated time on one device of this kind, from the timings last
-    # recorded for such a group here (`record_timings`); None where none were
-
-
-def planned_groups(experiment: Experiment) -> list[PlannedGroup]:
-    """What `run` would play, group by group, and how long it would take (`PlannedGroup`);
-    nothing is traced, compiled or written."""
-    batch = experiment.batch or default_batch()
+def planned_groups(experiment: Experiment) -> list[estimate.PlannedGroup]:
+    """What `run` would play, group by group, and an estimate of its time (`batch.estimate`)."""
     _, groups = _grouped(experiment)
-    planned = chunks(groups, batch)
-    recorded = _recorded_timings()
-    keep_views = experiment.save_views != "none"
-    out = []
-    for g, group in enumerate(groups):
-        stored = program(group, batch, keep_views=keep_views).stored()
-        past = recorded.get(_timings_key(group, batch, keep_views))
-        # a stored program loads, and XLA's cache then holds its compiled form as a rule
-        seconds = None if past is None else (len(group.worlds) * past["per_world_s"] + (
-            0.0 if stored else past["trace_s"] + past["compile_s"]))
-        out.append(PlannedGroup("".join(group.letters), group.setups, len(group.worlds),
-                                sum(c.group == g for c in planned), stored, seconds))
-    return out
-
-
-def _timings_key(group: Group, batch: int, keep_views: bool) -> str:
-    """What a group's recorded timings are filed under: its program's shape and work."""
-    return (f"{''.join(group.letters)} setups {group.setups} attempts {group.attempts} "
-            f"batch {batch}" + (" views" if keep_views else ""))
-
-
-def _timings_file() -> Path | None:
-    """This device kind's recorded timings (`record_timings`), beside the compile cache."""
-    import jax
-
-    folder = store("timings")
-    kind = re.sub(r"[^A-Za-z0-9]+", "_", getattr(jax.devices()[0], "device_kind", "cpu"))
-    return None if folder is None else folder / f"{kind}.json"
-
-
-def _recorded_timings() -> dict:
-    path = _timings_file()
-    try:
-        recorded = json.loads(path.read_text()) if path is not None else {}
-    except (OSError, ValueError):
-        return {}
-    return recorded if isinstance(recorded, dict) else {}
-
-
-def record_timings(groups: list[Group], batch: int, keep_views: bool,
-                   timings: pd.DataFrame) -> None:
-    """Keep what each group of a finished run took on this device kind (seconds per world
-    played, and its first chunk's trace and compile), for `--dry-run`'s estimates."""
-    path = _timings_file()
-    if path is None:
-        return
-    recorded = _recorded_timings()
-    for g, rows in timings.groupby("group"):
-        if g < len(groups) and rows["worlds"].sum() > 0:
-            recorded[_timings_key(groups[g], batch, keep_views)] = {
-                "per_world_s": float(rows["wall_s"].sum() / rows["worlds"].sum()),
-                "trace_s": float(rows["trace_s"].sum()), "compile_s": float(rows["compile_s"].sum())}
-    keep(path, json.dumps(recorded, indent=1, sort_keys=True).encode())
+    return estimate.planned(groups, experiment.batch or default_batch(),
+                            experiment.save_views != "none")
 
 
 def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:

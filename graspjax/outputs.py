@@ -45,7 +45,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from graspjax.io import InputError, write_atomic
+from graspjax.disk import write_atomic
+from graspjax.io import InputError
 from graspjax.schema import TIMINGS_COLUMNS, sort_attempts
 
 LOCK = ".graspjax.lock"  # held (an OS lock) by the process that writes the folder

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from graspjax.config import Config
-from graspjax.io import write_atomic
+from graspjax.disk import write_atomic
 from graspjax.perception import Alignment, Grasp
 from graspjax.perception.contour import Contour, Edges
 from graspjax.perception.grasp import surface_contour

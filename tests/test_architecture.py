@@ -12,8 +12,8 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent / "graspjax"
 # Bottom to top. A module may import modules of its own layer or below, never above. A name
 # ending in ".*" stands for every module of that package.
 LAYERS = [
-    ("foundations", ["version", "tree", "figures", "stats", "io", "provenance", "geometry", "camera", "codes",
-                     "schema", "privates"]),
+    ("foundations", ["version", "tree", "figures", "stats", "io", "disk", "provenance", "geometry",
+                     "camera", "codes", "schema", "privates"]),
     ("configuration", ["config"]),
     ("runtime", ["runtime", "runtime.*"]),
     ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",

@@ -5,15 +5,8 @@ import pytest
 from PIL import Image
 
 from graspjax.camera import Camera
-from graspjax.io import (
-    InputError,
-    check_depth,
-    check_matrix,
-    load_intrinsics,
-    load_mask,
-    read_depth,
-    write_atomic,
-)
+from graspjax.disk import write_atomic
+from graspjax.io import InputError, check_depth, check_matrix, load_intrinsics, load_mask, read_depth
 from graspjax.synthetic import analytic_depth, box, rot_x, top_down_pose
 
 K = np.array([[525.0, 0.0, 319.5], [0.0, 520.0, 239.5], [0.0, 0.0, 1.0]])

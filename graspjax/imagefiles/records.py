@@ -17,10 +17,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from graspjax.disk import jsonable
 from graspjax.geometry import frame_from_axes
 from graspjax.imagefiles.batches import Detection
 from graspjax.imagefiles.inputs import Inputs
-from graspjax.io import jsonable
 from graspjax.perception.workspace import block_factors
 
 

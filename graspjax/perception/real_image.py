@@ -57,6 +57,7 @@ from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_
 from graspjax.perception.cluster import target_surface, valid_mask
 from graspjax.perception.jaws import check_jaws_where, grasp_score
 from graspjax.perception.placements import Grasp
+from graspjax.perception.ranking import distinct_best
 from graspjax.perception.reasons import further_reason, furthest_reason
 from graspjax.perception.support import SupportPlane, no_support, support_plane
 from graspjax.perception.target import best_candidate, standing_candidates, surface_slope
@@ -201,23 +202,6 @@ def _targets(depth, workspace, camera: Camera, config: Config, image: RealImageC
                     rotation, view, view_depth, points, height, candidate, score, reason)
 
 
-def _select(passed, score, position, axis, count: int, distance: float) -> tuple[jax.Array, jax.Array]:
-    """The `count` best distinct grasps among N: indices (count,) int32 and validity (count,).
-    A grasp within `distance` of a better one with its axis within 20 deg (either sign) is the
-    same grasp (mirror placements: edge i with j, and j with i)."""
-    cos_same = np.cos(np.deg2rad(20.0))
-
-    def pick(open_, _):
-        best = jnp.argmax(jnp.where(open_, score, -jnp.inf))
-        ok = open_[best]
-        same = ((jnp.linalg.norm(position - position[best], axis=-1) <= distance)
-                & (jnp.abs(axis @ axis[best]) >= cos_same))
-        return open_ & ~(same & ok) & (jnp.arange(open_.shape[0]) != best), (best, ok)
-
-    _, (chosen, ok) = lax.scan(pick, passed, None, length=count)
-    return jnp.where(ok, chosen, -1).astype(jnp.int32), ok
-
-
 def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                       config: Config = Config(), image: RealImageConfig = RealImageConfig()
                       ) -> RealImageDetection:
@@ -317,7 +301,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
                             first + i * pairs.candidates.valid.shape[0], True)
                     for i, pairs in enumerate(searches)])
                 reason = outcome(both, further_reason(*[pairs.reason for pairs in searches]))
-                best, distinct = _select(both["passed"], both["score"], both["position"],
+                best, distinct = distinct_best(both["passed"], both["score"], both["position"],
                                          both["axis"], per, image.duplicate_distance)
                 kept = jax.tree.map(lambda x: x[jnp.clip(best, 0)], both)
                 kept.update(passed=distinct, score=jnp.where(distinct, kept["score"], -jnp.inf))
@@ -366,7 +350,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
         return k + 1, tried, pool, best
 
     def distinct(pool):
-        return _select(pool["passed"], pool["score"], pool["position"], pool["axis"],
+        return distinct_best(pool["passed"], pool["score"], pool["position"], pool["axis"],
                        image.top_k, image.duplicate_distance)
 
     def more(state):

@@ -95,7 +95,7 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
     """Rebuild every table and figure of a run or sweep folder from its attempts.csv; with
     `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/. Returns the
     files written and the run's state (`run_state`: "" when finished)."""
-    from graspjax.io import write_atomic
+    from graspjax.disk import write_atomic
 
     folder = Path(folder)
     frame = load_attempts(folder)

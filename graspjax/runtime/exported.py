@@ -26,7 +26,7 @@ from collections.abc import Callable
 
 import jax
 
-from graspjax import io, privates
+from graspjax import disk, privates
 from graspjax.provenance import source_digest
 
 FORMAT = 1  # bump when the file layout below changes
@@ -81,7 +81,7 @@ class Portable:
 
 def store() -> pathlib.Path | None:
     """The folder of exported programs: beside the compilation cache, None when that is off."""
-    return io.store("exported")
+    return disk.store("exported")
 
 
 def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = None) -> Portable:
@@ -109,7 +109,7 @@ def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = No
     with _one_source_line():
         program = jax.export.export(jax.jit(flat))(*in_leaves)
     if path is not None:
-        io.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
+        disk.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
 
 

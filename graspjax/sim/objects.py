@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graspjax.io import keep, store
+from graspjax.disk import keep, store
 
 
 @dataclasses.dataclass(frozen=True)
