@@ -204,7 +204,7 @@ class AlignConfig:
     # than this from the current one (the paper turns "to detect the object from another angle").
     # 0 is the paper's rule read literally: the best plane may be the one the camera faces, and
     # the new view then only re-centres on it. Measured paired, 10 deg rescues fewer attempts
-    # (results/studies/realign_turn)
+    # (git history's results/studies/realign_turn)
 
     def __post_init__(self):
         _require(self.hypotheses in ("triangles", "random"),
