@@ -112,8 +112,7 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
     if folder.resolve() == Path(folder.resolve().anchor):
         raise InputError(f"--out {folder} is the file system's root: give a folder of its own")
     if (folder / LOCK).is_symlink():
-        raise InputError(f"--out {folder}: its {LOCK} is a symbolic link, which graspjax never "
-                         "makes; remove it")
+        raise _linked_lock(folder)
     probe = folder
     while not probe.exists():
         probe = probe.parent
@@ -139,6 +138,12 @@ def check_output_folder(folder: str | Path, resume: bool = False, overwrite: boo
         raise InputError(f"--out {folder} already holds a run (use --resume to continue it, "
                          "--overwrite to replace it, or another folder)")
     return folder
+
+
+def _linked_lock(folder: Path) -> InputError:
+    """The one line for a lock file planted as a link (never opened: it could point anywhere)."""
+    return InputError(f"--out {folder}: its {LOCK} is a symbolic link, which graspjax never "
+                      "makes; remove it")
 
 
 def _held(lock: Path) -> bool:
@@ -176,8 +181,7 @@ def writing(folder: Path, shared: bool = False):
         fd = os.open(folder / LOCK, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
     except OSError as exc:
         if (folder / LOCK).is_symlink():
-            raise InputError(f"--out {folder}: its {LOCK} is a symbolic link, which graspjax "
-                             "never makes; remove it") from None
+            raise _linked_lock(folder) from None
         raise exc
     with open(fd, "r+") as handle:
         try:

@@ -97,15 +97,13 @@ def made_by_other_code(meta: dict) -> str:
         return ""
     if code["digest"] == source_digest():
         return ""
-    made = (f"commit {str(code['commit'])[:10]}" + (" with changes" if code.get("dirty") else "")
+    return f"made by other code ({_described(code)}; this is {_described(code_identity())})"
+
+
+def _described(code: dict) -> str:
+    """A `code_identity` in a few words: its commit (and changes), else its sources' digest."""
+    return (f"commit {str(code['commit'])[:10]}" + (" with changes" if code.get("dirty") else "")
             if code.get("commit") else f"sources {str(code['digest'])[:10]}")
-    return f"made by other code ({made}; this is {_this_code()})"
-
-
-def _this_code() -> str:
-    here = code_identity()
-    return (f"commit {here['commit'][:10]}" + (" with changes" if here["dirty"] else "")
-            if here["commit"] else f"sources {here['digest'][:10]}")
 
 
 def _typed() -> tuple[str, ...]:
