@@ -138,7 +138,7 @@ def cmd_planes(args) -> int:
     print(f"{timings['views_scored']:,} views scored in {timings['score_s']:.2f} s "
           f"({timings['views_per_s']:,.0f} views/s; compile {timings['score_compile_s']:.1f} s, "
           f"settle {timings['settle_s']:.1f} s, first views {timings['view_s']:.1f} s); wrote "
-          f"planes.csv.gz, planes_summary.csv, config.json to {out}")
+          f"planes.csv.gz, planes_summary.csv, planes.png, config.json to {out}")
     return 0
 
 

@@ -313,9 +313,10 @@ def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str]
                 config_file: dict | None = None) -> tuple[pd.DataFrame, dict, Path]:
     """`graspjax planes`: settle the worlds, take each first view and judge the re-alignment's
     plane for every grid point (traced `align.*` values) into `out`: planes.csv.gz,
-    planes_summary.csv, config.json (with `config_file`, what --config gave). Returns the
+    planes_summary.csv, planes.png, config.json (with `config_file`, what --config gave). Returns the
     summary, the timings and the folder."""
     from graspjax import planes
+    from graspjax.report import plane_outputs
 
     out = check_output_folder(out, overwrite=overwrite)
     with writing(out):  # a run (or another study) writing the folder stops it here
@@ -329,16 +330,17 @@ def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str]
         grid = {k: [p[0][k] for p in points] for k in keys}
         for k, values in grid.items():
             rows.insert(1 + list(grid).index(k), k, [values[i] for i in rows.point])
-        summary = planes.summarize(rows, grid)
         meta = {"seed": seed, "preset": preset, "jobs": [dataclasses.asdict(j) for j in jobs],
                 "overrides": differences(base, Config()), "config_file": config_file,
                 "grid": grid, "batch": batch,
                 "config": named_fields(base), "timings": timings, **provenance()}
         write_atomic(out / "planes.csv.gz",
                      gzip.compress(rows.to_csv(index=False).encode(), mtime=0))
-        write_atomic(out / "planes_summary.csv", summary.to_csv(index=False).encode())
+        outputs = plane_outputs(rows, meta)
+        for name, data in outputs.items():
+            write_atomic(out / name, data)
         write_atomic(out / "config.json", json.dumps(meta, indent=1, default=jsonable).encode())
-    return summary, timings, out
+    return planes.summarize(rows, grid), timings, out
 
 
 @dataclasses.dataclass(frozen=True)

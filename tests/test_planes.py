@@ -114,6 +114,12 @@ def test_planes_end_to_end(tmp_path, capsys):
     assert list(summary.point) == [0, 1]
     assert not any((out / name).exists() for name in run_files)
     assert "timings" in json.loads((out / "config.json").read_text())  # the study's own
+    assert (out / "planes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    summary_bytes = (out / "planes_summary.csv").read_bytes()
+    (out / "planes.png").unlink()
+    assert cli.main(["report", str(out)]) == 0  # rebuilt from the rows alone
+    assert (out / "planes_summary.csv").read_bytes() == summary_bytes
+    assert (out / "planes.png").exists()
 
 
 def test_planes_stops_at_the_lock_of_a_run_writing_the_folder(tmp_path):
@@ -135,3 +141,35 @@ def test_planes_stops_at_the_lock_of_a_run_writing_the_folder(tmp_path):
         assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
         assert f"is being written by process {os.getpid()}" in done.stderr
         assert (out / "config.json").read_bytes() == settings
+
+
+def test_plane_study_figure_names_its_preset_and_outlines_the_papers_cell():
+    """Two setups, window x threshold: a panel per setup and statistic, the share on the target
+    by hand in its cell, the paper's 15 px / 0.3 outlined, the title naming preset and trials."""
+    from matplotlib.patches import Rectangle
+
+    from graspjax.report.figures import planes_figure, planes_title
+
+    rows = []
+    for setup in (1, 3):
+        for window in (5, 15):
+            for threshold in (0.3, 1.0):
+                for view in range(4):  # view 3 found a grasp first: not counted
+                    rows.append({"point": 0, "setup": setup, "target": "a",
+                                 "align.window_px": window, "align.distance_threshold": threshold,
+                                 "first_view_grasp": view == 3, "plane_found": True,
+                                 "surface": "target" if view < window // 5 else "table",
+                                 "normal_error_deg": float(view), "view_tilt_deg": 0.0})
+    meta = {"preset": "paper", "jobs": [{"setups": [1, 3], "trials": 4}], "overrides": {},
+            "grid": {"align.window_px": [5, 15], "align.distance_threshold": [0.3, 1.0]}}
+    title = planes_title(meta)
+    assert "paper preset" in title and "Setups 1, 3" in title and "4 trials per cell" in title
+    fig = planes_figure(pd.DataFrame(rows), list(meta["grid"]), title)
+    assert "the paper preset's values" in fig._suptitle.get_text()
+    heatmaps = [ax for ax in fig.axes if ax.get_title()]
+    assert len(heatmaps) == 4  # 2 statistics x 2 setups
+    on_target = heatmaps[0].images[0].get_array()
+    # 5 px: 1 of 3 views on the target; 15 px: 3 of 3
+    assert np.asarray(on_target)[:, 0] == pytest.approx([100 / 3, 100.0])
+    outlined = [p for p in heatmaps[0].patches if isinstance(p, Rectangle)]
+    assert [(p.get_x(), p.get_y()) for p in outlined] == [(-0.5, 0.5)]  # 15 px (row 1), 0.3 (column 0)

@@ -1,5 +1,7 @@
 """Tables and figures from hand-made attempt rows with known counts."""
 
+import io
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -66,10 +68,19 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     assert per.loc[(1, 5), "z_vs_paper"] == pytest.approx(-2 / np.sqrt(2))
     assert per.loc[(1, 25), "z_vs_paper"] == pytest.approx(-1 / np.sqrt(5))
     assert per.loc[(1, 15), "z_vs_paper"] == 0 and per.loc[(3, 5), "z_vs_paper"] == 0
+    assert per.loc[(1, 25), ["gained", "lost"]].tolist() == [2, 3]
+    # exact McNemar: 2 of 5 discordant pairs, two-sided: 2 (1 + 5 + 10) / 32 = 1.0
+    assert per.loc[(1, 25), "p_vs_paper"] == pytest.approx(1.0)
+    assert per.loc[(1, 5), "p_vs_paper"] == pytest.approx(0.5)  # 0 of 2: 2 / 4
+    # resolvable at 5 % with 80 % power: 2.8 sqrt(p_d / n), p_d = 5 / 10 discordant
+    assert per.loc[(1, 25), "detectable_vs_paper"] == pytest.approx(2.8 * np.sqrt(0.5 / 10))
     assert per.loc[(1, 15), ["rate_first_view", "rate_rescued"]].tolist() == pytest.approx([0.6, 0.2])
     meta = {"preset": "paper", "paired": True, "jobs": [{"trials": 10, "setups": [1, 3]}]}
     title = sweep_title("cfg.align.window_px", meta, [1, 3])
     assert title == "align.window_px, paper preset, Setups 1, 3, 10 trials per cell, paired"
+    sloped = sweep_title("cfg.align.window_px", {**meta, "overrides": {"procedure.view_tilt_deg": 30.0}},
+                         [1, 3])
+    assert sloped.startswith("align.window_px, paper preset (procedure.view_tilt_deg=30.0), Setups")
     fig = sweep_figure(per.reset_index(), "cfg.align.window_px", title)
     assert fig._suptitle.get_text() == title
     panels = fig.axes
@@ -320,3 +331,33 @@ def test_report_runs_without_the_simulator(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     assert "LOADED []" in done.stdout
     assert "| Setup 1, ours |" in (tmp_path / "table1.md").read_text()
+
+
+def test_a_grid_of_several_keys_is_compared_point_by_point_with_the_papers_point():
+    """A readings grid (anchor, turn) of three points on the same 10 worlds: every point
+    against the paper's (nearest, pixel) by hand; the anchor's own file pairs centre with
+    nearest only where the turn is the same (pixel), never across turns."""
+    from graspjax.report.figures import grid_point_outputs, swept_points
+
+    parts = []
+    for anchor, turn, success in (("nearest", "pixel", [1] * 8 + [0] * 2),
+                                  ("centre", "pixel", [1] * 6 + [0] * 2 + [1] * 2),
+                                  ("centre", "metric", [1] * 10)):
+        part = _frame({(1, "a"): (0, 10)})
+        part["success"] = success
+        part["rescued"] = 0
+        part["cfg.align.anchor"], part["cfg.align.turn_normal"] = anchor, turn
+        parts.append(part)
+    objects = object_outcomes(pd.concat(parts, ignore_index=True))
+    files = grid_point_outputs(objects, ["cfg.align.anchor", "cfg.align.turn_normal"],
+                               {"preset": "paper"})
+    per = pd.read_csv(io.BytesIO(files["sweep_points.csv"])).set_index(
+        "align.anchor / align.turn_normal")
+    assert per.loc["nearest / pixel", ["gained", "lost"]].tolist() == [0, 0]  # the paper's
+    # centre/pixel: trials 8, 9 gained, 6, 7 lost; centre/metric: 8, 9 gained
+    assert per.loc["centre / pixel", ["gained", "lost"]].tolist() == [2, 2]
+    assert per.loc["centre / metric", ["gained", "lost"]].tolist() == [2, 0]
+    anchor = swept_points(objects, "cfg.align.anchor", ("cfg.align.turn_normal",)).set_index(
+        "cfg.align.anchor")
+    assert anchor.loc["centre", ["gained", "lost"]].tolist() == [2, 2]  # pixel pairs alone
+    assert files["sweep_points.png"][:8] == b"\x89PNG\r\n\x1a\n"

@@ -10,7 +10,10 @@
   `outcomes.png`: what happened in every cell.
 - Sweeps (configuration columns `cfg.*` that vary): `sweep_summary.csv`,
   `sweep_<key>.png` (success against each parameter) and, for two-parameter
-  grids, `sweep_heatmap.png`.
+  grids, `sweep_heatmap.png`; grids over several keys, `sweep_points.csv/png` (every grid
+  point against the paper preset's).
+- A plane study's folder (`graspjax planes`: planes.csv.gz): `planes_summary.csv` and
+  `planes.png`.
 """
 
 from __future__ import annotations
@@ -98,6 +101,12 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
     from graspjax.disk import write_atomic
 
     folder = Path(folder)
+    if not (folder / "attempts.csv").exists() and (folder / "planes.csv.gz").exists():
+        files = plane_outputs(pd.read_csv(folder / "planes.csv.gz", keep_default_na=False,
+                                          na_values=[""]), read_meta(folder))
+        for name, data in files.items():
+            write_atomic(folder / name, data)
+        return [folder / name for name in files], ""
     frame = load_attempts(folder)
     state = run_state(folder, frame)
     files = build(frame, load_rounds(folder), state, read_meta(folder))
@@ -109,6 +118,19 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
         (folder / name).parent.mkdir(exist_ok=True)
         write_atomic(folder / name, data)
     return [folder / name for name in files], state
+
+
+def plane_outputs(rows: pd.DataFrame, meta: dict) -> dict[str, bytes]:
+    """A plane study's tables and figure from its rows (planes.csv) and config.json:
+    planes_summary.csv (`planes.summarize`) and planes.png (`figures.planes_figure`)."""
+    from graspjax.figures import png
+    from graspjax.planes import summarize
+    from graspjax.report.figures import planes_figure, planes_title
+
+    grid = meta.get("grid", {})
+    summary = summarize(rows, grid)
+    return {"planes_summary.csv": summary.to_csv(index=False).encode(),
+            "planes.png": png(planes_figure(rows, list(grid), planes_title(meta)), laid_out=True)}
 
 
 def debug_figures(folder: Path, count: int) -> dict[str, bytes]:

@@ -3,13 +3,16 @@ success against swept parameters, a sweep's comparison."""
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 import pandas as pd
+from matplotlib.patches import Rectangle
 
 from graspjax.figures import new_figure, png
 from graspjax.report.tables import point_labels, sweep_axes, varying_config
 from graspjax.schema import outcome_label
-from graspjax.stats import wilson
+from graspjax.stats import mcnemar_p, paired_detectable, wilson
 
 
 def success_figure(summary: pd.DataFrame) -> bytes:
@@ -84,15 +87,22 @@ def paper_value(key: str):
     from graspjax.config import preset
     from graspjax.tree import named_fields
 
+    if not key.startswith("cfg."):
+        return None
     return named_fields(preset("paper")).get(key[len("cfg."):])
 
 
-def swept_points(objects: pd.DataFrame, key: str) -> pd.DataFrame:
+def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
+                 paper=None) -> pd.DataFrame:
     """Per value of the swept column `key` and setup: objects tried (`n`), successes, the
-    rate with its 95 % Wilson interval, the first-view and rescued rates, and McNemar's z
-    against the paper preset's value (`paper_value`), paired by world and object (setup,
-    seed, trial, object; an unpaired sweep's points share no world: z is nan). z > 0: this
-    value grasps more of the same objects."""
+    rate with its 95 % Wilson interval, the first-view and rescued rates, and the paired
+    comparison with the paper preset's value (`paper_value`) by world and object (setup, seed,
+    trial, object; an unpaired sweep's points share no world: nan): objects this value grasps
+    and the paper's does not (`gained`) and the reverse (`lost`), McNemar's z (> 0: this value
+    grasps more of the same objects) and exact two-sided p, and the smallest difference of
+    rates the pairs resolve at 5 % with 80 % power (`stats.paired_detectable`). `others`: the
+    grid's other swept columns, held equal in a pair; `paper`: the reference value (default
+    `paper_value(key)`)."""
     objects = objects.assign(first_view=objects["success"] * (1 - objects.get("rescued", 0)))
     per = objects.groupby([key, "setup"], dropna=False).agg(
         n=("success", "size"), successes=("success", "sum"),
@@ -101,30 +111,40 @@ def swept_points(objects: pd.DataFrame, key: str) -> pd.DataFrame:
     per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
     per["rate_first_view"] = per["first_view"] / per["n"]
     per["rate_rescued"] = per["rate"] - per["rate_first_view"]
-    per["z_vs_paper"] = np.nan
-    paper = paper_value(key)
+    paired = ["gained", "lost", "z_vs_paper", "p_vs_paper", "detectable_vs_paper"]
+    per[paired] = np.nan
+    paper = paper_value(key) if paper is None else paper
     if paper is not None and (objects[key] == paper).any():
-        pair = ["setup", "seed", "trial", "object"]
+        pair = ["setup", "seed", "trial", "object", *others]
         reference = objects[objects[key] == paper][[*pair, "success"]]
         joined = objects.merge(reference, on=pair, suffixes=("", "_paper"))
-        gained = (joined["success"] > joined["success_paper"]).groupby(
-            [joined[key], joined["setup"]]).sum()
-        lost = (joined["success"] < joined["success_paper"]).groupby(
-            [joined[key], joined["setup"]]).sum()
-        z = ((gained - lost) / np.sqrt((gained + lost).clip(lower=1))).rename("z")
-        per = per.drop(columns="z_vs_paper").merge(z.reset_index(), on=[key, "setup"], how="left")
-        per = per.rename(columns={"z": "z_vs_paper"})
+        by = [joined[key], joined["setup"]]
+        counts = pd.DataFrame({
+            "gained": (joined["success"] > joined["success_paper"]).groupby(by).sum(),
+            "lost": (joined["success"] < joined["success_paper"]).groupby(by).sum(),
+            "pairs": joined.groupby(by).size()})
+        discordant = counts["gained"] + counts["lost"]
+        counts["z_vs_paper"] = (counts["gained"] - counts["lost"]) / np.sqrt(discordant.clip(lower=1))
+        counts["p_vs_paper"] = [mcnemar_p(int(g), int(lo)) for g, lo in zip(
+            counts["gained"], counts["lost"], strict=True)]
+        counts["detectable_vs_paper"] = [paired_detectable(int(d), int(n)) for d, n in zip(
+            discordant, counts["pairs"], strict=True)]
+        per = per.drop(columns=paired).merge(counts.drop(columns="pairs").reset_index(),
+                                              on=[key, "setup"], how="left")
     return per.sort_values(["setup", key], kind="stable").reset_index(drop=True)
 
 
-def sweep_figure(per: pd.DataFrame, key: str, title: str):
+def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
     """A study's figure: one panel per setup, a bar per swept value (categories, no line
     between them), first view and rescued stacked, the 95 % interval of their sum, the paper
-    preset's value marked on its tick; the legend below the panels, over no data."""
+    preset's value (`paper`, default `paper_value(key)`) marked on its tick; the legend below
+    the panels, over no data."""
     setups = sorted(per["setup"].unique())
-    fig = new_figure(max(6.0, 3.4 * len(setups)), 3.9)
+    values = per[key].drop_duplicates().tolist()
+    wide = max(len(str(v)) for v in values) > 8  # grid points named by several values
+    fig = new_figure(max(6.0, 3.4 * len(setups)), 3.9 + (1.2 if wide else 0))
     axes = fig.subplots(1, len(setups), squeeze=False, sharey=True)[0]
-    paper = paper_value(key)
+    paper = paper_value(key) if paper is None else paper
     for ax, setup in zip(axes, setups, strict=True):
         part = per[per["setup"] == setup]
         x = np.arange(len(part))
@@ -135,7 +155,8 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str):
             [part["rate"] - part["ci_low"], part["ci_high"] - part["rate"]])), fmt="none",
             ecolor="black", capsize=3, label="95 % interval")
         values = part[key].tolist()
-        ax.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in values])
+        ax.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in values],
+                      rotation=90 if wide else 0, fontsize=7 if wide else None)
         if paper in values:
             at = values.index(paper)
             ax.get_xticklabels()[at].set_fontweight("bold")
@@ -145,24 +166,27 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str):
         ax.set_title(f"Setup {setup} (n = {int(part['n'].min())}"
                      + (f"-{int(part['n'].max())}" if part["n"].nunique() > 1 else "")
                      + " objects per value)", fontsize=9)
-        ax.set_xlabel(key[len("cfg."):])
+        ax.set_xlabel(key[len("cfg."):] if key.startswith("cfg.") else key, fontsize=7 if wide else None)
         ax.set_ylim(0, 105)
     axes[0].set_ylabel("grasp success (%)")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    fig.tight_layout(rect=(0, 0.1 if not wide else 0.08, 1, 1))
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
     return fig
 
 
 def sweep_title(key: str, meta: dict | None, setups) -> str:
-    """A study figure's title: what was swept, under which preset, in which setups, how many
-    trials, paired or not (from the run's `config.json`, where it has one)."""
+    """A study figure's title: what was swept, under which preset and the settings changed from
+    it, in which setups, how many trials, paired or not (from the run's `config.json`, where it
+    has one)."""
     meta = meta or {}
     preset = meta.get("preset", "unknown")
     trials = sorted({job.get("trials") for job in meta.get("jobs", [])} - {None})
-    title = (f"{key[len('cfg.'):]}, {preset} preset, Setup{'s' if len(setups) > 1 else ''} "
-             f"{', '.join(map(str, setups))}")
+    name = key[len("cfg."):] if key.startswith("cfg.") else key
+    changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
+    title = (f"{name}, {preset} preset" + (f" ({changed})" if changed else "")
+             + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}")
     if trials:
         title += f", {'/'.join(map(str, trials))} trials per cell"
     if "paired" in meta:
@@ -186,13 +210,15 @@ def sweep_outputs(frame: pd.DataFrame, meta: dict | None = None) -> dict[str, by
     axes = sweep_axes(frame)
     for axis in axes:
         key = axis[0]
-        per = swept_points(frame, key)
+        per = swept_points(frame, key, tuple(a[0] for a in axes if a is not axis))
         name = key[len("cfg."):]
         out[f"sweep_{name}.csv"] = per.to_csv(index=False).encode()
         title = sweep_title(key, meta, sorted(per["setup"].unique()))
         if len(axes) > 1:
-            title += "; other swept keys pooled"
+            title += "; other swept keys pooled (paired where they are equal)"
         out[f"sweep_{name}.png"] = png(sweep_figure(per, key, title), laid_out=True)
+    if len(axes) > 1:
+        out.update(grid_point_outputs(frame, [a[0] for a in axes], meta))
     if len(axes) == 2:
         keys = [axes[0][0], axes[1][0]]
         grid = frame.groupby(keys)["success"].mean().unstack(keys[1]) * 100
@@ -209,6 +235,20 @@ def sweep_outputs(frame: pd.DataFrame, meta: dict | None = None) -> dict[str, by
         fig.colorbar(image, ax=ax, label="grasp success (%), all setups and objects")
         out["sweep_heatmap.png"] = png(fig)
     return out
+
+
+def grid_point_outputs(frame: pd.DataFrame, keys: list[str], meta: dict | None) -> dict:
+    """`sweep_points.csv/png`: every grid point of a grid over several keys as one category,
+    named by its values in the order of `keys` ("centre / anchor / pixel"), compared paired
+    with the point where every key takes the paper preset's value, where the grid has it."""
+    name = " / ".join(k[len("cfg."):] for k in keys)
+    labels = frame[keys].astype(str).agg(" / ".join, axis=1)
+    paper = " / ".join(str(paper_value(k)) for k in keys)
+    per = swept_points(frame.assign(**{name: labels}), name,
+                       paper=paper if (labels == paper).any() else None)
+    title = sweep_title(name, meta, sorted(per["setup"].unique()))
+    return {"sweep_points.csv": per.to_csv(index=False).encode(),
+            "sweep_points.png": png(sweep_figure(per, name, title, paper), laid_out=True)}
 
 
 def comparison_figure(summary: pd.DataFrame, labels: list[str]) -> bytes:
@@ -240,3 +280,81 @@ def comparison_figure(summary: pd.DataFrame, labels: list[str]) -> bytes:
         ax.set_ylabel("grasp success (%); hatched: rescued")
     axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.1))
     return png(fig)
+
+
+PLANE_PANELS = (("on_target_surface", "plane on the target (%)", 100, "viridis"),
+                ("normal_error_deg", "median normal error (deg)", 1, "magma_r"))
+
+
+def planes_figure(rows: pd.DataFrame, keys: list[str], title: str):
+    """`graspjax planes`' figure from its rows (planes.csv): over the views that re-align (no
+    grasp in the first view) whose plane was found, one column of panels per setup, a heat map
+    per statistic (the share whose winning plane lies on the target, as `planes.summarize`
+    counts it; its normal's median error) over the first two grid keys
+    (rows: `keys[0]`, columns: `keys[1]` when there is one), each cell's value written in it,
+    the paper preset's cell outlined."""
+    rows = rows.assign(**{k: pd.to_numeric(rows[k]) for k in keys})  # traced values: numbers
+    realigning = rows[~rows["first_view_grasp"].astype(bool) & rows["plane_found"].astype(bool)
+                      & (rows["target"].fillna("") != "")]
+    realigning = realigning.assign(on_target_surface=realigning["surface"] == "target")
+    setups = sorted(realigning["setup"].unique())
+    row_key, column_key = keys[0], keys[1] if len(keys) > 1 else None
+    fig = new_figure(3.6 * max(1, len(setups)), 6.4)
+    axes = fig.subplots(len(PLANE_PANELS), max(1, len(setups)), squeeze=False)
+    for j, setup in enumerate(setups):
+        part = realigning[realigning["setup"] == setup]
+        for i, (column, label, scale, cmap) in enumerate(PLANE_PANELS):
+            ax = axes[i][j]
+            group = [row_key] + ([column_key] if column_key else [])
+            stat = part.groupby(group)[column].agg("mean" if scale == 100 else "median") * scale
+            grid = stat.unstack(column_key) if column_key else stat.to_frame(label)
+            image = ax.imshow(grid.to_numpy(float), origin="lower", cmap=cmap, aspect="auto",
+                              vmin=0, vmax=100 if scale == 100 else None)
+            for (r, c), value in np.ndenumerate(grid.to_numpy(float)):
+                red, green, blue, _ = image.cmap(image.norm(value))
+                ax.text(c, r, f"{value:.0f}" if scale == 100 else f"{value:.1f}", ha="center",
+                        va="center", fontsize=7,  # dark text on light cells, light on dark
+                        color="black" if 0.3 * red + 0.6 * green + 0.1 * blue > 0.5 else "white")
+            ax.set_yticks(np.arange(len(grid.index)), [f"{v:g}" for v in grid.index])
+            ax.set_xticks(np.arange(len(grid.columns)),
+                          [f"{v:g}" for v in grid.columns] if column_key else [""])
+            paper_row = _index_of(grid.index, paper_value(f"cfg.{row_key}"))
+            paper_column = _index_of(grid.columns, paper_value(f"cfg.{column_key}")) \
+                if column_key else 0
+            if paper_row is not None and paper_column is not None:
+                ax.add_patch(Rectangle((paper_column - 0.5, paper_row - 0.5), 1, 1, fill=False,
+                                       ec="tab:orange", lw=2.5))
+            views = len(part) // max(1, part["point"].nunique())
+            ax.set_title(f"Setup {setup}: {label}\n({views} views per cell)", fontsize=8)
+            ax.set_ylabel(row_key)
+            if column_key:
+                ax.set_xlabel(column_key)
+            fig.colorbar(image, ax=ax, shrink=0.8)
+    fig.suptitle(textwrap.fill(title + "; outlined: the paper preset's values", 120), fontsize=9)
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
+    return fig
+
+
+def _index_of(values, value):
+    """Position of `value` among `values` (floats compared to 1e-9), None where absent."""
+    if value is None:
+        return None
+    for i, v in enumerate(values):
+        if isinstance(v, (int, float, np.number)) and abs(float(v) - float(value)) < 1e-9:
+            return i
+    return None
+
+
+def planes_title(meta: dict) -> str:
+    """A plane study figure's title: the grid's keys, the preset, the setups and trials, and
+    the settings changed from the preset (config.json)."""
+    jobs = meta.get("jobs", [])
+    setups = sorted({s for job in jobs for s in job.get("setups", [])})
+    trials = sorted({job.get("trials") for job in jobs} - {None})
+    changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
+    return (f"The re-alignment's plane over {' x '.join(meta.get('grid', {}))}, "
+            f"{meta.get('preset', 'unknown')} preset"
+            + (f" ({changed})" if changed else "")
+            + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
+            + (f", {'/'.join(map(str, trials))} trials per cell" if trials else "")
+            + "; views with no grasp in the first view")

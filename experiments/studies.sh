@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# The paper's parameter studies on the method the paper preset runs (results/studies/): every
+# grid point plays the same worlds (--paired), Tables 1+2 (a-f in Setups 1-3, g-l in Setup 1),
+# TRIALS per cell (default 300); each folder's sweep_KEY.csv/png give first view and rescued
+# per setup, and against the paper's value the objects gained and lost, McNemar's z and p and
+# the smallest difference the pairs resolve (`graspjax report`). DEVICE=gpu (one GPU; MuJoCo as wheels,
+# ../shared/gpu/README.md) packs each folder into $OUT/NAME.tgz; DEVICE=cpu writes results/studies.
+#   window           align.window_px 5-30 (the paper: 15)
+#   threshold        align.distance_threshold 0.05-1.0 (the paper: 0.3)
+#   realign          procedure.max_reorientations 0-3 (the paper: 1)
+#   readings         the triangles' anchor and the turn: the paper's reading and ours, one at a
+#                    time and together (static: one program per point)
+#   sloped-NAME      NAME with every view tilted 30 deg off vertical (procedure.view_tilt_deg=30),
+#                    where the re-alignment is needed
+#   planes           `graspjax planes`: the winning plane's normal error and view tilt over
+#                    window x threshold, Setups 1-3, flat and sloped (perception only)
+set -uo pipefail
+device=${DEVICE:-cpu}
+trials=${TRIALS:-300}
+case "$device" in
+  cpu) out=${OUT:-results/studies} ;;
+  gpu) out=${OUT:?set OUT to the folder that collects the results} ;;
+  *) echo "DEVICE must be cpu or gpu" >&2; exit 2 ;;
+esac
+step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
+  local folder=$out/$1 start=$SECONDS
+  shift
+  mkdir -p "$out"
+  python3 -m graspjax.cli "$@" --seed 0 --quiet --overwrite --out "$folder" > "$folder.log" 2>&1
+  local code=$?
+  echo "== $folder: exit $code after $((SECONDS - start)) s"
+  tail -n 2 "$folder.log"
+  if [ "$code" -ne 0 ]; then return "$code"; fi
+  gzip -f "$folder/attempts.csv" "$folder/rounds.csv" "$folder/planes.csv" 2>/dev/null
+  rm -f "$folder/attempts.parquet" "$folder.log"
+  if [ "$device" = gpu ]; then
+    tar -C "$out" -czf "$out/$(basename "$folder").tgz" "$(basename "$folder")" && rm -rf "$folder"
+  fi
+}
+grid() {  # the --grid argument of one study
+  case "$1" in
+    window) echo "align.window_px=5,10,15,20,25,30" ;;
+    threshold) echo "align.distance_threshold=0.05,0.1,0.2,0.3,0.5,1.0" ;;
+    realign) echo "procedure.max_reorientations=0,1,2,3" ;;
+    readings) echo "align.anchor:align.window_centre:align.turn_normal=\
+nearest:anchor:pixel,centre:anchor:pixel,nearest:triangle:pixel,nearest:anchor:metric,\
+centre:triangle:metric" ;;
+    *) echo "unknown study $1" >&2; return 2 ;;
+  esac
+}
+for name in "$@"; do
+  case "$name" in
+    planes) step "planes_${device}_$trials" planes --setup 1,2,3 --trials "$trials" --preset paper \
+      --grid align.window_px=5,10,15,20,25,30 --grid align.distance_threshold=0.05,0.1,0.2,0.3,0.5,1.0
+      step "planes_sloped_${device}_$trials" planes --setup 1,2,3 --trials "$trials" \
+      --preset paper --set procedure.view_tilt_deg=30 --grid align.window_px=5,10,15,20,25,30 \
+      --grid align.distance_threshold=0.05,0.1,0.2,0.3,0.5,1.0 ;;
+    sloped-*) g=$(grid "${name#sloped-}") || exit 2
+      step "${name#sloped-}_sloped_${device}_$trials" sweep --table 1,2 --trials "$trials" --paired \
+      --preset paper --set procedure.view_tilt_deg=30 --grid "$g" ;;
+    *) g=$(grid "$name") || exit 2
+      step "${name}_${device}_$trials" sweep --table 1,2 --trials "$trials" --paired \
+      --preset paper --grid "$g" ;;
+  esac
+done
