@@ -186,6 +186,53 @@ def attempt_columns(reorientations: int, keys: list[str]) -> list[str]:
     return names
 
 
+# `graspjax detect`'s results.csv, column by column in file order: one row per ranked grasp of
+# each image (one saying why where none passed); positions and axes in the camera frame (OpenCV:
+# x right, y down, z forward; metres); pixels in the file's own
+DETECT_COLUMNS = {
+    "image": "the depth file",
+    "found": "whether a grasp passed every check",
+    "reason": "why none did (`GraspReason` name; FOUND when one did)",
+    "rank": "the grasp's rank among the image's grasps (1: best)",
+    "score": "its score: free height below the tips (capped at 1 cm) plus width margin "
+             "(capped at a quarter of the opening) less the distance from the part's centre "
+             "in half-openings",
+    "target": "which target (surface) of the image it was found on, 1: the nearest",
+    "x": "grasp centre G on the target's top surface, camera frame (m)", "y": "", "z": "",
+    "axis_x": "the closing axis, a unit vector in the camera frame", "axis_y": "", "axis_z": "",
+    "approach_x": "the approach, into the scene (the view's axis)", "approach_y": "",
+    "approach_z": "",
+    "width": "the band's width across the closing axis (m)",
+    "contact_width": "the width the jaws close on at the finger tips' level (m)",
+    "grasp_depth": "how far the jaws reach below G along the approach (m)",
+    "clearance": "free height below the finger tips along the jaws' paths (m; inf: all free)",
+    "landing_fall": "the worst lane's fall of the surface where a jaw lands (m; inf: unseen)",
+    "u": "G's pixel column in the file", "v": "its row",
+    "target_u": "the target's nearest point, pixel column", "target_v": "its row",
+    "target_height": "the target's height above the support plane (m; empty: no plane)",
+    "attempts": "targets tried (the reported one is the best grasp's, else the last)",
+    "view": "camera (the image as taken) or virtual (re-projected to look straight down)",
+    "support": "the support plane's fit (`SupportReason` name)",
+    "support_nx": "its normal in the camera frame", "support_ny": "", "support_nz": "",
+    "support_distance": "its distance from the camera (m)",
+    "support_tilt_deg": "the camera's tilt against it (deg)",
+    "support_inlier_fraction": "share of the workspace's pixels on it",
+    "alignment": "the re-alignment's plane (`AlignReason` name)",
+    "align_nx": "its normal in the camera frame", "align_ny": "", "align_nz": "",
+    "load_ms": "reading the file (ms)", "compute_ms": "detecting (ms)",
+    "method": "the grasp method (paper, highest-pca, antipodal)",
+    "placed_by": "contour where the contour search placed the grasp, else the method",
+    "pose_{i}{j}": "the grasp as a 4x4 pose, gripper frame to camera frame, row i, column j "
+                   "(columns: closing axis, approach x closing axis, approach; translation G)",
+}
+
+
+def detect_columns() -> list[str]:
+    """results.csv's columns in file order (`DETECT_COLUMNS`, the pose's 16 spelled out)."""
+    pose = [f"pose_{i}{j}" for i in range(4) for j in range(4)]
+    return [name for key in DETECT_COLUMNS for name in (pose if key == "pose_{i}{j}" else [key])]
+
+
 def outputs_markdown() -> str:
     """docs/outputs.md: every column of the files a run writes, from this module."""
     def table(columns) -> str:
@@ -217,6 +264,13 @@ def outputs_markdown() -> str:
         "## planes.csv.gz (`graspjax planes`): one row per grid point and world",
         "",
         table(described(PLANES_COLUMNS, _PLANES_MEANING)),
+        "## results.csv (`graspjax detect`): one row per ranked grasp of each image",
+        "",
+        "One row saying why where no grasp passed. Positions and axes in the camera frame "
+        "(OpenCV: x right, y down, z forward; metres); pixels in the file's own. "
+        "`pose_{i}{j}`: sixteen columns, row by row.",
+        "",
+        table(DETECT_COLUMNS.items()),
     ])
 
 

@@ -126,6 +126,10 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     printed = capsys.readouterr().out.splitlines()
     assert printed[-1] == "3 of 3 images with a grasp"
     table = pd.read_csv(out / "results.csv")
+    from graspjax.schema import DETECT_COLUMNS, detect_columns
+
+    assert list(table.columns) == detect_columns()  # the one home of its columns, which
+    assert all(DETECT_COLUMNS[c] for c in ("image", "pose_{i}{j}", "landing_fall"))  # docs list
     assert list(table["image"]) == images and table["found"].all()
     assert (table["view"] == "virtual").all() and (table["reason"] == "FOUND").all()
     top = scene.to_camera(scene.top)

@@ -22,6 +22,7 @@ from graspjax.geometry import frame_from_axes
 from graspjax.imagefiles.batches import Detection
 from graspjax.imagefiles.inputs import Inputs
 from graspjax.perception.workspace import block_factors
+from graspjax.schema import detect_columns
 
 
 def grasp_pose(position, closing_axis, approach) -> np.ndarray | None:
@@ -106,18 +107,8 @@ def _candidate(ranked, k: int, approach, inputs: Inputs) -> dict:
             "placed_by": "contour" if bool(ranked.contour[k]) else inputs.config.method}
 
 
-CSV_COLUMNS = [
-    "image", "found", "reason", "rank", "score", "target", "x", "y", "z", "axis_x", "axis_y",
-    "axis_z", "approach_x", "approach_y", "approach_z", "width", "contact_width", "grasp_depth",
-    "clearance", "landing_fall", "u", "v", "target_u", "target_v", "target_height", "attempts", "view",
-    "support", "support_nx", "support_ny", "support_nz", "support_distance", "support_tilt_deg",
-    "support_inlier_fraction", "alignment", "align_nx", "align_ny", "align_nz", "load_ms",
-    "compute_ms", "method", "placed_by", *(f"pose_{i}{j}" for i in range(4) for j in range(4)),
-]
-
-
 def csv_rows(rec: dict) -> list[list]:
-    """The CSV rows (`CSV_COLUMNS`) of a record: one per ranked grasp, or one saying why none."""
+    """The CSV rows (`schema.detect_columns()`) of a record: one per ranked grasp, or one saying why none."""
     s, t, a = rec["support_plane"], rec["target"], rec["alignment"]
     nan3 = [None] * 3
     image = [rec["image"], rec["found"], rec["reason"]]
@@ -139,7 +130,7 @@ def csv_bytes(records: Sequence[dict]) -> bytes:
     cell."""
     import pandas as pd
 
-    frame = pd.DataFrame([row for r in records for row in csv_rows(r)], columns=CSV_COLUMNS)
+    frame = pd.DataFrame([row for r in records for row in csv_rows(r)], columns=detect_columns())
     frame["rank"] = frame["rank"].astype("Int64")
     frame["target"] = frame["target"].astype("Int64")
     return frame.to_csv(index=False, float_format="%.6g").encode()
