@@ -60,10 +60,12 @@ def _run_experiment(args, grid_items=None) -> int:
         distributed.initialize(spec)  # before any device starts
     xla.start_devices()
     from graspjax import experiment
+    from graspjax.batch import estimate
 
     request = arguments.experiment_request(args, grid_items)
     if args.dry_run:
-        return _dry_run(request, args)
+        return _dry_run(args, lambda: estimate.plan_lines(experiment.planned_groups(request),
+                                                           len(request.points), request.batch))
     from graspjax.runtime import players
 
     try:
@@ -94,21 +96,13 @@ def _run_experiment(args, grid_items=None) -> int:
     return 0
 
 
-def _dry_run(request, args) -> int:
-    """--dry-run: what the run would play and how long it would take; nothing is traced,
-    compiled or written."""
-    import jax
-
-    from graspjax.batch.estimate import plan_lines
-    from graspjax.batch.plan import default_batch
-    from graspjax.experiment import planned_groups
+def _dry_run(args, lines) -> int:
+    """--dry-run: print `lines()` (what would be played, `batch.estimate`); nothing is traced,
+    compiled or written, and a folder a real run would refuse is refused now."""
     from graspjax.outputs import check_output_folder
 
-    check_output_folder(args.out, args.resume, args.overwrite)  # refused now as it would be
-    device = jax.devices()[0]
-    print("\n".join(plan_lines(planned_groups(request), len(request.points),
-                               request.batch or default_batch(), jax.device_count(),
-                               getattr(device, "device_kind", device.platform))))
+    check_output_folder(args.out, getattr(args, "resume", False), args.overwrite)
+    print("\n".join(lines()))
     return 0
 
 
@@ -128,9 +122,13 @@ def cmd_sweep(args) -> int:
 def cmd_planes(args) -> int:
     """Perception-only plane study: settle worlds, take each first view, judge the
     re-alignment's plane for every grid point of traced alignment values."""
+    from graspjax.batch import estimate
     from graspjax.experiment import plane_study
 
     jobs, config, points, keys, config_file = arguments.plane_request(args)
+    if args.dry_run:
+        return _dry_run(args, lambda: estimate.plane_plan_lines(jobs, config, len(points),
+                                                                 args.seed, args.batch))
     summary, timings, out = plane_study(jobs, config, points, keys, args.seed, args.batch,
                                         args.preset, args.out, args.overwrite, args.quiet,
                                         config_file)
@@ -358,6 +356,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a CPU)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the worlds and chunks the study would play; write nothing")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_planes)
 

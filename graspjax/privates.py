@@ -4,10 +4,11 @@ Checked against mujoco-mjx 3.17.0 with jax 0.10.2 (CPU) and jax 0.11.2 (CUDA); p
 both to those minor versions. JAX 0.12 is not allowed yet because it was never checked: JAX
 0.11 and later need Python 3.12 (on Python 3.11, pip's newest JAX is 0.10.2), and the only
 Python 3.12 machine here, the GPU machine, has no package registry to fetch 0.12 from; the
-names below must be looked up again in 0.12's JAX and the MJX release built for it. An upgrade of either starts here: each name below says what it
-is and who uses it, and `tests/test_architecture.py` keeps private access out of every other
-module. Nothing is imported until a name is first used, so importing this module loads
-neither MuJoCo nor JAX's internals (`graspjax report` loads no simulator).
+names below must be looked up again in 0.12's JAX and the MJX release built for it. An
+upgrade of either starts here: each name below says what it is and who uses it, and
+`tests/test_architecture.py` keeps private access out of every other module. Nothing is
+imported until a name is first used, so importing this module loads neither MuJoCo nor JAX's
+internals (`graspjax report` loads no simulator).
 
 MJX's data and model keep the JAX implementation's fields (contacts, constraint rows, model
 flags) in a private `_impl`: `impl` reads them and `with_impl` replaces them.

@@ -173,3 +173,16 @@ def test_plane_study_figure_names_its_preset_and_outlines_the_papers_cell():
     assert np.asarray(on_target)[:, 0] == pytest.approx([100 / 3, 100.0])
     outlined = [p for p in heatmaps[0].patches if isinstance(p, Rectangle)]
     assert [(p.get_x(), p.get_y()) for p in outlined] == [(-0.5, 0.5)]  # 15 px (row 1), 0.3 (column 0)
+
+
+def test_a_planes_dry_run_tells_the_worlds_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "p"
+    assert cli.main(["planes", "--setup", "1,3", "--objects", "a,b", "--trials", "3",
+                     "--grid", "align.window_px=5,15", "--batch", "4", "--out", str(out),
+                     "--dry-run"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    # Setup 1: 2 objects x 3 trials = 6 worlds (2 chunks of 4); Setup 3: 3 rounds (1 chunk)
+    assert printed[0].startswith("2 grid point(s) scored on every first view, 9 worlds settled "
+                                 "and viewed in 3 chunks of up to 4;")
+    assert printed[1].endswith("6 worlds, 2 chunk(s)") and printed[2].endswith("3 worlds, 1 chunk(s)")
+    assert printed[-1].startswith("estimated: unknown") and not out.exists()

@@ -11,8 +11,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from graspjax.batch.plan import Group, chunks
+from graspjax.batch.plan import Group, Job, chunks, default_batch, plan
 from graspjax.batch.program import program
+from graspjax.config import Config
 from graspjax.disk import keep, store
 
 
@@ -46,9 +47,11 @@ def planned(groups: list[Group], batch: int, keep_views: bool) -> list[PlannedGr
     return out
 
 
-def plan_lines(groups: list[PlannedGroup], points: int, batch: int, devices: int,
-               kind: str) -> list[str]:
-    """What `--dry-run` prints: the run, then a line per group, then the estimate."""
+def plan_lines(groups: list[PlannedGroup], points: int, batch: int | None) -> list[str]:
+    """What `--dry-run` prints: the run (chunks of `batch`, default the device's), then a line
+    per group, then the estimate."""
+    devices, kind = _devices()
+    batch = batch or default_batch()
     def s(seconds: float) -> str:
         return f"{seconds:.1f} s" if seconds < 10 else f"{seconds:.0f} s"
 
@@ -106,3 +109,31 @@ def record_timings(groups: list[Group], batch: int, keep_views: bool,
                 "per_world_s": float(rows["wall_s"].sum() / rows["worlds"].sum()),
                 "trace_s": float(rows["trace_s"].sum()), "compile_s": float(rows["compile_s"].sum())}
     keep(path, json.dumps(recorded, indent=1, sort_keys=True).encode())
+
+
+def plane_plan_lines(jobs: list[Job], config: Config, points: int, seed: int,
+                     batch: int | None) -> list[str]:
+    """What `graspjax planes --dry-run` prints: the worlds `jobs` settle and view once, in
+    chunks of `batch` (default: the device's), per group, and the grid points scored on every
+    view (one compiled scoring call)."""
+    groups = plan(jobs, [config], seed)
+    batch = batch or default_batch()
+    cut = chunks(groups, batch)
+    devices, kind = _devices()
+    lines = [f"{points} grid point(s) scored on every first view, "
+             f"{sum(len(g.worlds) for g in groups)} worlds settled and viewed in {len(cut)} "
+             f"chunks of up to {batch}; {devices} {kind} device(s)"]
+    for g, group in enumerate(groups):
+        lines.append(f"  {''.join(group.letters)} (Setup {', '.join(map(str, group.setups))}): "
+                     f"{len(group.worlds)} worlds, {sum(c.group == g for c in cut)} chunk(s)")
+    lines.append("estimated: unknown (a plane study records no timings; its settling costs "
+                 "about what a run's first call does)")
+    return lines
+
+
+def _devices() -> tuple[int, str]:
+    """How many devices JAX sees, and their kind ("NVIDIA H200", "cpu")."""
+    import jax
+
+    device = jax.devices()[0]
+    return jax.device_count(), getattr(device, "device_kind", device.platform)
