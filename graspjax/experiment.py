@@ -220,7 +220,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                 _play(groups, configs, batch, skip, folder, columns, progress, log,
                       process=part if distributed else 0,
                       saver=saver, keep_views=experiment.save_views != "none",
-                      overlap=not compile_first,
+                      overlap=not compile_first, status=bar.set_description_str,
                       after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
             while any(helper.running() for helper in helpers):  # stream the helpers' rows
                 folder.catch_up()
@@ -278,13 +278,14 @@ def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:
 def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int],
           folder: RunFolder, columns: RunColumns, progress, log, process: int = 0,
           saver=None, keep_views: bool = False, after_chunk=lambda: None,
-          overlap: bool = True) -> None:
+          overlap: bool = True, status=lambda text: None) -> None:
     """Play every chunk not in `skip` into `folder`: its rows, layouts and timings, and its
     views (with `saver`, when kept); `after_chunk()` once each is kept (the run: a helper that
     failed stops it). `process`: which of the run's processes plays them; `overlap`: chunks
-    start while other programs still compile (`run_chunks`)."""
+    start while other programs still compile; `status(text)`: what compiles (`run_chunks`)."""
     for result in run_chunks(groups, configs, batch, skip, keep_views=keep_views,
-                             progress=progress, log=log, process=process, overlap=overlap):
+                             progress=progress, log=log, process=process, overlap=overlap,
+                             status=status):
         frame = attempt_rows(result, columns)
         if result.views is not None:  # before the chunk is marked done: a kill between the
             saver.save(result.chunk, frame, result.views)  # two replays the chunk and its views

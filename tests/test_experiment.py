@@ -999,3 +999,21 @@ def test_planes_takes_a_settings_file_as_run_does(tmp_path):
     assert request == same and request[1].procedure.view_tilt_deg == 30.0
     assert config_file == {"path": str(path), "settings": {"procedure.view_tilt_deg": "30"}}
     assert none is None
+
+
+def test_the_progress_bar_names_the_programs_still_compiling(monkeypatch):
+    """`run_chunks`' status: both programs while both compile, the second alone once the first
+    is ready, nothing once both are."""
+    groups = plan.plan([plan.Job(("a",), (1,), 3), plan.Job(("b",), (1,), 3)], [Config()], 0)
+    fakes = {g.letters: _FakeProgram(g, {i: threading.Event() for i in range(2)}) for g in groups}
+    ready = {letters: concurrent.futures.Future() for letters in fakes}
+    monkeypatch.setattr(program, "program", lambda group, batch, keep: fakes[group.letters])
+    monkeypatch.setattr(program, "start_compiles", lambda programs, pool, log: {
+        id(fakes[k]): [ready[k], ready[k]] for k in fakes})
+    said = []
+    chunks = program.run_chunks(groups, [Config()], 3, status=said.append)
+    ready[("a",)].set_result(None)
+    assert next(chunks).chunk.index == 0
+    ready[("b",)].set_result(None)
+    assert [r.chunk.index for r in chunks] == [1]
+    assert said == ["compiling a (Setup 1), b (Setup 1)", "compiling b (Setup 1)", ""]

@@ -308,7 +308,8 @@ def heaviest_first(todo: list[Chunk], groups: list[Group]) -> list[Chunk]:
 def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
                keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
                log: Callable[[str], None] = lambda m: None, overlap: bool = True,
-               process: int = 0) -> Iterator[ChunkResult]:
+               process: int = 0,
+               status: Callable[[str], None] = lambda s: None) -> Iterator[ChunkResult]:
     """Play every chunk not in `done`; yield each as it finishes.
 
     Every local device plays whole chunks in a thread of its own: the first chunk in
@@ -328,7 +329,8 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     chunk), when it started (`started_s`, seconds since this call began: gaps are a device
     waiting for a compile), the memory its device had needed at most so far (`peak_gib`), and
     which device and which of the run's processes played it (`device`, `process`: 0 the run's
-    own, else a helper's, `runtime.players`)."""
+    own, else a helper's, `runtime.players`). `status(text)`, for the progress bar: the programs
+    still traced or compiled ("compiling abcdef (Setup 2, 3), ghijkl (Setup 1)"; "": none)."""
     began = time.perf_counter()
     todo = [c for c in chunks(groups, batch) if c.index not in done]
     needed = list(dict.fromkeys(c.group for c in todo))
@@ -342,6 +344,13 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
         if compiling:
             log(f"compiling {len(compiling)} program(s) ...")
         logged: set[int] = set()
+        pending = {id(p): f"{p.name} (Setup {', '.join(map(str, p.group.setups))})"
+                   for p in programs.values() if id(p) in compiling}
+
+        def tell() -> None:
+            status(f"compiling {', '.join(pending.values())}" if pending else "")
+
+        tell()
 
         def copy_of(prog: Program, device: int) -> list[concurrent.futures.Future]:
             """What `device` waits for to play `prog`: its own copy's compile and the scene
@@ -360,6 +369,8 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                         f"({prog.group.attempts} attempt(s) per world): "
                         f"{prog.origin} in {prog.trace_s:.1f} s, "
                         f"compiled in {prog.compile_s:.1f} s")
+                    pending.pop(id(prog), None)
+                    tell()
 
         if not overlap:
             for prog in programs.values():
