@@ -398,3 +398,43 @@ def check_depth(depth: np.ndarray, name: str = "depth") -> np.ndarray:
     if not (finite > 0).any():
         raise InputError(f"{name}: no valid depth pixels (all are 0, nan or inf)")
     return depth.astype(np.float32)
+
+
+def load_camera_pose(path: str | os.PathLike) -> np.ndarray:
+    """The camera's pose (4, 4): camera frame to world frame, p_world = R p_camera + t.
+
+    A 4x4 (or 3x4) matrix in `.npy` / `.txt`; JSON: the matrix as a list of rows, or an object
+    with `matrix`, or with `rotation` (3x3) and `translation` (3); or an autolab/gqcnn `.tf`
+    (from and to frame names, the translation, then the rotation's three rows). The rotation
+    must be a rotation (orthonormal within 1e-3, determinant +1)."""
+    path = Path(path)
+    _existing_file(path, "a camera pose file")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".tf":
+            rows = [line.split() for line in path.read_text().splitlines()[2:6]]
+            numbers = np.array(rows, float)
+            matrix = np.vstack([np.hstack([numbers[1:], numbers[0][:, None]]), [0, 0, 0, 1]])
+        elif suffix in (".npy", ".txt"):
+            matrix = np.load(path, allow_pickle=False) if suffix == ".npy" else np.loadtxt(path)
+        else:
+            data = json.loads(path.read_text())
+            if isinstance(data, dict) and "rotation" in data:
+                matrix = np.hstack([np.array(data["rotation"], float),
+                                    np.array(data["translation"], float).reshape(3, 1)])
+            else:
+                matrix = data["matrix"] if isinstance(data, dict) else data
+        matrix = np.array(matrix, float)
+    except Exception as exc:
+        raise InputError(f"cannot read a camera pose from {path}: {_first_line(exc)}") from None
+    if matrix.shape == (3, 4):
+        matrix = np.vstack([matrix, [0, 0, 0, 1]])
+    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
+        raise InputError(f"{path}: expected a finite 4x4 (or 3x4) camera-to-world matrix, got "
+                         f"shape {matrix.shape}")
+    rotation = matrix[:3, :3]
+    if (not np.allclose(matrix[3], [0, 0, 0, 1]) or np.abs(rotation.T @ rotation - np.eye(3)).max() > 1e-3
+            or np.linalg.det(rotation) < 0):
+        raise InputError(f"{path}: the camera pose's upper-left 3x3 is not a rotation (or its "
+                         "last row is not 0 0 0 1)")
+    return matrix

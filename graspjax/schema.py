@@ -224,13 +224,15 @@ DETECT_COLUMNS = {
     "placed_by": "contour where the contour search placed the grasp, else the method",
     "pose_{i}{j}": "the grasp as a 4x4 pose, gripper frame to camera frame, row i, column j "
                    "(columns: closing axis, approach x closing axis, approach; translation G)",
+    "pose_world_{i}{j}": "the same pose in the world frame, gripper to world (with "
+                         "--camera-pose: the camera's pose times pose; else empty)",
 }
 
 
 def detect_columns() -> list[str]:
     """results.csv's columns in file order (`DETECT_COLUMNS`, the pose's 16 spelled out)."""
-    pose = [f"pose_{i}{j}" for i in range(4) for j in range(4)]
-    return [name for key in DETECT_COLUMNS for name in (pose if key == "pose_{i}{j}" else [key])]
+    return [key.format(i=i, j=j) for key in DETECT_COLUMNS
+            for i, j in ([(i, j) for i in range(4) for j in range(4)] if "{i}" in key else [(0, 0)])]
 
 
 def outputs_markdown() -> str:
@@ -268,7 +270,7 @@ def outputs_markdown() -> str:
         "",
         "One row saying why where no grasp passed. Positions and axes in the camera frame "
         "(OpenCV: x right, y down, z forward; metres); pixels in the file's own. "
-        "`pose_{i}{j}`: sixteen columns, row by row.",
+        "`pose_{i}{j}`, `pose_world_{i}{j}`: sixteen columns each, row by row.",
         "",
         table(DETECT_COLUMNS.items()),
     ])

@@ -357,3 +357,35 @@ def test_a_reader_that_stops_early_is_no_error():
     done = subprocess.run(f"{sys.executable} -m graspjax.cli config | head -1", shell=True,
                           capture_output=True, text=True, timeout=120)
     assert done.stdout.startswith("key") and "error" not in done.stderr
+
+
+def test_detect_gives_each_grasp_in_the_world_frame_with_the_camera_pose(kinect_scene, tmp_path,
+                                                                         capsys):
+    """The scene's camera looks straight down from 0.6 m (camera to world: x kept, y and z
+    flipped, 0.6 m up), given as a gqcnn .tf: the grasp lands on the box top's centre
+    (0.01, 0.02, 0.05) in the world, approaching straight down; the CSV's pose_world columns
+    are the record's."""
+    tf = tmp_path / "camera.tf"
+    tf.write_text("camera\nworld\n0 0 0.6\n1 0 0\n0 -1 0\n0 0 -1\n")
+    table = tmp_path / "r.csv"
+    assert main(["detect", str(kinect_scene / "scene.npy"), "--camera-pose", str(tf), "--top", "2",
+                 "--out", str(table), "--quiet"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    world = np.array(printed["grasp"]["pose_world"])
+    np.testing.assert_allclose(world[:3, 3], [0.01, 0.02, 0.05], atol=0.005)
+    np.testing.assert_allclose(world[:3, 2], [0, 0, -1], atol=1e-6)
+    assert np.array(printed["camera_pose"])[2, 3] == pytest.approx(0.6)
+    rows = pd.read_csv(table)
+    for row, candidate in zip(rows.itertuples(), printed["candidates"], strict=True):
+        cells = [getattr(row, f"pose_world_{i}{j}") for i in range(4) for j in range(4)]
+        np.testing.assert_allclose(np.reshape(cells, (4, 4)), candidate["pose_world"], atol=1e-5)
+
+
+def test_a_camera_pose_that_is_no_rigid_transform_is_refused_in_one_line(kinect_scene, tmp_path,
+                                                                        capsys):
+    bad = tmp_path / "pose.txt"
+    np.savetxt(bad, np.diag([2.0, 1.0, 1.0, 1.0]))  # a scale, not a rotation
+    assert main(["detect", str(kinect_scene / "scene.npy"), "--camera-pose", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"graspjax: error: {bad}: the camera pose's upper-left 3x3 is not a rotation "
+                   "(or its last row is not 0 0 0 1)")

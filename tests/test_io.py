@@ -316,3 +316,27 @@ def test_write_atomic_leaves_nothing_on_failure(tmp_path):
     with pytest.raises(FileNotFoundError):
         write_atomic(tmp_path / "missing" / "a.txt", b"x")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+
+
+def test_camera_pose_files_give_one_camera_to_world_matrix(tmp_path):
+    """A turn of 90 degrees about z and 0.6 m up, as a 3x4 .txt, a JSON of rotation and
+    translation and a gqcnn .tf (translation first, then the rotation's rows): one matrix."""
+    from graspjax.io import load_camera_pose
+
+    rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    expected = np.eye(4)
+    expected[:3, :3], expected[:3, 3] = rotation, [0.0, 0.0, 0.6]
+    np.savetxt(tmp_path / "pose.txt", expected[:3])
+    (tmp_path / "pose.json").write_text(json.dumps({"rotation": rotation.tolist(),
+                                                    "translation": [0, 0, 0.6]}))
+    (tmp_path / "pose.tf").write_text("camera\nworld\n0 0 0.6\n0 -1 0\n1 0 0\n0 0 1\n")
+    for name in ("pose.txt", "pose.json", "pose.tf"):
+        np.testing.assert_allclose(load_camera_pose(tmp_path / name), expected)
+    mirrored = expected.copy()
+    mirrored[0, :3] *= -1  # a reflection: determinant -1
+    np.save(tmp_path / "mirror.npy", mirrored)
+    with pytest.raises(InputError, match="is not a rotation"):
+        load_camera_pose(tmp_path / "mirror.npy")
+    (tmp_path / "short.json").write_text("[[1, 0], [0, 1]]")
+    with pytest.raises(InputError, match="expected a finite 4x4"):
+        load_camera_pose(tmp_path / "short.json")

@@ -20,7 +20,14 @@ import numpy as np
 from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
 from graspjax.config import Config, RealImageConfig, override
 from graspjax.imagefiles.bins import bin_interior
-from graspjax.io import InputError, load_intrinsics, load_mask, read_depth, scaled_depth
+from graspjax.io import (
+    InputError,
+    load_camera_pose,
+    load_intrinsics,
+    load_mask,
+    read_depth,
+    scaled_depth,
+)
 from graspjax.perception.workspace import block_factors
 
 DEPTH_SUFFIXES = (".npy", ".npz", ".png", ".tif", ".tiff")
@@ -131,6 +138,7 @@ class Inputs:
     # (`bins.bin_interior`), bits packed along rows (N, H, ceil(W / 8)) uint8; else None
     roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
+    camera_pose: np.ndarray | None  # (4, 4) camera to world (`io.load_camera_pose`), or None
     config: Config
     image: RealImageConfig
 
@@ -332,13 +340,15 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             intrinsics: IntrinsicsRequest = IntrinsicsRequest(),
             roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
             depth_range: tuple[float, float] | None = None, downsample: int | None = None,
-            overrides: Sequence[str] = (), bin: bool = False,
+            overrides: Sequence[str] = (), bin: bool = False, camera_pose: str | None = None,
             warn: Callable[[str], None] = warnings.warn) -> Inputs:
     """Read and check every input; nothing is computed yet but, with `bin`, each image's bin
     interior (`bins.bin_interior`), which narrows that image's workspace: a bin found in every
     image, so that images of several bins (or of one bin that moved) each get their own, and
     an image without one stops the run before anything is written. Every image is read here
     once, to check it (its size, its intrinsics, its depth range) and find its bin.
+
+    `camera_pose`: a file of the camera's pose (`io.load_camera_pose`), read and checked here.
 
     Images without intrinsics (none given, none in the files) are taken with the Kinect's field
     of view, never silently: `warn` gets one line saying so (`assumed_camera`), once every
@@ -388,6 +398,7 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                     width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
                     workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,
                     mask=mask, config=config,
+                    camera_pose=None if camera_pose is None else load_camera_pose(camera_pose),
                     image=dataclasses.replace(image, bin=image.bin or bin))
     interiors = []
     for i, path in enumerate(paths):

@@ -7,7 +7,9 @@ forward; metres): its columns are the gripper's x axis = the closing direction
 (`closing_axis`), y = z x x (along the jaws' edges), z = the approach direction (`approach`,
 into the scene), and its translation the grasp centre G (`position`) on the target's top
 surface; the jaws reach `depth` below G along z. The frame is the simulated gripper's
-(`geometry.frame_from_axes`). The CSV gives it as `pose_00` ... `pose_33`, row by row.
+(`geometry.frame_from_axes`). The CSV gives it as `pose_00` ... `pose_33`, row by row. With
+the camera's pose (`--camera-pose`, camera to world) each grasp is also `pose_world`, the
+same pose in the world frame (the camera's pose times `pose`; CSV `pose_world_00` ...).
 """
 
 from __future__ import annotations
@@ -37,12 +39,19 @@ def grasp_pose(position, closing_axis, approach) -> np.ndarray | None:
     return pose
 
 
+def in_world(pose: np.ndarray | None, camera_pose: np.ndarray | None) -> np.ndarray | None:
+    """A grasp's pose (4, 4) in the world frame: `camera_pose` (camera to world) times `pose`
+    (gripper to camera); None without either."""
+    return None if pose is None or camera_pose is None else camera_pose @ pose
+
+
 def record(d: Detection, inputs: Inputs) -> dict:
     """The record of one image's `Detection` (JSON values: lists, numbers, strings, None);
     each grasp's `pose` as the module docstring says."""
     r, camera = d.result, d.camera
     g, a, s, ranked = r.grasp, r.alignment, r.support, r.ranked
     fine, coarse = block_factors(inputs.width, inputs.image)
+    pose = grasp_pose(r.position, r.closing_axis, r.approach)
     return jsonable({
         "image": str(d.path),
         "method": inputs.config.method,
@@ -57,6 +66,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "window": inputs.image.crop_px,
         "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
                    "source": d.source},  # at full resolution; pixels below are the file's
+        "camera_pose": inputs.camera_pose,  # camera to world, as given (None: not given)
         "workspace": {"roi": list(inputs.roi) if inputs.roi else None, "mask": inputs.mask,
                       "bin": inputs.image.bin,
                       "range": [inputs.image.min_depth, inputs.image.max_depth],
@@ -76,7 +86,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "grasp": {"found": bool(r.found), "reason": g.reason_name,
                   "position": r.position, "closing_axis": r.closing_axis,
                   "approach": r.approach,
-                  "pose": grasp_pose(r.position, r.closing_axis, r.approach),
+                  "pose": pose, "pose_world": in_world(pose, inputs.camera_pose),
                   "width": g.width, "depth": g.depth,
                   "contact_width": ranked.contact_width[0], "clearance": ranked.clearance[0],
                   "landing_fall": ranked.landing[0],
@@ -98,7 +108,8 @@ def _candidate(ranked, k: int, approach, inputs: Inputs) -> dict:
     grasp of an image shares the `approach` (the view's axis)."""
     return {"rank": k + 1, "score": ranked.score[k], "target": int(ranked.attempt[k]) + 1,
             "position": ranked.position[k], "closing_axis": ranked.closing_axis[k],
-            "pose": grasp_pose(ranked.position[k], ranked.closing_axis[k], approach),
+            "pose": (pose := grasp_pose(ranked.position[k], ranked.closing_axis[k], approach)),
+            "pose_world": in_world(pose, inputs.camera_pose),
             "pixel": inputs.source_pixel(ranked.pixel[k]), "width": ranked.width[k],
             "contact_width": ranked.contact_width[k], "depth": ranked.depth[k],
             "clearance": ranked.clearance[k], "landing_fall": ranked.landing[k],
@@ -120,9 +131,11 @@ def csv_rows(rec: dict) -> list[list]:
                      *approach, c["width"], c["contact_width"], c["depth"], c["clearance"],
                      c["landing_fall"], *c["pixel"]] + rest + [c["placed_by"]]
             + [v for row in c["pose"] for v in row]
+            + ([v for row in c["pose_world"] for v in row] if c["pose_world"] is not None
+               else [None] * 16)
             for c in rec["candidates"]]
     return rows or [image + [None] * 3 + nan3 + nan3 + nan3 + [None] * 5 + [None, None] + rest
-                    + [None] + [None] * 16]
+                    + [None] + [None] * 32]
 
 
 def csv_bytes(records: Sequence[dict]) -> bytes:
