@@ -8,8 +8,7 @@
 #                                            #   another --batch
 #   experiments/gpu_reference.sh detect      # graspjax detect on 640x480 images, batched
 #   experiments/gpu_reference.sh tables      # Tables 1 and 2 at 1,000 trials per cell, both presets
-#   experiments/gpu_reference.sh studies     # the traced studies (experiments/studies.py traced)
-#                                            #   and the same sweep twice (bit-identical?)
+#   (the parameter studies: experiments/studies.sh)
 #   experiments/gpu_reference.sh bench       # the bin scene's physics, Kinect rendering, perception
 #   experiments/gpu_reference.sh multigpu    # one GPU against all GPUs of the host, same job
 # Every step writes into $OUT (a log per step; run folders packed into tarballs, since the machine
@@ -78,22 +77,6 @@ EOF
     step tables env OUT="$out" bash experiments/paper_tables.sh gpu
     for preset in paper realistic; do cat "$out/${preset}_gpu_1000/timings.csv"; done
     pack tables paper_gpu_1000 realistic_gpu_1000 ;;
-  studies)  # the traced studies (one set of compiled programs) and the same command twice
-    step studies env OUT="$out" timeout "${STUDIES_LIMIT:-470}" python3 experiments/studies.py \
-      ${STUDIES:-traced}
-    step window_again gj sweep --table 1 --preset realistic --trials 100 --seed 0 --quiet \
-      --grid align.window_px=5,10,15,20,25,30 --out "$out/window_again"
-    if cmp -s "$out/window/attempts.csv" "$out/window_again/attempts.csv"; then
-      echo "same command twice: attempts.csv identical"
-    else
-      echo "same command twice: attempts.csv DIFFERS"
-    fi
-    rm -rf "$out/window_again"
-    names=()
-    for name in window threshold reorientations friction noise execution centring; do
-      [ -d "$out/$name" ] && names+=("$name")
-    done
-    pack studies "${names[@]}" ;;
   bench)
     step physics_paper gj bench physics --objects abcdef --setup 3 --batch 8192 \
       --out "$out/physics_gpu_h100_bin_8192.json"
@@ -125,5 +108,5 @@ print(f"speed-up: {rates['all_gpus'] / rates['one_gpu']:.2f}x")
 EOF
     for name in one_gpu all_gpus; do cp "$out/$name/timings.csv" "$out/${name}_timings.csv"; done
     rm -rf "$out/one_gpu" "$out/all_gpus" ;;
-  *) echo "usage: $0 runner|cold|repro|detect|tables|studies|bench|multigpu" >&2; exit 2 ;;
+  *) echo "usage: $0 runner|cold|repro|detect|tables|bench|multigpu" >&2; exit 2 ;;
 esac

@@ -891,11 +891,11 @@ def test_a_background_import_loads_the_module_once_in_its_own_thread(tmp_path, m
 
 
 def test_the_recorded_command_is_the_one_a_script_typed(tmp_path, monkeypatch):
-    """A script that calls `main([...])` (experiments/studies.py) records the graspjax command
+    """A script that calls `main([...])` (a study in experiments/) records the graspjax command
     it typed in config.json, not its own command line."""
     import shlex
 
-    monkeypatch.setattr(sys, "argv", ["experiments/studies.py", "window", "threshold"])
+    monkeypatch.setattr(sys, "argv", ["experiments/a_study.py", "window", "threshold"])
     out = tmp_path / "typed dir"  # a space: the command is quoted as a shell would need it
     assert main(["run", *TINY, "--out", str(out)]) == 0
     recorded = json.loads((out / "config.json").read_text())["command"]
