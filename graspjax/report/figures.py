@@ -131,6 +131,7 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
             discordant, counts["pairs"], strict=True)]
         per = per.drop(columns=paired).merge(counts.drop(columns="pairs").reset_index(),
                                               on=[key, "setup"], how="left")
+        per.loc[per[key] == paper, "detectable_vs_paper"] = np.nan  # itself: nothing to resolve
     return per.sort_values(["setup", key], kind="stable").reset_index(drop=True)
 
 
