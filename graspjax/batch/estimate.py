@@ -79,10 +79,8 @@ def _key(group: Group, batch: int, keep_views: bool) -> str:
 
 def _file() -> Path | None:
     """This device kind's recorded timings, beside the compile cache."""
-    import jax
-
     folder = store("timings")
-    kind = re.sub(r"[^A-Za-z0-9]+", "_", getattr(jax.devices()[0], "device_kind", "cpu"))
+    kind = re.sub(r"[^A-Za-z0-9]+", "_", _devices()[1])
     return None if folder is None else folder / f"{kind}.json"
 
 

@@ -177,19 +177,23 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
     return fig
 
 
+def run_description(meta: dict, setups) -> str:
+    """"paper preset (changed=value), Setups 1, 3, 300 trials per cell": the preset, the settings
+    changed from it, the setups and the trials of a run's `config.json`."""
+    trials = sorted({job.get("trials") for job in meta.get("jobs", [])} - {None})
+    changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
+    return (f"{meta.get('preset', 'unknown')} preset" + (f" ({changed})" if changed else "")
+            + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
+            + (f", {'/'.join(map(str, trials))} trials per cell" if trials else ""))
+
+
 def sweep_title(key: str, meta: dict | None, setups) -> str:
     """A study figure's title: what was swept, under which preset and the settings changed from
     it, in which setups, how many trials, paired or not (from the run's `config.json`, where it
     has one)."""
     meta = meta or {}
-    preset = meta.get("preset", "unknown")
-    trials = sorted({job.get("trials") for job in meta.get("jobs", [])} - {None})
     name = key[len("cfg."):] if key.startswith("cfg.") else key
-    changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
-    title = (f"{name}, {preset} preset" + (f" ({changed})" if changed else "")
-             + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}")
-    if trials:
-        title += f", {'/'.join(map(str, trials))} trials per cell"
+    title = f"{name}, {run_description(meta, setups)}"
     if "paired" in meta:
         title += ", paired" if meta["paired"] else ", unpaired"
     return title
@@ -349,13 +353,6 @@ def _index_of(values, value):
 def planes_title(meta: dict) -> str:
     """A plane study figure's title: the grid's keys, the preset, the setups and trials, and
     the settings changed from the preset (config.json)."""
-    jobs = meta.get("jobs", [])
-    setups = sorted({s for job in jobs for s in job.get("setups", [])})
-    trials = sorted({job.get("trials") for job in jobs} - {None})
-    changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
+    setups = sorted({s for job in meta.get("jobs", []) for s in job.get("setups", [])})
     return (f"The re-alignment's plane over {' x '.join(meta.get('grid', {}))}, "
-            f"{meta.get('preset', 'unknown')} preset"
-            + (f" ({changed})" if changed else "")
-            + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
-            + (f", {'/'.join(map(str, trials))} trials per cell" if trials else "")
-            + "; views with no grasp in the first view")
+            f"{run_description(meta, setups)}; views with no grasp in the first view")
