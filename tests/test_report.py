@@ -143,7 +143,8 @@ def test_parse_attempts_checks_columns():
 
 
 def test_gzipped_attempts_give_the_same_report(tmp_path):
-    """Large reference runs keep attempts.csv gzipped; the report reads either form."""
+    """Large reference runs keep attempts.csv gzipped (the studies as Parquet); the report reads
+    every form."""
     import gzip
 
     from graspjax.report import load_attempts, write_report
@@ -155,6 +156,10 @@ def test_gzipped_attempts_give_the_same_report(tmp_path):
     (plain / "attempts.csv").write_text(text)
     (packed / "attempts.csv.gz").write_bytes(gzip.compress(text.encode()))
     pd.testing.assert_frame_equal(load_attempts(plain), load_attempts(packed))
+    parquet = tmp_path / "parquet"  # the committed studies keep their rows as Parquet
+    parquet.mkdir()
+    load_attempts(plain).to_parquet(parquet / "attempts.parquet", index=False)
+    pd.testing.assert_frame_equal(load_attempts(plain), load_attempts(parquet))
     write_report(packed)
     assert (packed / "table1.md").read_text() == build(parse_attempts(text))["table1.md"].decode()
     with pytest.raises(FileNotFoundError, match="no attempts.csv"):
@@ -176,7 +181,8 @@ def test_a_damaged_or_non_numeric_attempts_file_is_one_line_naming_it(tmp_path, 
              ("attempts.csv", text.replace(",1,SUCCESS", ",yes,SUCCESS", 1).encode(),
               "success must be 0 or 1, row "),
              ("attempts.csv", text.replace("\n1,", "\nx,", 1).encode(),
-              "setup must be a number, row 1 has 'x'")]
+              "setup must be a number, row 1 has 'x'"),
+             ("attempts.parquet", b"PAR1 cut", "is not a whole Parquet file")]
     for i, (name, data, message) in enumerate(cases):
         folder = tmp_path / str(i)
         folder.mkdir()

@@ -23,6 +23,13 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
                          "cut by a kill: --resume the run to rewrite it)")
     frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], low_memory=False,
                         dtype={"object": str, "lifted_object": str, "run_id": str})
+    return checked_attempts(frame, name)
+
+
+def checked_attempts(frame: pd.DataFrame, name: str) -> pd.DataFrame:
+    """`frame` (attempt rows, read from CSV or Parquet) once it has the columns the report
+    needs, numbers where it counts (`success` 0 or 1) and the rows of one run; else a
+    ValueError naming `name`."""
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise ValueError(f"{name} lacks columns: {', '.join(missing)}")
@@ -44,12 +51,21 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
 
 
 def load_attempts(folder: str | Path) -> pd.DataFrame:
-    """Read `attempts.csv` (or a gzipped `attempts.csv.gz`) from a run or sweep folder; a file
-    that is not whole gzip or not UTF-8 text is a ValueError naming it."""
+    """Read `attempts.csv` (or a gzipped `attempts.csv.gz`, else `attempts.parquet`, the same
+    rows) from a run or sweep folder; a file that is not whole gzip or not UTF-8 text, or not
+    Parquet, is a ValueError naming it."""
     import gzip
     import zlib
 
     path = Path(folder) / "attempts.csv"
+    parquet = path.with_suffix(".parquet")
+    if not path.is_file() and not path.with_suffix(".csv.gz").is_file() and parquet.is_file():
+        try:
+            frame = pd.read_parquet(parquet)
+        except Exception as exc:  # pyarrow's errors: not Parquet, cut short, damaged
+            raise ValueError(f"{parquet} is not a whole Parquet file: "
+                             f"{str(exc).splitlines()[0]}") from None
+        return checked_attempts(frame, str(parquet))
     if path.is_file():
         data = path.read_bytes()
     elif path.with_suffix(".csv.gz").is_file():
