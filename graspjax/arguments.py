@@ -306,6 +306,17 @@ def bench_request(args) -> dict:
         letters = "".join(parse_letters(args.objects))
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    if args.what == "finish":
+        if args.rows_from is None:
+            raise UsageError("bench finish needs --rows-from FOLDER, a finished run's folder")
+        if args.rows < 1:
+            raise UsageError(f"--rows must be >= 1, got {args.rows}")
+        try:
+            from graspjax.report import load_attempts
+            if "chunk" not in load_attempts(args.rows_from).columns:
+                raise ValueError(f"{args.rows_from}'s rows have no chunk column")
+        except (OSError, ValueError) as exc:
+            raise UsageError(f"--rows-from: {exc}") from None
     return dict(config=config, image=image, objects=letters,
                 setups=ints(str(args.setup), "--setup", (1, 2, 3)), trials=args.trials,
                 seconds=args.seconds, batch=args.batch, width=args.width, height=args.height,

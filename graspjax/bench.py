@@ -387,8 +387,8 @@ def format_pipeline(r: dict) -> str:
 def measure(what: str, *, config: Config, image: RealImageConfig, objects: str, setups: tuple[int, ...],
             trials: int, seconds: float, batch: int | None, width: int | None, height: int | None,
             repeats: int, progress=print) -> tuple[dict, str]:
-    """One benchmark (`perception`, `detect`, `physics` or `pipeline`) with the device-sized
-    defaults: its record and its printed summary."""
+    """One benchmark (`perception`, `detect`, `physics` or `pipeline`; `bench_finish` is
+    the fifth) with the device-sized defaults: its record and its printed summary."""
     gpu = jax.default_backend() == "gpu"
     if what == "perception":
         result = perception_benchmark(batch=batch or 4096, width=width or 160, height=height or 120,

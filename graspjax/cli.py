@@ -39,10 +39,16 @@ def cmd_detect(args) -> int:
 
 def cmd_bench(args) -> int:
     """A benchmark: print its summary, and write its record with --out."""
-    from graspjax.bench import measure
+    request, said = arguments.bench_request(args), lambda m: print(m, file=sys.stderr)
+    if args.what == "finish":
+        from graspjax.bench_finish import finish_benchmark, format_finish
 
-    request = arguments.bench_request(args)
-    result, text = measure(args.what, **request, progress=lambda m: print(m, file=sys.stderr))
+        result = finish_benchmark(args.rows_from, args.rows, said)
+        text = format_finish(result)
+    else:
+        from graspjax.bench import measure
+
+        result, text = measure(args.what, **request, progress=said)
     if args.out:
         from graspjax.disk import jsonable, write_atomic
 
@@ -328,8 +334,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_assets)
 
     p = sub.add_parser("bench", help="benchmarks (print numbers; compile time apart)")
-    p.add_argument("what", choices=["perception", "detect", "physics", "pipeline"],
-                   help="what to measure (detect: graspjax detect on real-looking images)")
+    p.add_argument("what", choices=["perception", "detect", "physics", "pipeline", "finish"],
+                   help="what to measure (detect: graspjax detect on real-looking images; "
+                        "finish: a run's end after its last chunk, on --rows-from's rows)")
+    p.add_argument("--rows-from", metavar="FOLDER",
+                   help="finish: a finished run or sweep folder whose rows are repeated")
+    p.add_argument("--rows", type=int, default=96_000,
+                   help="finish: attempt rows of the run timed (default 96,000)")
     p.add_argument("--objects", default="abcdef", help="physics, pipeline: objects of the scene")
     p.add_argument("--setup", default="3", help="physics: setup 1, 2 or 3; pipeline: e.g. 1,2,3")
     p.add_argument("--seconds", type=float, default=1.0, help="physics: simulated time timed")

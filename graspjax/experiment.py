@@ -248,11 +248,10 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     from graspjax.report import write_report
     from graspjax.report.files import load_attempts
 
-    files += write_report(out)[0]
+    rows = folder.report_rows  # None where the rows were assembled earlier (a finished run)
+    files += write_report(out, rows=rows)[0]
     clock.append(time.perf_counter())
-    success = (pd.read_parquet(out / "attempts.parquet", columns=["success"])["success"]
-               if (out / "attempts.parquet").is_file()  # committed results keep the CSV alone
-               else load_attempts(out)["success"])
+    success = (rows[0] if rows is not None else load_attempts(out))["success"]
     lengths = [round(end - begin, 2) for begin, end in zip(clock[:-1], clock[1:], strict=True)]
     seconds = dict(zip(("start", "chunks", "rows", "report"), lengths, strict=True))
     if before is not None:

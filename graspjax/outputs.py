@@ -33,6 +33,7 @@ folder it holds its lock (`writing`).
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import hashlib
 import io
@@ -42,12 +43,12 @@ import socket
 from datetime import UTC, datetime
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from graspjax.disk import write_atomic
 from graspjax.io import InputError
-from graspjax.schema import TIMINGS_COLUMNS, sort_attempts
+from graspjax.report.files import read_attempts_csv, read_rounds_csv
+from graspjax.schema import TIMINGS_COLUMNS, attempt_order
 
 LOCK = ".graspjax.lock"  # held (an OS lock) by the process that writes the folder
 # The files of a chunk done (`RunFolder.add`), as glob patterns under the run's folder.
@@ -240,17 +241,28 @@ def _csv(frame: pd.DataFrame, header: bool) -> bytes:
     return frame.to_csv(index=False, header=header, float_format="%.7g").encode()  # float32 precision
 
 
-def _sorted(frame: pd.DataFrame, lines: list[bytes] | None) -> tuple[pd.DataFrame, bytes]:
-    """`frame` (every chunk's rows, chunk by chunk) sorted (`sort_attempts`), and its
-    `attempts.csv`: `lines`, the same rows formatted chunk by chunk (one line each), put in the
-    sorted order, or, without them (or where a field held a line break), the sorted frame
-    formatted afresh. Both give the same bytes (a test compares); the first saves formatting
-    every row of a large run again at its end."""
-    ordered = sort_attempts(frame.assign(_line=np.arange(len(frame))))
-    rows = ordered.pop("_line").to_numpy()
-    if lines is None or len(lines) != len(frame):
-        return ordered, _csv(ordered, True)
-    return ordered, b"".join([_csv(ordered.iloc[:0], True), *(lines[i] for i in rows)])
+def _write_parquet(frame: pd.DataFrame, path: Path) -> None:
+    buffer = io.BytesIO()
+    frame.to_parquet(buffer, index=False)
+    write_atomic(path, buffer.getvalue())
+
+
+def _sorted(frame: pd.DataFrame, parsed: pd.DataFrame | None, lines: list[bytes] | None
+            ) -> tuple[pd.DataFrame, bytes, pd.DataFrame]:
+    """`frame` (every chunk's rows, chunk by chunk) sorted (`schema.attempt_order`), its
+    `attempts.csv`, and the rows as the report reads that file back. The CSV: `lines`, the same
+    rows formatted chunk by chunk (one line each), put in the sorted order, and `parsed`, those
+    lines read chunk by chunk, in the same order; without them (or where a field held a line
+    break), the sorted frame formatted and read afresh. Both give the same bytes and frames (a
+    test compares); the first saves formatting and parsing every row of a large run again at
+    its end."""
+    order = attempt_order(frame)
+    ordered = frame.take(order).reset_index(drop=True)
+    if lines is None or parsed is None or len(lines) != len(frame):
+        text = _csv(ordered, True)
+        return ordered, text, read_attempts_csv(text)
+    text = b"".join([_csv(ordered.iloc[:0], True), *(lines[i] for i in order)])
+    return ordered, text, parsed.take(order).reset_index(drop=True)
 
 
 class RunFolder:
@@ -293,7 +305,10 @@ class RunFolder:
         # kept (`keep` False) by a process that never finishes the folder: a run's helper, or
         # a process of a distributed run other than the first.
         self.keep = keep
-        self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame]] = {}
+        self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame, pd.DataFrame]] = {}
+        # Once finished here: the attempt and round rows as the report reads the files back
+        # (`report.write_report`'s `rows`), so that it need not read them.
+        self.report_rows: tuple[pd.DataFrame, pd.DataFrame] | None = None
         if not self.finished:
             self.parts.mkdir(exist_ok=True)
             write_atomic(config, (json.dumps(meta, indent=2, default=str) + "\n").encode())
@@ -372,8 +387,10 @@ class RunFolder:
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
         if self.keep:  # read back now, beside the devices' next chunks, rather than at the
-            # run's end: the frames then have the dtypes of any part read from disk
-            self._kept[chunk] = pd.read_parquet(buffer), text, pd.read_parquet(rounds)
+            # run's end: the frames then have the dtypes of any part read from disk, and the
+            # rows as the report will read attempts.csv
+            self._kept[chunk] = (pd.read_parquet(buffer), text, pd.read_parquet(rounds),
+                                 read_attempts_csv(_csv(frame.iloc[:0], True) + text))
 
     def finish(self, remove_parts: bool | None = None) -> list[Path]:
         """Rebuild the attempts and rounds from the parts, sorted, and write the timings; the
@@ -386,24 +403,30 @@ class RunFolder:
         if not self.finished:
             if len(self.done) < self.chunks:
                 return []
-            parts = [self._part(c) for c in sorted(self.done)]
+            done = sorted(self.done)
+            parts = [self._part(c) for c in done]
             frame = pd.concat([f for f, _ in parts], ignore_index=True)
             alike = all(f.dtypes.equals(parts[0][0].dtypes) for f, _ in parts)
             lines = [line for _, text in parts for line in text.splitlines(keepends=True)]
-            frame, csv = _sorted(frame, lines if alike else None)  # alike: formatted alike
+            parsed = pd.concat([self._kept[c][3] if c in self._kept else read_attempts_csv(
+                _csv(f.iloc[:0], True) + text) for c, (f, text) in zip(done, parts, strict=True)],
+                ignore_index=True) if alike else None
+            frame, csv, report = _sorted(frame, parsed, lines if alike else None)  # alike:
+            # formatted alike
             timings = pd.DataFrame([self._read(f"timings-{c:05d}.json",
                                                lambda path: json.loads(path.read_text()))
                                     for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
-            parquet = io.BytesIO()
-            frame.to_parquet(parquet, index=False)
-            rounds = pd.concat([self._kept[c][2] if c in self._kept
-                                else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
-                                for c in sorted(self.done)], ignore_index=True)
-            rounds = rounds.sort_values(["point", "setup", "round"], kind="stable")
-            write_atomic(self.folder / "attempts.parquet", parquet.getvalue())
-            write_atomic(self.folder / "attempts.csv", csv)
-            write_atomic(self.folder / "rounds.csv", _csv(rounds, True))
-            write_atomic(self.folder / "timings.csv", timings.to_csv(index=False).encode())
+            # Parquet encodes in a thread (Arrow lets go of the GIL) while the CSV files are written.
+            with concurrent.futures.ThreadPoolExecutor(1) as pool:
+                parquet = pool.submit(_write_parquet, frame, self.folder / "attempts.parquet")
+                rounds = pd.concat([self._kept[c][2] if c in self._kept
+                                    else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
+                                    for c in sorted(self.done)], ignore_index=True)
+                rounds = _csv(rounds.sort_values(["point", "setup", "round"], kind="stable"), True)
+                write_atomic(self.folder / "attempts.csv", csv)
+                write_atomic(self.folder / "rounds.csv", rounds)
+                write_atomic(self.folder / "timings.csv", timings.to_csv(index=False).encode())
+                parquet.result()
             meta = {**self.meta, "finished": datetime.now(UTC).isoformat(timespec="seconds")}
             write_atomic(self.folder / "config.json",
                          (json.dumps(meta, indent=2, default=str) + "\n").encode())
@@ -413,7 +436,8 @@ class RunFolder:
                 with contextlib.suppress(OSError):
                     self.parts.rmdir()
             self.finished = True
-            self._kept.clear()  # the report reads the files
+            self._kept.clear()
+            self.report_rows = report, read_rounds_csv(io.BytesIO(rounds))
         data_files = ("attempts.csv", "attempts.csv.gz", "attempts.parquet", "rounds.csv",
                       "rounds.csv.gz", "timings.csv", "config.json")
         return [self.folder / name for name in data_files if (self.folder / name).is_file()]

@@ -171,7 +171,16 @@ BENCH_FIELDS = {
         "attempts_per_s",
         "deterministic",  # XLA's deterministic GPU ops were on
     ),
+    "finish": (  # `bench.finish_benchmark`: a run's end after its last chunk
+        "source",  # the finished run whose rows are repeated
+        "rows", "chunks",
+        "files_s",  # attempts.csv, .parquet, rounds.csv, timings.csv assembled and written (s)
+        "report_s",  # tables and figures from the rows in memory (s)
+        "after_last_chunk_s",  # the two together (s)
+    ),
 }
+
+
 def attempt_columns(reorientations: int, keys: list[str]) -> list[str]:
     """attempts.csv's header: `ATTEMPT_COLUMNS` with `reorientations` re-alignments' columns
     and the `cfg.` columns of `keys`."""
@@ -282,12 +291,22 @@ SURFACE_LABELS = np.array([s.name.lower().replace("_", " ") if s != Surface.NONE
                            for s in sorted(Surface)], dtype=object)  # index: Surface + 1
 
 
+def attempt_order(frame: pd.DataFrame) -> np.ndarray:
+    """The permutation (n,) that puts attempt rows in the canonical order: point, setup, trial
+    (the round in Setups 2, 3), attempt (unattempted last), object (missing last); stable."""
+    keys = {"point": frame["point"], "setup": frame["setup"], "trial": frame["trial"],
+            "attempt_order": frame["attempt"].where(frame["attempt"] >= 0, 99),
+            "object": frame["object"]}
+    columns = []
+    for name in SORT:
+        codes, _ = pd.factorize(keys[name], sort=True)  # missing values: -1
+        columns.append(np.where(codes < 0, np.iinfo(codes.dtype).max, codes))
+    return np.lexsort(columns[::-1])  # the last key is lexsort's first
+
+
 def sort_attempts(frame: pd.DataFrame) -> pd.DataFrame:
-    """Rows in the canonical order: point, setup, trial (the round in Setups 2, 3), attempt
-    (unattempted last), object."""
-    order = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
-    order = order.sort_values(SORT, kind="stable").drop(columns="attempt_order")
-    return order.reset_index(drop=True)
+    """Rows in the canonical order (`attempt_order`)."""
+    return frame.take(attempt_order(frame)).reset_index(drop=True)
 
 
 def outcome_label(frame: pd.DataFrame) -> pd.Series:

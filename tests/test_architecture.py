@@ -22,7 +22,7 @@ LAYERS = [
                                           "imagefiles.bins"]),
     ("batches", ["batch", "batch.*", "imagefiles.batches", "imagefiles.records"]),
     ("studies, files, reports, benchmarks", ["planes", "saved_views", "viz", "outputs", "report", "report.*",
-                                             "bench"]),
+                                             "bench", "bench_finish"]),
     ("workflows", ["experiment"]),
     ("entry point", ["cli", "arguments"]),
 ]

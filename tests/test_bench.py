@@ -34,3 +34,21 @@ def test_a_tiny_detect_benchmark_writes_its_record():
     assert tuple(record) == (*BENCH_FIELDS["detect"], *PROVENANCE_FIELDS)
     assert record["images_per_s"] > 0 and 0 <= record["grasp_found_fraction"] <= 1
     assert "images/s" in bench.format_detect(record)
+
+
+def test_a_small_finish_benchmark_times_the_rows_it_asked_for():
+    """The committed 10-trial run's 240 rows, repeated to 1,000 (five copies), through a run
+    folder's finish and report."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from graspjax.bench_finish import finish_benchmark, format_finish
+
+    source = Path(__file__).parents[1] / "results" / "paper_cpu_10"
+    chunks = pd.read_csv(source / "attempts.csv")["chunk"].nunique()
+    record = finish_benchmark(str(source), rows=1000, progress=lambda m: None)
+    assert tuple(record) == (*BENCH_FIELDS["finish"], *PROVENANCE_FIELDS)
+    assert record["rows"] == 1200 and record["chunks"] == 5 * chunks
+    assert record["after_last_chunk_s"] == pytest.approx(record["files_s"] + record["report_s"])
+    assert f"1,200 rows in {5 * chunks} chunks" in format_finish(record)

@@ -259,6 +259,9 @@ def test_bad_arguments_get_one_line_and_exit_2(kinect_scene, tmp_path, capsys, a
     (["pipeline", "--trials", "0"], "--trials must be >= 1, got 0"),
     (["physics", "--seconds", "-1"], "--seconds must be a positive number, got -1"),
     (["physics", "--seconds", "nan"], "--seconds must be a positive number, got nan"),
+    (["finish"], "bench finish needs --rows-from FOLDER"),
+    (["finish", "--rows-from", "/nonexistent"], "--rows-from: no attempts.csv in /nonexistent"),
+    (["finish", "--rows-from", "results/paper_cpu_10", "--rows", "0"], "--rows must be >= 1"),
 ])
 def test_bench_mistakes_get_one_line_before_anything_compiles(tmp_path, capsys, args, message):
     out = tmp_path / "bench.json"

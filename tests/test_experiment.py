@@ -127,6 +127,21 @@ def test_run_writes_every_file_with_the_right_columns(tiny_run, two_devices):
     assert row.ci_low <= row.rate <= row.ci_high
 
 
+def test_a_run_s_report_from_its_rows_in_memory_equals_one_rebuilt_from_its_files(tiny_run,
+                                                                                 tmp_path):
+    """A run builds its report from the rows it holds (`RunFolder.report_rows`), not by reading
+    them back: `graspjax report` on a copy of its folder, which reads the files, writes the same
+    bytes."""
+    copy = tmp_path / "copy"
+    shutil.copytree(tiny_run, copy)
+    report = ("summary.csv", "table1.md", "table1.tex", "success_by_object.png", "outcomes.png")
+    for name in report:
+        (copy / name).unlink()
+    assert main(["report", str(copy)]) == 0
+    for name in report:
+        assert (copy / name).read_bytes() == (tiny_run / name).read_bytes(), name
+
+
 @pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="Linux's /proc")
 def test_a_run_s_before_phase_counts_from_the_interpreter_s_start():
     """`before` in a run's seconds: a process that sleeps 1.5 s at its start, then asks, has

@@ -135,6 +135,7 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
     import pandas as pd
 
     from graspjax.outputs import _csv
+    from graspjax.report.files import load_rounds, read_attempts_csv
     from graspjax.schema import TIMINGS_COLUMNS, sort_attempts
 
     rng = np.random.default_rng(0)
@@ -161,6 +162,12 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
     whole = sort_attempts(pd.concat(chunks, ignore_index=True))
     assert (tmp_path / "attempts.csv").read_bytes() == _csv(whole, True)
     assert pd.read_parquet(tmp_path / "attempts.parquet").equals(whole)
+    # The rows the report gets from memory: the chunks' lines read one by one and joined equal
+    # the whole file read at once (missing rounds in some chunks, float32 values, quotes).
+    attempts, rounds = folder.report_rows
+    pd.testing.assert_frame_equal(attempts, read_attempts_csv(
+        (tmp_path / "attempts.csv").read_bytes()))
+    pd.testing.assert_frame_equal(rounds, load_rounds(tmp_path))
 
 
 def _finished_run(folder: Path) -> RunFolder:

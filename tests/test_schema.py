@@ -45,6 +45,23 @@ def test_attempts_sort_unattempted_objects_last():
     assert TIMINGS_COLUMNS[0] == "chunk" and len(set(TIMINGS_COLUMNS)) == len(TIMINGS_COLUMNS)
 
 
+def test_attempts_sort_as_pandas_sorts_them_with_missing_objects_last():
+    """The canonical order against pandas' stable sort on the same keys, on shuffled rows with
+    ties, unattempted rows and rows without an object."""
+    import numpy as np
+
+    rng = np.random.default_rng(1)
+    n = 400
+    frame = pd.DataFrame({"point": rng.integers(0, 3, n), "setup": rng.integers(1, 4, n),
+                          "trial": rng.integers(0, 5, n), "attempt": rng.integers(-1, 4, n),
+                          "object": rng.choice(["a", "b", "l", None], n),
+                          "row": np.arange(n)})
+    keyed = frame.assign(attempt_order=frame["attempt"].where(frame["attempt"] >= 0, 99))
+    reference = keyed.sort_values(["point", "setup", "trial", "attempt_order", "object"],
+                                  kind="stable", na_position="last")
+    assert list(sort_attempts(frame)["row"]) == list(reference["row"])
+
+
 def test_docs_outputs_md_is_the_schema():
     """docs/outputs.md lists every column of every file, as schema.py describes them (regenerate:
     python3 -c "from graspjax.schema import outputs_markdown; print(outputs_markdown(), end='')"

@@ -94,10 +94,14 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
     return files
 
 
-def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
+def write_report(folder: str | Path, debug: int = 0,
+                 rows: tuple[pd.DataFrame, pd.DataFrame | None] | None = None
+                 ) -> tuple[list[Path], str]:
     """Rebuild every table and figure of a run or sweep folder from its attempts.csv; with
-    `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/. Returns the
-    files written and the run's state (`run_state`: "" when finished)."""
+    `debug`, also draw the first `debug` saved attempts (views/*.npz) into debug/. `rows`: the
+    attempt and round rows as `load_attempts` and `load_rounds` would read them, held by the
+    run that just wrote them (`outputs.RunFolder.report_rows`; None: read the files). Returns
+    the files written and the run's state (`run_state`: "" when finished)."""
     from graspjax.disk import write_atomic
 
     folder = Path(folder)
@@ -107,9 +111,9 @@ def write_report(folder: str | Path, debug: int = 0) -> tuple[list[Path], str]:
         for name, data in files.items():
             write_atomic(folder / name, data)
         return [folder / name for name in files], ""
-    frame = load_attempts(folder)
+    frame, rounds = rows if rows is not None else (load_attempts(folder), load_rounds(folder))
     state = run_state(folder, frame)
-    files = build(frame, load_rounds(folder), state, read_meta(folder))
+    files = build(frame, rounds, state, read_meta(folder))
     if state and read_meta(folder).get("finished"):  # the run finished meanwhile: report its whole rows
         return write_report(folder, debug)
     if debug:

@@ -87,8 +87,8 @@ def round_failures(outcomes: pd.DataFrame) -> pd.DataFrame:
     `report.object_outcomes`' rows (each object once per round), with `failures`, `objects`."""
     rounds = outcomes[outcomes["setup"] > 1]
     keys = [c for c in ("point", "setup", "trial") if c in rounds.columns]
-    return rounds.groupby(keys).agg(objects=("success", "size"),
-                                    failures=("success", lambda s: int((~s.astype(bool)).sum()))
+    failed = rounds.assign(failed=~rounds["success"].astype(bool))
+    return failed.groupby(keys).agg(objects=("failed", "size"), failures=("failed", "sum")
                                     ).reset_index()
 
 

@@ -21,9 +21,16 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
     if not text.endswith("\n"):
         raise ValueError(f"{name} ends in an incomplete row (still being written: try again; "
                          "cut by a kill: --resume the run to rewrite it)")
-    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], low_memory=False,
-                        dtype={"object": str, "lifted_object": str, "run_id": str})
-    return checked_attempts(frame, name)
+    return checked_attempts(read_attempts_csv(text), name)
+
+
+def read_attempts_csv(text: str | bytes) -> pd.DataFrame:
+    """Attempt rows as the report reads them from CSV text (with its header): empty fields
+    missing, letters and run ids as text. A run parses each chunk's rows so as they come
+    (`outputs.RunFolder`): joined, they equal the whole file read at once."""
+    data = io.BytesIO(text) if isinstance(text, bytes) else io.StringIO(text)
+    return pd.read_csv(data, keep_default_na=False, na_values=[""], low_memory=False,
+                       dtype={"object": str, "lifted_object": str, "run_id": str})
 
 
 def checked_attempts(frame: pd.DataFrame, name: str) -> pd.DataFrame:
@@ -143,4 +150,9 @@ def load_rounds(folder: str | Path) -> pd.DataFrame | None:
         path = path.with_suffix(".csv.gz")
     if not path.is_file() or not path.stat().st_size:
         return None
-    return pd.read_csv(path)
+    return read_rounds_csv(path)
+
+
+def read_rounds_csv(source) -> pd.DataFrame:
+    """Round rows from a rounds.csv path or buffer, as the report reads them."""
+    return pd.read_csv(source)
