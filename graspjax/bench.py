@@ -346,8 +346,8 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
     import os
 
     from graspjax.batch.plan import Job, default_batch, plan
-    from graspjax.batch.program import run_chunks
     from graspjax.batch.rows import RunColumns, attempt_rows
+    from graspjax.batch.schedule import run_chunks
 
     job = Job(tuple(objects), tuple(setups), trials)
     size = batch or default_batch()

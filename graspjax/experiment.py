@@ -25,8 +25,9 @@ import pandas as pd
 
 from graspjax.batch import estimate
 from graspjax.batch.plan import Group, Job, chunks, default_batch, plan, share
-from graspjax.batch.program import program, run_chunks
+from graspjax.batch.program import program
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
+from graspjax.batch.schedule import run_chunks
 from graspjax.config import Config, differences
 from graspjax.disk import jsonable, write_atomic
 from graspjax.outputs import RunFolder, check_output_folder, remove_own_files, run_id, writing
@@ -125,7 +126,7 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     the results (the others return none). With `processes` > 1 (CPU) helper processes play
     some of its groups side by side with it (`plan.share`, `runtime.players`; not while views
     are kept). With `compile_first`, every program is ready on every device before this
-    process's first chunk (`batch.program.run_chunks` without overlap)."""
+    process's first chunk (`batch.schedule.run_chunks` without overlap)."""
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
     if distributed:
         part, parts = process_of_run()

@@ -57,6 +57,11 @@ _NAMES = {
     # JAX: the thread-local switch to one source line per operation (runtime/exported.py)
     "include_full_tracebacks_in_locations": ("jax._src.config",
                                              "include_full_tracebacks_in_locations"),
+    # JAX: a serialized executable read back, the compile options a device's copy is loaded
+    # with, and the list of devices it runs on (load_executable: runtime/executables.py)
+    "ExecutableUnpickler": ("jax.experimental.serialize_executable", "_JaxPjrtUnpickler"),
+    "get_compile_options": ("jax._src.compiler", "get_compile_options"),
+    "xla_client": ("jax._src.lib", "xla_client"),
 }
 
 
@@ -87,3 +92,33 @@ def distributed_client() -> Any:
 def with_impl(data: Any, **fields: Any) -> Any:
     """`data` (an `mjx.Data`) with the named private fields replaced."""
     return data.tree_replace({f"_impl.{name}": value for name, value in fields.items()})
+
+
+def load_executable(serialized: bytes, in_tree: Any, out_tree: Any, device: Any) -> Any:
+    """A single-device executable serialized by `jax.experimental.serialize_executable.serialize`
+    on any device of the same kind, loaded onto `device` (a `jax.stages.Compiled`): every device
+    it names becomes `device`, and it is loaded with `device`'s compile options. JAX's public
+    `deserialize_and_load` keeps the device it was compiled for, which in another process or
+    on another device of this one is not this device (the same as JAX's own compilation cache
+    does on GPUs, where its key leaves the device out)."""
+    import jax
+    import numpy as np
+
+    base = __getattr__("ExecutableUnpickler")
+    options = __getattr__("get_compile_options")(num_replicas=1, num_partitions=1,
+                                                 device_assignment=np.array([[device.id]]))
+    devices = __getattr__("xla_client").DeviceList((device,))
+
+    class OnDevice(base):
+        def persistent_load(self, pid):
+            if pid[0] == "device":
+                return device
+            if pid[0] == "exec":
+                return self.backend.deserialize_executable(pid[1], executable_devices=devices,
+                                                           compile_options=options)
+            return super().persistent_load(pid)
+
+    unloaded, args_info, no_kwargs = OnDevice(io.BytesIO(serialized), device.client,
+                                              [device]).load()
+    return jax.stages.Compiled(unloaded.load(), [], in_tree.unflatten(args_info), out_tree,
+                               no_kwargs=no_kwargs)

@@ -101,6 +101,9 @@ _TIMINGS_MEANING = {
     "batch": "the program's batch size (per call, all devices)",
     "attempts": "attempts made",
     "program": "traced here, by a worker process, or loaded from the exported store",
+    "executable": "its device's executable: compiled here, loaded (compiled by an earlier run, "
+                  "another process or another device: `runtime.executables`), or cached (read "
+                  "from JAX's compilation cache)",
     "trace_s": "seconds tracing the program (the group's first chunk only)",
     "compile_s": "seconds compiling it (the group's first chunk only)",
     "started_s": "when the chunk started playing, seconds after the run began",

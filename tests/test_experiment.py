@@ -20,7 +20,7 @@ import pandas as pd
 import pytest
 
 from graspjax import experiment
-from graspjax.batch import plan, program
+from graspjax.batch import plan, program, schedule
 from graspjax.cli import main
 from graspjax.config import MAX_REORIENTATIONS, Config, override
 from graspjax.procedure import steps
@@ -68,8 +68,8 @@ def tiny_run(tmp_path_factory):
 @pytest.fixture(scope="module")
 def two_devices(tiny_run, tmp_path_factory):
     """The tiny run again in a second process with two CPU devices, a chunk of 3 each: started by
-    the module's first test and left to compile (for both devices, about a minute) beside the
-    tests that follow; its test waits for it. `--compile-first`: both devices' copies are ready
+    the module's first test and left to load its programs beside the tests that follow; its
+    test waits for it. `--compile-first`: both devices' copies are ready
     before either plays, so each takes a chunk (else the first ready may play both)."""
     assert any(exported.store().glob("*.jaxexport"))  # the tiny run's programs, to be loaded
     folder = tmp_path_factory.mktemp("two")
@@ -162,8 +162,8 @@ def test_peak_memory_is_the_device_s_in_gib():
             return self.stats
 
     gib = 2**30
-    assert program.peak_gib(Device({"peak_bytes_in_use": 3 * gib, "bytes_in_use": gib})) == 3.0
-    assert program.peak_gib(Device(None)) is None  # the CPU's answer
+    assert schedule.peak_gib(Device({"peak_bytes_in_use": 3 * gib, "bytes_in_use": gib})) == 3.0
+    assert schedule.peak_gib(Device(None)) is None  # the CPU's answer
 
 
 def test_a_dry_run_tells_the_plan_and_estimates_the_run_it_precedes(tiny_run, tmp_path, capsys):
@@ -614,7 +614,7 @@ def test_devices_take_the_rounds_first_then_the_drops_of_more_convex_pieces():
     groups = plan.plan([plan.table_job(1, 10), plan.table_job(2, 10)], [Config()], 0)
     assert [g.letters for g in groups] == [tuple("abcdef"), tuple("abcdef"), tuple("ghijkl")]
     assert groups[0].work / 60 == groups[2].work / 60 < groups[1].work / 20
-    order = program.heaviest_first(plan.chunks(groups, 30), groups)
+    order = schedule.heaviest_first(plan.chunks(groups, 30), groups)
     assert [(c.group, c.index) for c in order] == [(1, 2), (2, 3), (2, 4), (0, 0), (0, 1)]
 
 
@@ -626,6 +626,9 @@ class _FakeProgram:
         self.name = "".join(group.letters)
         self.compiled, self.origin, self.trace_s, self.compile_s = True, "loaded", 0.0, 0.0
         self.devices = [types.SimpleNamespace(memory_stats=lambda: None)]
+
+    def executable(self, device):
+        return "loaded"
 
     def play(self, worlds, points, device, progress):
         self.started[self.calls].set()
@@ -641,8 +644,8 @@ def test_the_next_chunk_plays_while_the_caller_handles_the_last(monkeypatch, kee
     groups = plan.plan([plan.Job(("a",), (1,), 6)], [Config()], 0)
     started = {i: threading.Event() for i in range(2)}
     fake = _FakeProgram(groups[0], started)
-    monkeypatch.setattr(program, "program", lambda group, batch, keep: fake)
-    chunks = program.run_chunks(groups, [Config()], 3, keep_views=keep_views)
+    monkeypatch.setattr(schedule, "program", lambda group, batch, keep: fake)
+    chunks = schedule.run_chunks(groups, [Config()], 3, keep_views=keep_views)
     first = next(chunks)
     assert first.chunk.index == 0
     assert started[1].wait(timeout=0 if keep_views else 10) is not keep_views
@@ -656,10 +659,10 @@ def test_a_program_that_failed_to_compile_raises_after_the_chunks_before_it(monk
     fakes = {g.letters: _FakeProgram(g, {i: threading.Event() for i in range(2)}) for g in groups}
     failed = concurrent.futures.Future()
     failed.set_exception(RuntimeError("failed to compile"))
-    monkeypatch.setattr(program, "program", lambda group, batch, keep: fakes[group.letters])
-    monkeypatch.setattr(program, "start_compiles",
+    monkeypatch.setattr(schedule, "program", lambda group, batch, keep: fakes[group.letters])
+    monkeypatch.setattr(schedule, "start_compiles",
                         lambda programs, pool, log: {id(fakes[("b",)]): [failed]})
-    chunks = program.run_chunks(groups, [Config()], 3)
+    chunks = schedule.run_chunks(groups, [Config()], 3)
     assert next(chunks).chunk.index == 0
     with pytest.raises(RuntimeError, match="failed to compile"):
         next(chunks)
@@ -752,9 +755,10 @@ def test_a_chunks_views_are_on_disk_before_the_chunk_counts_as_done(monkeypatch)
 
 def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_rows(
         tiny_run, two_devices):
-    """The tiny run left its programs' exported forms in the store; another process, with two
-    CPU devices playing a chunk of 3 worlds each side by side, loads them instead of tracing,
-    says so in timings.csv, and gives the rows of one device playing both chunks."""
+    """The tiny run left its programs' exported forms and executables in the stores; another
+    process, with two CPU devices playing a chunk of 3 worlds each side by side, loads them
+    instead of tracing and compiling, says so in timings.csv, and gives the rows of one device
+    playing both chunks."""
     proc, folder = two_devices
     assert proc.wait(timeout=900) == 0, (folder / "stderr.txt").read_text()[-2000:]
     out = folder / "run"
@@ -763,6 +767,11 @@ def test_a_second_process_on_two_devices_loads_the_programs_and_gives_the_same_r
     timings = pd.read_csv(out / "timings.csv")
     assert set(timings["program"]) == {"loaded"} and timings["trace_s"].max() > 0
     assert sorted(timings["device"]) == [0, 1]  # the two chunks played side by side
+    # ... on the executables the one-device run kept (compiled there, or loaded there from an
+    # earlier run's store): this process compiles nothing. (Where that run read them from JAX's
+    # cache, which keys them by device, they were not kept: `runtime.executables`.)
+    if set(pd.read_csv(tiny_run / "timings.csv")["executable"]) <= {"compiled", "loaded"}:
+        assert set(timings["executable"]) == {"loaded"}
     ours = pd.read_csv(out / "attempts.csv").drop(columns=VOLATILE)
     reference = pd.read_csv(tiny_run / "attempts.csv").drop(columns=VOLATILE)
     pd.testing.assert_frame_equal(ours, reference, check_exact=True)
@@ -790,6 +799,8 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
         assert before and 0 < float(before.group(1)) < 600
     timings = pd.read_csv(out / "timings.csv")
     assert sorted(timings["process"]) == [0, 1]  # one chunk each
+    if set(pd.read_csv(tiny_run / "timings.csv")["executable"]) <= {"compiled", "loaded"}:
+        assert set(timings["executable"]) == {"loaded"}  # the one-process run's: no compile
     assert not (out / "parts").exists() and (out / "table1.md").is_file()
     ours = pd.read_csv(out / "attempts.csv").drop(columns=VOLATILE)
     reference = pd.read_csv(tiny_run / "attempts.csv").drop(columns=VOLATILE)
@@ -1022,11 +1033,11 @@ def test_the_progress_bar_names_the_programs_still_compiling(monkeypatch):
     groups = plan.plan([plan.Job(("a",), (1,), 3), plan.Job(("b",), (1,), 3)], [Config()], 0)
     fakes = {g.letters: _FakeProgram(g, {i: threading.Event() for i in range(2)}) for g in groups}
     ready = {letters: concurrent.futures.Future() for letters in fakes}
-    monkeypatch.setattr(program, "program", lambda group, batch, keep: fakes[group.letters])
-    monkeypatch.setattr(program, "start_compiles", lambda programs, pool, log: {
+    monkeypatch.setattr(schedule, "program", lambda group, batch, keep: fakes[group.letters])
+    monkeypatch.setattr(schedule, "start_compiles", lambda programs, pool, log: {
         id(fakes[k]): [ready[k], ready[k]] for k in fakes})
     said = []
-    chunks = program.run_chunks(groups, [Config()], 3, status=said.append)
+    chunks = schedule.run_chunks(groups, [Config()], 3, status=said.append)
     ready[("a",)].set_result(None)
     assert next(chunks).chunk.index == 0
     ready[("b",)].set_result(None)

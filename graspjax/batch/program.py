@@ -1,15 +1,11 @@
 """Batch programs: a group's `start_round` and `attempt` vmapped over its worlds, one copy per
-local device, and the chunks played on them.
+local device.
 
 A chunk is `start_round`, then `attempt` for k = -1 (the drop settles), 0, 1, ... (one compiled
 call each, all on the device), then one transfer of its records to the host. Nothing a world
 does depends on the other worlds of its chunk: same seed, same batch size, same device kind
-give the same records.
-
-The groups' programs compile in the background (`runtime/compiles.py`); the next chunk is the
-first in plan order whose program is ready, so the device runs one group while the host still
-compiles the others.
-Records become rows in `rows.py`; this module never builds a table.
+give the same records. `schedule.py` plays the chunks on the devices; records become rows in
+`rows.py`; this module never builds a table.
 """
 
 from __future__ import annotations
@@ -17,23 +13,22 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
-import queue
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from graspjax.batch.plan import Chunk, Group, WorldKey, chunks
+from graspjax.batch.plan import Group, WorldKey
 from graspjax.config import Config, stack_configs
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
-from graspjax.runtime import exported
-from graspjax.runtime.compiles import start_compiles, take_ready
-from graspjax.sim.objects import OBJECTS
+from graspjax.runtime import executables, exported
 from graspjax.sim.physics import WORLDS
 from graspjax.sim.scene import Scene, mjx, scene_for
+
+ATTEMPT_DONATES = (1,)  # `attempt` donates the round's state: the next call's state replaces it
 
 
 class Program:
@@ -53,6 +48,7 @@ class Program:
         self._start: list = [None] * len(self.devices)
         self._attempt: list = [None] * len(self.devices)
         self._compile_s = [0.0] * len(self.devices)
+        self._executable = [""] * len(self.devices)  # where each device's copy came from
         self._placed: list = [None] * len(self.devices)  # `arrays` on each device (`compile`)
         self._settle = None
         self.worker_s: float | None = None  # a trace helper's seconds, if one traced it (`compiles`)
@@ -152,6 +148,12 @@ class Program:
     def compiled(self) -> bool:
         return all(f is not None for f in self._attempt)
 
+    def executable(self, device: int) -> str:
+        """Where `device`'s copy came from (`runtime.executables.compile_on`): `compiled` here,
+        `loaded` from the store of executables (compiled by an earlier run, another process or
+        another device), or `cached` (read from JAX's compilation cache)."""
+        return self._executable[device]
+
     @property
     def compile_s(self) -> float:
         """Seconds to lower the exported modules and compile them for one device (the slowest
@@ -190,7 +192,7 @@ class Program:
         """Lower both functions once for every device (Python: it holds the GIL); `compile`
         then compiles them for each device (`Portable.lower`)."""
         start, attempt_ = self.portable
-        return start.lower(), attempt_.lower(donate_argnums=(1,))
+        return start.lower(), attempt_.lower(donate_argnums=ATTEMPT_DONATES)
 
     @property
     def origin(self) -> str:
@@ -214,18 +216,23 @@ class Program:
         and the two functions compile in parallel threads), and put the scene's arrays there
         (building the scene first if no other thread has). `lower_s`: seconds the lowering
         took (tracing apart: `trace_s`)."""
-        start, here = time.perf_counter(), (self.devices[device],)
+        start, here = time.perf_counter(), self.devices[device]
+        (start_p, attempt_p), donated = self.portable, ((), ATTEMPT_DONATES)
         with concurrent.futures.ThreadPoolExecutor(max_workers=1) as other:
-            start_fn = other.submit(lowered[0].compile, device_assignment=here)
-            attempt_fn = lowered[1].compile(device_assignment=here)
+            start_fn = other.submit(executables.compile_on, lowered[0], start_p.name,
+                                    donated[0], here)
+            attempt_fn, attempt_from = executables.compile_on(lowered[1], attempt_p.name,
+                                                              donated[1], here)
+            start_fn, start_from = start_fn.result()
         self._compile_s[device] = lower_s + time.perf_counter() - start
+        self._executable[device] = attempt_from if start_from == attempt_from else "compiled"
         # The scene's arrays go to each device once, here, from the host, not from the first
         # device with every chunk: a first copy from device 0 to device 1 took 2 s on two H200s
         # (probably device 1's first allocation, now made at start: `xla.start_devices`;
         # results/benchmarks), and it fell into that device's first chunk.
         self._placed[device] = self.arrays if device == 0 else jax.block_until_ready(
             jax.device_put(jax.device_get(self.arrays), self.devices[device]))
-        self._start[device] = start_fn.result()
+        self._start[device] = start_fn
         self._attempt[device] = attempt_fn  # last: `compiled` looks at it
 
     def play(self, worlds: tuple[WorldKey, ...], points: list[Config], device: int,
@@ -270,181 +277,3 @@ def program(group: Group, batch: int, keep_views: bool) -> Program:
     if key not in _PROGRAMS:
         _PROGRAMS[key] = Program(group, batch, keep_views)
     return _PROGRAMS[key]
-
-
-@dataclasses.dataclass(frozen=True)
-class ChunkResult:
-    """One finished chunk, on the host: what `rows.py` turns into rows."""
-
-    chunk: Chunk
-    group: Group
-    drop: Record  # the drop's record (k = -1): the settled layout's statistics; leading axis batch
-    records: list[Record]  # attempt k's records (numpy, leading axis batch; padding included)
-    timings: dict  # one `timings.csv` row (`schema.TIMINGS_COLUMNS`)
-    views: ChunkViews | None  # every attempt's images, left on the devices (if kept)
-
-
-def peak_gib(device: jax.Device) -> float | None:
-    """The most memory in use at once so far in this process on `device`, in GiB (None where
-    the backend keeps no such count: the CPU). It tells which `--batch` fits a device."""
-    peak = (device.memory_stats() or {}).get("peak_bytes_in_use")
-    return None if peak is None else round(peak / 2**30, 3)
-
-
-def heaviest_first(todo: list[Chunk], groups: list[Group]) -> list[Chunk]:
-    """The chunks in the order devices take them: the groups of the most device work per world
-    first (a round of six objects before a drop of one); among equals, the group whose objects
-    have more convex pieces, since MJX's collision work grows with them (g-l's Setup 1 chunks
-    took 3.2-4.3 s on one H200, a-f's 2.2-2.8 s: results/benchmarks, stop 64), so that the last
-    chunks of a run on several devices are the short ones; plan order otherwise."""
-    def cost(chunk: Chunk) -> tuple[float, int]:
-        group = groups[chunk.group]
-        pieces = sum(len(OBJECTS[letter].pieces) for letter in group.letters)
-        return -group.work / len(group.worlds), -pieces
-
-    return sorted(todo, key=cost)
-
-
-def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[int] = frozenset(),
-               keep_views: bool = False, progress: Callable[[int], None] = lambda n: None,
-               log: Callable[[str], None] = lambda m: None, overlap: bool = True,
-               process: int = 0,
-               status: Callable[[str], None] = lambda s: None) -> Iterator[ChunkResult]:
-    """Play every chunk not in `done`; yield each as it finishes.
-
-    Every local device plays whole chunks in a thread of its own: the first chunk in
-    `heaviest_first` order whose program's copy on that device is ready, then the next, so no
-    device waits while there is work (nor for another device's copy). While the caller
-    handles a yielded chunk the devices play on (unless views are kept: then a device starts
-    its next chunk only once the caller has handled its last, whose views it holds); closing
-    the generator early waits for the chunks playing to end.
-
-    Programs compile in background threads (`runtime.compiles`); with `overlap`, a group's
-    chunks start as soon as its own program is ready on their device, while other programs
-    (and other devices' copies) still compile: the devices work while the host compiles.
-    Without it, every program is compiled for every device before the first chunk
-    (benchmarks: run time apart from compile time). A chunk's timings say where its
-    program came from (`program`: traced here, by a worker process, or loaded from the store),
-    what tracing or loading and compiling took (`trace_s`, `compile_s`, on a group's first
-    chunk), when it started (`started_s`, seconds since this call began: gaps are a device
-    waiting for a compile), the memory its device had needed at most so far (`peak_gib`), and
-    which device and which of the run's processes played it (`device`, `process`: 0 the run's
-    own, else a helper's, `runtime.players`). `status(text)`, for the progress bar: the programs
-    still traced or compiled ("compiling abcdef (Setup 2, 3), ghijkl (Setup 1)"; "": none)."""
-    began = time.perf_counter()
-    todo = [c for c in chunks(groups, batch) if c.index not in done]
-    needed = list(dict.fromkeys(c.group for c in todo))
-    programs = {g: program(groups[g], batch, keep_views) for g in needed}
-    fresh = {g for g, p in programs.items() if not p.compiled}
-    devices = jax.local_devices()
-    tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)  # + lowering
-    lock = threading.Lock()  # the waiting list, the logged and fresh programs, the progress
-    with concurrent.futures.ThreadPoolExecutor(max_workers=tasks) as pool:
-        compiling = start_compiles(list(programs.values()), pool, log)
-        if compiling:
-            log(f"compiling {len(compiling)} program(s) ...")
-        logged: set[int] = set()
-        pending = {id(p): f"{p.name} (Setup {', '.join(map(str, p.group.setups))})"
-                   for p in programs.values() if id(p) in compiling}
-
-        def tell() -> None:
-            status(f"compiling {', '.join(pending.values())}" if pending else "")
-
-        tell()
-
-        def copy_of(prog: Program, device: int) -> list[concurrent.futures.Future]:
-            """What `device` waits for to play `prog`: its own copy's compile and the scene
-            (the last future); not the other devices' copies."""
-            futures = compiling.get(id(prog), [])
-            return [futures[device], futures[-1]] if futures else []
-
-        def ready(prog: Program, device: int) -> None:
-            """Wait for `device`'s copy of `prog` (a failed compile raises here)."""
-            for future in copy_of(prog, device):
-                future.result()
-            with lock:
-                if id(prog) in compiling and id(prog) not in logged:
-                    logged.add(id(prog))
-                    log(f"compiled the program of {prog.name} "
-                        f"({prog.group.attempts} attempt(s) per world): "
-                        f"{prog.origin} in {prog.trace_s:.1f} s, "
-                        f"compiled in {prog.compile_s:.1f} s")
-                    pending.pop(id(prog), None)
-                    tell()
-
-        if not overlap:
-            for prog in programs.values():
-                for device in range(len(devices)):
-                    ready(prog, device)
-
-        def counted(attempts: int) -> None:
-            with lock:
-                progress(attempts)
-
-        def play(chunk: Chunk, device: int) -> ChunkResult:
-            """Play one chunk on `device` into its result; a failed compile of its program
-            raises here."""
-            prog = programs[chunk.group]
-            ready(prog, device)
-            start = time.perf_counter()
-            drop, records, views = prog.play(chunk.worlds, points, device, counted)
-            wall_s = time.perf_counter() - start
-            real = len(chunk.worlds)
-            attempts = sum(int(np.sum(np.asarray(r.aimed)[:real])) for r in records)
-            with lock:
-                first = chunk.group in fresh  # a group's first chunk carries its compile time
-                fresh.discard(chunk.group)
-            timings = {"chunk": chunk.index, "group": chunk.group,
-                       "scene": prog.name, "worlds": real,
-                       "batch": prog.batch, "attempts": attempts,
-                       "program": prog.origin,
-                       "trace_s": round(prog.trace_s if first else 0.0, 3),
-                       "compile_s": round(prog.compile_s if first else 0.0, 3),
-                       "started_s": round(start - began, 3),
-                       "wall_s": round(wall_s, 3),
-                       "peak_gib": peak_gib(prog.devices[device]), "device": device,
-                       "process": process}
-            return ChunkResult(chunk, prog.group, drop, records, timings, views)
-
-        waiting = heaviest_first(todo, groups)
-        finished: queue.Queue = queue.Queue()  # (result or error, device) as chunks end
-        stop = threading.Event()
-        handled = [threading.Semaphore(1) for _ in devices]  # views kept: the caller is done
-
-        def device_loop(device: int) -> None:
-            while True:
-                if keep_views:
-                    handled[device].acquire()
-                chunk = take_ready(waiting, lambda c: copy_of(programs[c.group], device),
-                                   lock, stop)
-                if chunk is None:
-                    break
-                try:
-                    finished.put((play(chunk, device), device))
-                except BaseException as error:  # handed to the caller, which raises it
-                    finished.put((error, device))
-                    break
-            finished.put((None, device))
-
-        threads = [threading.Thread(target=device_loop, args=(d,), daemon=True,
-                                    name=f"device {d}") for d in range(len(devices))]
-        for thread in threads:
-            thread.start()
-        try:
-            running = len(threads)
-            while running:
-                result, device = finished.get()
-                if result is None:
-                    running -= 1
-                    continue
-                if isinstance(result, BaseException):
-                    raise result
-                yield result
-                if keep_views:
-                    handled[device].release()
-        finally:
-            stop.set()
-            for semaphore in handled:
-                semaphore.release()
-            for thread in threads:
-                thread.join()

@@ -31,7 +31,7 @@ from graspjax.sim.clutter import LayoutStats
 from graspjax.tree import named_fields
 
 if TYPE_CHECKING:
-    from graspjax.batch.program import ChunkResult
+    from graspjax.batch.schedule import ChunkResult
 
 @dataclasses.dataclass(frozen=True)
 class RunColumns:

@@ -43,6 +43,8 @@ class Portable:
     out_tree: jax.tree_util.PyTreeDef  # the result's tree
     loaded: bool  # read from the store (True) or traced by this process (False)
     seconds: float  # what tracing and exporting, or reading, took
+    name: str | None = None  # its file's name in the store (None: the store is off), which
+    # keys its compiled executables (`runtime.executables`)
 
     def in_shapes(self, sharding: jax.sharding.Sharding | None = None) -> tuple:
         """The positional arguments' shapes (placed by `sharding`, if given)."""
@@ -110,7 +112,8 @@ def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = No
         program = jax.export.export(jax.jit(flat))(*in_leaves)
     if path is not None:
         disk.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
-    return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start)
+    return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start,
+                    None if path is None else path.stem)
 
 
 def load(key: tuple, description: tuple) -> Portable | None:
@@ -128,7 +131,7 @@ def load(key: tuple, description: tuple) -> Portable | None:
         if fmt != FORMAT:
             return None
         return Portable(jax.export.deserialize(blob), in_tree, out_tree, True,
-                        time.perf_counter() - start)
+                        time.perf_counter() - start, path.stem)
     except Exception:  # unreadable or foreign
         return None
 
