@@ -31,12 +31,31 @@ jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 CAMERA_HEIGHT = 0.5  # metres above the table
 
 
+# Modules whose tests compile a simulated scene's physics or procedure, or `graspjax detect`'s
+# whole program at several image sizes (each 20 s to 2 minutes of XLA on a 2-core CPU cold):
+# every test in them is `slow`. `pytest -m "not slow"` runs the rest, the perception kernels,
+# files, reports and configuration, in a few minutes (README).
+SLOW_MODULES = {"test_experiment", "test_image_batches", "test_bench", "test_jaws", "test_physics",
+                "test_procedure", "test_collision", "test_layout_settled", "test_planes",
+                "test_solver", "test_convex", "test_scatters", "test_raycast"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.module.__name__.rsplit(".", 1)[-1] in SLOW_MODULES:
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(scope="session", autouse=True)
-def _warm_late_programs(tmp_path_factory):
+def _warm_late_programs(tmp_path_factory, request):
     """`warm_cache.py` in a second process from the session's start: it compiles the programs of
     `test_experiment`'s runs and the physics programs of `test_physics` into the persistent
     caches while the first modules leave a core idle (XLA compiles mostly on one). Killed at the
-    session's end if not done."""
+    session's end if not done; not started when no slow test runs (`-m "not slow"`), which
+    would not use them."""
+    if not any(item.get_closest_marker("slow") for item in request.session.items):
+        yield
+        return
     log = tmp_path_factory.mktemp("warm") / "stderr.txt"
     with open(log, "w") as err:  # a file: a full pipe would stall it
         proc = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__),

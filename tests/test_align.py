@@ -161,6 +161,7 @@ def test_inlier_counts_match_the_paper_formula(camera, render, scale, anchor, wi
     assert int(mask.sum()) == int(a.inliers)
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_the_printed_scale_is_stricter_than_the_footprint_on_a_tilted_plane(camera, render):
     """Eq. 2 as printed halves d_p, doubling z in pixel units: fewer points fit the window."""
     depth = jnp.asarray(render([half_space(rot_y(0.6) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
@@ -189,6 +190,7 @@ def test_ranking_orders_hypotheses_by_inliers(camera, render):
     assert int(a.best) == int(a.ranking[0])
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_random_hypotheses_need_a_key_and_are_reproducible(camera, render):
     depth = jnp.asarray(render([half_space(rot_y(0.4) @ [0, 0, 1.0], [0, 0, 0.1])], ground=None))
     cfg = AlignConfig(hypotheses="random", num_random=32, turn_normal="metric")

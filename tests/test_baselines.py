@@ -95,6 +95,7 @@ def test_antipodal_refuses_a_top_wider_than_the_opening(camera, render):
     assert not bool(g.found) and GraspReason(int(g.reason)) == GraspReason.TOO_WIDE
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_every_method_reports_an_empty_view_as_no_depth(camera):
     empty = jnp.zeros((camera.height, camera.width), jnp.float32)
     for name in ("paper", "highest-pca", "antipodal"):
@@ -102,6 +103,7 @@ def test_every_method_reports_an_empty_view_as_no_depth(camera):
         assert GraspReason(int(g.reason)) == GraspReason.NO_DEPTH, name
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_tbeams_along_the_edge_get_past_a_neighbour_at_its_middle(camera, render):
     """A 4 x 10 cm box with a 1 cm lower neighbour beside the middle of one long side: the
     paper's single T-beam per edge puts a finger on the neighbour; three along each edge find

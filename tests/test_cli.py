@@ -48,6 +48,7 @@ def real_folder(tmp_path_factory):
     return folder, scene
 
 
+@pytest.mark.slow  # runs graspjax detect's whole program
 @pytest.mark.parametrize("name", ["scene.npy", "scene.png"])
 def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     out_json, out_png = tmp_path / "r.json", tmp_path / "r.png"
@@ -103,6 +104,7 @@ def test_detect_help_says_what_happens_without_intrinsics(capsys):
         capsys.readouterr().out.split())
 
 
+@pytest.mark.slow  # runs graspjax detect's whole program
 def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
     cam = Camera.kinect(640, 480)
     args = ["detect", str(kinect_scene / "scene.npy"), "--fx", str(cam.fx), "--fy", str(cam.fy),
@@ -115,6 +117,7 @@ def test_detect_with_explicit_intrinsics_and_overrides(kinect_scene, capsys):
     assert printed["camera"]["fx"] == pytest.approx(cam.fx) and printed["downsample"] == 2
 
 
+@pytest.mark.slow  # runs graspjax detect's whole program
 def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     folder, scene = real_folder
     out, figures = tmp_path / "out", tmp_path / "figures"
@@ -157,6 +160,7 @@ def test_a_folder_of_real_looking_images(real_folder, tmp_path, capsys):
     assert all(p.read_bytes()[:8] == PNG for p in figures.iterdir())
 
 
+@pytest.mark.slow  # runs graspjax detect's whole program
 def test_npz_intrinsics_are_used_when_none_are_given(real_folder, capsys):
     folder, scene = real_folder
     assert main(["detect", str(folder / "c.npz"), "--roi", ",".join(map(str, scene.roi))]) == 0
@@ -167,6 +171,7 @@ def test_npz_intrinsics_are_used_when_none_are_given(real_folder, capsys):
                                atol=0.004)
 
 
+@pytest.mark.slow  # runs graspjax detect's whole program
 def test_detect_on_an_organised_point_cloud_needs_no_intrinsics(kinect_scene, tmp_path, capsys):
     """The Kinect scene as an .npz holding only `xyz` (back-projected by hand): the intrinsics
     come from its points, so no warning, and the grasp is the depth image's."""
@@ -362,6 +367,7 @@ def test_a_reader_that_stops_early_is_no_error():
     assert done.stdout.startswith("key") and "error" not in done.stderr
 
 
+@pytest.mark.slow  # runs graspjax detect's whole program
 def test_detect_gives_each_grasp_in_the_world_frame_with_the_camera_pose(kinect_scene, tmp_path,
                                                                          capsys):
     """The scene's camera looks straight down from 0.6 m (camera to world: x kept, y and z

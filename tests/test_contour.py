@@ -125,6 +125,7 @@ def test_regular_polygon_sides_are_the_longest_edges(sides):
     assert (length[order[sides:]] < side_length / 3).all()
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 @pytest.mark.parametrize("shape", ["disc", "ellipse", "octagon"])
 def test_edges_do_not_depend_on_the_contour_buffer_length(shape):
     """The edge walk stops at the contour's end: a longer buffer (more padding after the

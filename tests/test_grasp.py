@@ -59,6 +59,7 @@ def test_box_wider_than_the_opening_in_both_directions(camera, detect, render, y
     assert np.isnan(float(g.width)) and int(g.index) == -1
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_opening_decides_what_fits(camera, detect, render):
     """The same 6 cm box fits an 8 cm gripper but not a 6 cm one."""
     depth = jnp.asarray(render([box((0.06, 0.11, 0.04))]))
@@ -67,6 +68,7 @@ def test_opening_decides_what_fits(camera, detect, render):
     assert _reason(small) == GraspReason.TOO_WIDE
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_reasons_by_name(camera, detect, render):
     """`reason_name` names the int code the arrays keep: a str for one image, an array of str
     for a batch."""
@@ -167,6 +169,7 @@ def test_invalid_pixels_and_noise(camera, detect, render):
         assert 0.05 - 2 * pixel <= float(g.width) <= 0.05 * slant + 1.5 * pixel
 
 
+@pytest.mark.slow  # the detector compiled eagerly, jitted and vmapped
 def test_vmap_equals_a_loop_and_jit_equals_eager(camera, detect, render):
     scenes = [render([box((0.04, 0.09, 0.04), yaw=a)]) for a in (0.0, 0.5, 1.0)]
     scenes.append(render([box((0.09, 0.10, 0.04))]))  # not graspable

@@ -65,6 +65,7 @@ def test_footprint_gap_matches_brute_force_polygon_distance():
             assert ours <= 1e-4
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_same_seed_same_layout_other_trial_other_layout():
     a = layout.single(layout.layout_key(7, 1, 2, 5), 2, PADDED, CFG)
     b = layout.single(layout.layout_key(7, 1, 2, 5), 2, PADDED, CFG)
@@ -120,6 +121,7 @@ def _apart(pos, quat):
     return apart, np.array(overlaps)
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_setup3_places_setup2s_group_touching_or_overlapping():
     """The paper's Setup 3 (default): Setup 2's group with gaps U(pile_gap_min, pile_gap_max)
     <= 0, so each object's outline touches or overlaps another's (brute force: distance 0);
@@ -165,6 +167,7 @@ def test_the_bin_floor_is_at_most_twice_the_objects_footprint():
     assert CFG.bin_size ** 2 <= 2.0 * mean_area
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_samplers_vmap_over_keys():
     keys = jax.vmap(lambda i: layout.layout_key(1, 3, i))(jnp.arange(4))
     pos, quat, active, order = jax.vmap(lambda k: layout.grouped(

@@ -319,6 +319,7 @@ def test_a_windows_surface_seen_in_a_view_four_times_coarser():
     assert not np.asarray(none).any()
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_a_turned_views_target_surface_stops_at_the_objects_side():
     """A 15 cm box on a table seen 44 deg off vertical: in the view turned to face the table,
     its near face becomes a slope of depths a pixel apart that a depth-connected surface
