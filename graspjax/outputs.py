@@ -43,6 +43,7 @@ import socket
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from graspjax.disk import write_atomic
@@ -242,20 +243,16 @@ def _csv(frame: pd.DataFrame, header: bool) -> bytes:
 
 
 def _write_parquet(frame: pd.DataFrame, path: Path) -> None:
-    buffer = io.BytesIO()
-    frame.to_parquet(buffer, index=False)
-    write_atomic(path, buffer.getvalue())
+    write_atomic(path, frame.to_parquet(index=False))
 
 
 def _sorted(frame: pd.DataFrame, parsed: pd.DataFrame | None, lines: list[bytes] | None
             ) -> tuple[pd.DataFrame, bytes, pd.DataFrame]:
     """`frame` (every chunk's rows, chunk by chunk) sorted (`schema.attempt_order`), its
-    `attempts.csv`, and the rows as the report reads that file back. The CSV: `lines`, the same
-    rows formatted chunk by chunk (one line each), put in the sorted order, and `parsed`, those
-    lines read chunk by chunk, in the same order; without them (or where a field held a line
-    break), the sorted frame formatted and read afresh. Both give the same bytes and frames (a
-    test compares); the first saves formatting and parsing every row of a large run again at
-    its end."""
+    `attempts.csv` and the rows as the report reads it: `lines` (the rows formatted chunk by
+    chunk, one line each) and `parsed` (those lines read chunk by chunk) put in that order, or
+    without them (or where a field held a line break) formatted and read afresh: the same
+    bytes and frames (tested), without formatting and parsing a large run again at its end."""
     order = attempt_order(frame)
     ordered = frame.take(order).reset_index(drop=True)
     if lines is None or parsed is None or len(lines) != len(frame):
@@ -305,7 +302,7 @@ class RunFolder:
         # kept (`keep` False) by a process that never finishes the folder: a run's helper, or
         # a process of a distributed run other than the first.
         self.keep = keep
-        self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame, pd.DataFrame]] = {}
+        self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame, pd.DataFrame, bytes]] = {}
         # Once finished here: the attempt and round rows as the report reads the files back
         # (`report.write_report`'s `rows`), so that it need not read them.
         self.report_rows: tuple[pd.DataFrame, pd.DataFrame] | None = None
@@ -389,17 +386,31 @@ class RunFolder:
         if self.keep:  # read back now, beside the devices' next chunks, rather than at the
             # run's end: the frames then have the dtypes of any part read from disk, and the
             # rows as the report will read attempts.csv
-            self._kept[chunk] = (pd.read_parquet(buffer), text, pd.read_parquet(rounds),
-                                 read_attempts_csv(_csv(frame.iloc[:0], True) + text))
+            kept_rounds = pd.read_parquet(rounds)
+            self._kept[chunk] = (pd.read_parquet(buffer), text, kept_rounds,
+                                 read_attempts_csv(_csv(frame.iloc[:0], True) + text),
+                                 _csv(kept_rounds, False))
+
+    def _rounds_csv(self, done: list[int]) -> bytes:
+        """rounds.csv: every chunk's round rows sorted by point, setup and round (stable), from
+        the lines each chunk formatted when it was kept where all are alike (else afresh)."""
+        kept = [self._kept.get(c) for c in done]
+        frames = [k[2] if k else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
+                  for c, k in zip(done, kept, strict=True)]
+        rounds = pd.concat(frames, ignore_index=True)
+        order = np.lexsort((rounds["round"], rounds["setup"], rounds["point"]))
+        lines = [line for k, f in zip(kept, frames, strict=True)
+                 for line in (k[4] if k else _csv(f, False)).splitlines(keepends=True)]
+        full = [f for f in frames if len(f)]  # empty chunks (Setup 1) format no line
+        if len(lines) != len(rounds) or not all(rounds.dtypes.equals(f.dtypes) for f in full):
+            return _csv(rounds.take(order), True)
+        return b"".join([_csv(rounds.iloc[:0], True), *(lines[i] for i in order)])
 
     def finish(self, remove_parts: bool | None = None) -> list[Path]:
         """Rebuild the attempts and rounds from the parts, sorted, and write the timings; the
         parts are removed then (`remove_parts`; default: unless the folder is shared, where
-        another process may still be reading them).
-
-        Returns the files written, or an empty list while chunks are missing. The report
-        (tables, figures) is computed from these files afterwards (`report.write_report`).
-        """
+        another process may still be reading them). Returns the files written, or [] while
+        chunks are missing; the report then reads their rows (`report_rows`)."""
         if not self.finished:
             if len(self.done) < self.chunks:
                 return []
@@ -411,18 +422,14 @@ class RunFolder:
             parsed = pd.concat([self._kept[c][3] if c in self._kept else read_attempts_csv(
                 _csv(f.iloc[:0], True) + text) for c, (f, text) in zip(done, parts, strict=True)],
                 ignore_index=True) if alike else None
-            frame, csv, report = _sorted(frame, parsed, lines if alike else None)  # alike:
-            # formatted alike
+            frame, csv, report = _sorted(frame, parsed, lines if alike else None)
             timings = pd.DataFrame([self._read(f"timings-{c:05d}.json",
                                                lambda path: json.loads(path.read_text()))
                                     for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
             # Parquet encodes in a thread (Arrow lets go of the GIL) while the CSV files are written.
             with concurrent.futures.ThreadPoolExecutor(1) as pool:
                 parquet = pool.submit(_write_parquet, frame, self.folder / "attempts.parquet")
-                rounds = pd.concat([self._kept[c][2] if c in self._kept
-                                    else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
-                                    for c in sorted(self.done)], ignore_index=True)
-                rounds = _csv(rounds.sort_values(["point", "setup", "round"], kind="stable"), True)
+                rounds = self._rounds_csv(done)
                 write_atomic(self.folder / "attempts.csv", csv)
                 write_atomic(self.folder / "rounds.csv", rounds)
                 write_atomic(self.folder / "timings.csv", timings.to_csv(index=False).encode())

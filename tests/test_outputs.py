@@ -154,9 +154,14 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
     # A helper process's folder object: its chunks reach the run's only as files.
     helper = RunFolder(tmp_path, _meta(), chunks=len(chunks), resume=True, shared=True, keep=False)
     timings = dict.fromkeys(TIMINGS_COLUMNS, 0)
+    rounds = [pd.DataFrame({"point": 0, "setup": int(c["setup"].iloc[0]),
+                            "round": c["trial"].unique() if c["setup"].iloc[0] > 1
+                            else np.array([], int),
+                            "spread_m": rng.random(c["trial"].nunique() if c["setup"].iloc[0] > 1
+                                                   else 0).astype(np.float32)})
+              for c in chunks]
     for index in (2, 0, 3, 1):  # chunks end out of order
-        (helper if index == 3 else folder).add(
-            index, chunks[index], pd.DataFrame({"point": [], "setup": [], "round": []}), timings)
+        (helper if index == 3 else folder).add(index, chunks[index], rounds[index], timings)
     assert set(folder._kept) == {0, 1, 2} and not helper._kept
     folder.finish()
     whole = sort_attempts(pd.concat(chunks, ignore_index=True))
@@ -164,10 +169,15 @@ def test_the_finished_attempts_csv_is_the_sorted_rows_formatted_afresh(tmp_path,
     assert pd.read_parquet(tmp_path / "attempts.parquet").equals(whole)
     # The rows the report gets from memory: the chunks' lines read one by one and joined equal
     # the whole file read at once (missing rounds in some chunks, float32 values, quotes).
+    rounds_of_chunks = rounds
     attempts, rounds = folder.report_rows
     pd.testing.assert_frame_equal(attempts, read_attempts_csv(
         (tmp_path / "attempts.csv").read_bytes()))
     pd.testing.assert_frame_equal(rounds, load_rounds(tmp_path))
+    # rounds.csv: the lines each chunk formatted, in pandas' stable sort of the joined rows
+    assert (tmp_path / "rounds.csv").read_bytes() == _csv(
+        pd.concat(rounds_of_chunks, ignore_index=True).sort_values(
+            ["point", "setup", "round"], kind="stable"), True)
 
 
 def _finished_run(folder: Path) -> RunFolder:
