@@ -14,9 +14,13 @@
 #                    where the re-alignment is needed
 #   planes           `graspjax planes`: the winning plane's normal error and view tilt over
 #                    window x threshold, Setups 1-3, flat and sloped (perception only)
+# JOBS (default "--table 1,2") and TAG (default none; appended to each folder's name) run a
+# study on part of the tables, e.g. JOBS="--setup 3 --objects a,b,c,d,e,f" TAG=_setup3.
 set -uo pipefail
 device=${DEVICE:-cpu}
 trials=${TRIALS:-300}
+read -r -a jobs <<< "${JOBS:---table 1,2}"
+tag=${TAG:-}
 case "$device" in
   cpu) out=${OUT:-results/studies} ;;
   gpu) out=${OUT:?set OUT to the folder that collects the results} ;;
@@ -61,10 +65,10 @@ for name in "$@"; do
       --preset paper --set procedure.view_tilt_deg=30 --grid align.window_px=5,10,15,20,25,30 \
       --grid align.distance_threshold=0.05,0.1,0.2,0.3,0.5,1.0 ;;
     sloped-*) g=$(grid "${name#sloped-}") || exit 2
-      step "${name#sloped-}_sloped_${device}_$trials" sweep --table 1,2 --trials "$trials" --paired \
-      --preset paper --set procedure.view_tilt_deg=30 --grid "$g" ;;
+      step "${name#sloped-}_sloped${tag}_${device}_$trials" sweep "${jobs[@]}" --trials "$trials" \
+      --paired --preset paper --set procedure.view_tilt_deg=30 --grid "$g" ;;
     *) g=$(grid "$name") || exit 2
-      step "${name}_${device}_$trials" sweep --table 1,2 --trials "$trials" --paired \
+      step "${name}${tag}_${device}_$trials" sweep "${jobs[@]}" --trials "$trials" --paired \
       --preset paper --grid "$g" ;;
   esac
 done

@@ -225,7 +225,9 @@ class Program:
                                                               donated[1], here)
             start_fn, start_from = start_fn.result()
         self._compile_s[device] = lower_s + time.perf_counter() - start
-        self._executable[device] = attempt_from if start_from == attempt_from else "compiled"
+        # the costlier of the two: compiled here, else read from JAX's cache, else loaded
+        self._executable[device] = next(way for way in ("compiled", "cached", "loaded")
+                                        if way in (start_from, attempt_from))
         # The scene's arrays go to each device once, here, from the host, not from the first
         # device with every chunk: a first copy from device 0 to device 1 took 2 s on two H200s
         # (probably device 1's first allocation, now made at start: `xla.start_devices`;
