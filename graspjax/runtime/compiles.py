@@ -2,8 +2,9 @@
 the background, so the devices play one program's chunks while the host still compiles others.
 
 A program is anything with the `Compilable` shape (`batch.program.Program`). One thread lowers
-the programs in turn, each once for every device (lowering is Python and holds the GIL), XLA
-compiles each for every device in parallel threads (its compiles release the GIL), and on a
+the programs in turn, each once for every device (lowering is Python and holds the GIL), each
+device's copy is made in a thread of its own (XLA's compiles release the GIL; with the store of
+executables on, one device compiles and the others load its executable: `executables.py`), and on a
 machine with cores to spare helper processes (`tracer.py`) trace the later programs into the
 store of exported programs meanwhile. The caller's device threads take their next chunk with
 `take_ready`: the first in their order whose program is ready.
