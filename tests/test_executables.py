@@ -135,3 +135,18 @@ def test_an_executable_read_from_jax_s_cache_is_not_kept(tmp_path):
     for path in (tmp_path / "executables").glob("*.xla"):
         path.unlink()
     assert run() == ["cached", "0", argmax + "\n"]  # JAX's cache: run, not kept
+
+
+def test_threads_that_ask_at_once_compile_it_once(stores):
+    """Two threads (two devices' copies in a run) ask for one executable at once: one compiles
+    it, the other waits and loads it."""
+    import concurrent.futures
+
+    portable = exported.export(_fn, ARGS, ("executables test",))
+    lowered = portable.lower()
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        done = list(pool.map(lambda _: executables.compile_on(lowered, portable.name, (),
+                                                              jax.devices()[0]), range(2)))
+    assert sorted(source for _, source in done) == ["compiled", "loaded"]
+    for compiled, _ in done:
+        np.testing.assert_array_equal(np.asarray(compiled(*VALUES)[1]), np.cumsum(VALUES[0]))

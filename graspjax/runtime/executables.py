@@ -60,9 +60,12 @@ def compile_on(lowered: jax.stages.Lowered, name: str | None, donate: tuple[int,
     the others wait and load it."""
     _count_cache_hits()
     path = _path(name, donate, device)
+    found = None if path is None else _load(path, lowered, device)  # devices load side by side
+    if found is not None:
+        return found, "loaded"
     with _locks_lock:
         lock = _locks.setdefault(str(path), threading.Lock())
-    with lock:
+    with lock:  # one compiles; the others wait, then load what it kept
         found = None if path is None else _load(path, lowered, device)
         if found is not None:
             return found, "loaded"
