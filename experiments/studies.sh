@@ -35,10 +35,9 @@ step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
   echo "== $folder: exit $code after $((SECONDS - start)) s"
   tail -n 2 "$folder.log"
   if [ "$code" -ne 0 ]; then return "$code"; fi
-  if [ -f "$folder/attempts.csv" ]; then  # the rows as zstd Parquet: half the gzipped CSV
-    python3 -c "import sys; from graspjax.report import load_attempts; load_attempts(sys.argv[1]).\
-to_parquet(sys.argv[1] + '/attempts.parquet', compression='zstd', compression_level=19, \
-index=False)" "$folder" && rm "$folder/attempts.csv"
+  if [ -f "$folder/attempts.csv" ]; then  # the rows as compact Parquet (report.files.keep_attempts)
+    python3 -c "import sys; from graspjax.report.files import keep_attempts; keep_attempts(sys.argv[1])" \
+      "$folder"
   fi
   gzip -f "$folder/rounds.csv" "$folder/planes.csv" 2>/dev/null
   rm -f "$folder.log"

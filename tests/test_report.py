@@ -166,6 +166,39 @@ def test_gzipped_attempts_give_the_same_report(tmp_path):
         load_attempts(tmp_path)
 
 
+def test_rows_kept_as_compact_parquet_read_back_as_the_csv_and_give_the_same_report(tmp_path):
+    """`keep_attempts` on a copy of the committed 10-trial run: the CSV goes, every measured
+    float reads back as the CSV's text (7 significant digits), settings stay exact, and the
+    report rebuilt from the Parquet equals the committed one byte for byte."""
+    import shutil
+    from pathlib import Path
+
+    from graspjax.report import load_attempts, write_report
+    from graspjax.report.files import keep_attempts
+
+    reference = Path(__file__).parents[1] / "results" / "paper_cpu_10"
+    copy = tmp_path / "copy"
+    shutil.copytree(reference, copy)
+    csv = load_attempts(copy)
+    keep_attempts(copy)
+    assert not (copy / "attempts.csv").exists()
+    kept = load_attempts(copy)
+    assert list(kept.columns) == list(csv.columns) and len(kept) == len(csv)
+    for column in csv.columns:
+        if csv[column].dtype == np.float64:
+            as_text = [f"{v:.7g}" for v in kept[column].astype(np.float64)]
+            assert as_text == [f"{v:.7g}" for v in csv[column]], column
+        else:
+            pd.testing.assert_series_equal(kept[column], csv[column], check_dtype=False)
+    assert all(kept[c].dtype == csv[c].dtype for c in csv.columns if c.startswith("cfg."))
+    report = ("summary.csv", "table1.md", "table2.md", "success_by_object.png", "outcomes.png")
+    for name in report:
+        (copy / name).unlink()
+    write_report(copy)
+    for name in report:
+        assert (copy / name).read_bytes() == (reference / name).read_bytes(), name
+
+
 def test_a_damaged_or_non_numeric_attempts_file_is_one_line_naming_it(tmp_path, capsys):
     """A gzip file that is not one or is cut short, bytes that are not text, and a column the
     report counts with that holds words: one line naming the file, exit 2, nothing written."""
