@@ -4,8 +4,8 @@
 # same worlds. DEVICE=gpu (one GPU; MuJoCo as wheels, ../shared/gpu/README.md) runs 1,000 trials
 # per cell (the methods 300) and packs each folder into $OUT/NAME.tgz, as the GPU machine returns
 # at most 8 files; DEVICE=cpu (default) runs 100 (the methods 30) into results/. Each step runs
-# one graspjax command into $OUT/FOLDER, gzips its attempts and rounds and drops the Parquet copy
-# (the committed folders keep CSV). LIMIT=SECONDS stops a step that runs longer (its parts stay:
+# one graspjax command into $OUT/FOLDER, keeps its attempts as compact Parquet in place of the
+# CSV (report.files.keep_attempts) and gzips its rounds. LIMIT=SECONDS stops a step that runs longer (its parts stay:
 # `--resume` continues it).
 #   tables-PRESET  Tables 1+2 (results/PRESET_DEVICE_N)
 #   eq2            the paper preset with Eq. 2 as printed (align.pixel_scale=printed), the same
@@ -33,8 +33,10 @@ step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
   echo "== $folder: exit $code after $((SECONDS - start)) s"
   tail -n 2 "$folder.log"
   if [ "$code" -ne 0 ]; then return "$code"; fi
-  gzip -f "$folder/attempts.csv" "$folder/rounds.csv" 2>/dev/null
-  rm -f "$folder/attempts.parquet" "$folder.log"
+  python3 -c "import sys; from graspjax.report.files import keep_attempts; keep_attempts(sys.argv[1])" \
+    "$folder" || return 1
+  gzip -f "$folder/rounds.csv" 2>/dev/null
+  rm -f "$folder.log"
   if [ "$device" = gpu ]; then
     tar -C "$(dirname "$folder")" -czf "$out/$(basename "$folder").tgz" "$(basename "$folder")" \
       && rm -rf "$folder"
