@@ -14,14 +14,13 @@ While a run is going:
   appended as it finds their parts (`RunFolder.catch_up`); the parts of a run
   split over hosts (`--part I/N`) write it only at the end.
 
-When every chunk is done, `attempts.csv`, `attempts.parquet` and
-`rounds.csv` (one row per Setup 2/3 round: how dense its layout was) are
-rebuilt from the parts, sorted (so a resumed or split run ends byte-identical to an
-uninterrupted one), `timings.csv` joins the chunks' timings, and `parts/` is
-removed; the report (`summary.csv`, tables, figures) is then computed from
-those files alone (`report.write_report`). `--resume` continues a killed run: it checks that the
-folder holds the same run (same run id and batch), rewrites `attempts.csv`
-from the parts (dropping an append whose chunk is not done) and runs only the
+When every chunk is done, `attempts.csv`, `attempts.parquet` and `rounds.csv` (one row per
+Setup 2/3 round: how dense its layout was) are rebuilt from the parts, sorted (so a resumed or
+split run ends byte-identical to an uninterrupted one), `timings.csv` joins the chunks'
+timings, and `parts/` is removed; the report is then computed from those rows alone, as this
+process holds them read (`RunFolder.report_rows`, `report.write_report`). `--resume` continues
+a killed run: it checks that the folder holds the same run (same run id and batch), rewrites
+`attempts.csv` from the parts (dropping an append whose chunk is not done) and runs only the
 chunks not done.
 
 `attempts.csv` is deterministic: wall-clock times live in `timings.csv`.
@@ -42,6 +41,7 @@ import os
 import socket
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -242,10 +242,6 @@ def _csv(frame: pd.DataFrame, header: bool) -> bytes:
     return frame.to_csv(index=False, header=header, float_format="%.7g").encode()  # float32 precision
 
 
-def _write_parquet(frame: pd.DataFrame, path: Path) -> None:
-    write_atomic(path, frame.to_parquet(index=False))
-
-
 def _sorted(frame: pd.DataFrame, parsed: pd.DataFrame | None, lines: list[bytes] | None
             ) -> tuple[pd.DataFrame, bytes, pd.DataFrame]:
     """`frame` (every chunk's rows, chunk by chunk) sorted (`schema.attempt_order`), its
@@ -260,6 +256,17 @@ def _sorted(frame: pd.DataFrame, parsed: pd.DataFrame | None, lines: list[bytes]
         return ordered, text, read_attempts_csv(text)
     text = b"".join([_csv(ordered.iloc[:0], True), *(lines[i] for i in order)])
     return ordered, text, parsed.take(order).reset_index(drop=True)
+
+
+class _Kept(NamedTuple):
+    """A chunk this process added, as its parts read back (`RunFolder.add`), so that `finish`
+    reads only other processes' parts (a run's helpers', a distributed run's others')."""
+
+    rows: pd.DataFrame  # its attempt rows
+    text: bytes  # their CSV lines
+    rounds: pd.DataFrame  # its round rows
+    parsed: pd.DataFrame  # its attempt rows as the report reads them from the CSV lines
+    rounds_text: bytes  # the round rows' CSV lines
 
 
 class RunFolder:
@@ -297,14 +304,9 @@ class RunFolder:
         self.finished = not self._part_files() and (rows[0].is_file() or bool(
             old.get("finished")) and any(path.is_file() for path in rows[1:]))
         self.appended: set[int] = set()  # chunks whose rows attempts.csv holds
-        # The chunks this process added: their rows and CSV text, and their rounds, as their
-        # parts read back (`add`), so that `finish` reads only other processes' parts. Not
-        # kept (`keep` False) by a process that never finishes the folder: a run's helper, or
-        # a process of a distributed run other than the first.
-        self.keep = keep
-        self._kept: dict[int, tuple[pd.DataFrame, bytes, pd.DataFrame, pd.DataFrame, bytes]] = {}
-        # Once finished here: the attempt and round rows as the report reads the files back
-        # (`report.write_report`'s `rows`), so that it need not read them.
+        self.keep = keep  # False: a process that never finishes the folder keeps nothing
+        self._kept: dict[int, _Kept] = {}
+        # finished here: the rows as the report reads the files (`report.write_report`'s `rows`)
         self.report_rows: tuple[pd.DataFrame, pd.DataFrame] | None = None
         if not self.finished:
             self.parts.mkdir(exist_ok=True)
@@ -346,7 +348,7 @@ class RunFolder:
         """A done chunk's rows and their CSV text (formatted here if its part lacks it: a
         folder of an earlier version resumed)."""
         if chunk in self._kept:
-            return self._kept[chunk][:2]
+            return self._kept[chunk].rows, self._kept[chunk].text
         frame = self._read(f"attempts-{chunk:05d}.parquet", pd.read_parquet)
         text = self.parts / f"attempts-{chunk:05d}.csv"
         return frame, text.read_bytes() if text.is_file() else _csv(frame, False)
@@ -383,24 +385,22 @@ class RunFolder:
         write_atomic(self.parts / f"timings-{chunk:05d}.json", json.dumps(timings).encode())
         write_atomic(self.parts / f"rounds-{chunk:05d}.parquet", rounds.getvalue())
         write_atomic(self.parts / f"attempts-{chunk:05d}.parquet", buffer.getvalue())
-        if self.keep:  # read back now, beside the devices' next chunks, rather than at the
-            # run's end: the frames then have the dtypes of any part read from disk, and the
-            # rows as the report will read attempts.csv
+        if self.keep:  # read back beside the devices' next chunks, not at the run's end
             kept_rounds = pd.read_parquet(rounds)
-            self._kept[chunk] = (pd.read_parquet(buffer), text, kept_rounds,
-                                 read_attempts_csv(_csv(frame.iloc[:0], True) + text),
-                                 _csv(kept_rounds, False))
+            self._kept[chunk] = _Kept(pd.read_parquet(buffer), text, kept_rounds,
+                                      read_attempts_csv(_csv(frame.iloc[:0], True) + text),
+                                      _csv(kept_rounds, False))
 
     def _rounds_csv(self, done: list[int]) -> bytes:
         """rounds.csv: every chunk's round rows sorted by point, setup and round (stable), from
         the lines each chunk formatted when it was kept where all are alike (else afresh)."""
         kept = [self._kept.get(c) for c in done]
-        frames = [k[2] if k else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
+        frames = [k.rounds if k else self._read(f"rounds-{c:05d}.parquet", pd.read_parquet)
                   for c, k in zip(done, kept, strict=True)]
         rounds = pd.concat(frames, ignore_index=True)
         order = np.lexsort((rounds["round"], rounds["setup"], rounds["point"]))
         lines = [line for k, f in zip(kept, frames, strict=True)
-                 for line in (k[4] if k else _csv(f, False)).splitlines(keepends=True)]
+                 for line in (k.rounds_text if k else _csv(f, False)).splitlines(keepends=True)]
         full = [f for f in frames if len(f)]  # empty chunks (Setup 1) format no line
         if len(lines) != len(rounds) or not all(rounds.dtypes.equals(f.dtypes) for f in full):
             return _csv(rounds.take(order), True)
@@ -419,16 +419,16 @@ class RunFolder:
             frame = pd.concat([f for f, _ in parts], ignore_index=True)
             alike = all(f.dtypes.equals(parts[0][0].dtypes) for f, _ in parts)
             lines = [line for _, text in parts for line in text.splitlines(keepends=True)]
-            parsed = pd.concat([self._kept[c][3] if c in self._kept else read_attempts_csv(
+            parsed = pd.concat([self._kept[c].parsed if c in self._kept else read_attempts_csv(
                 _csv(f.iloc[:0], True) + text) for c, (f, text) in zip(done, parts, strict=True)],
                 ignore_index=True) if alike else None
             frame, csv, report = _sorted(frame, parsed, lines if alike else None)
             timings = pd.DataFrame([self._read(f"timings-{c:05d}.json",
                                                lambda path: json.loads(path.read_text()))
                                     for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
-            # Parquet encodes in a thread (Arrow lets go of the GIL) while the CSV files are written.
             with concurrent.futures.ThreadPoolExecutor(1) as pool:
-                parquet = pool.submit(_write_parquet, frame, self.folder / "attempts.parquet")
+                parquet = pool.submit(lambda: write_atomic(  # Arrow encodes without the GIL
+                    self.folder / "attempts.parquet", frame.to_parquet(index=False)))
                 rounds = self._rounds_csv(done)
                 write_atomic(self.folder / "attempts.csv", csv)
                 write_atomic(self.folder / "rounds.csv", rounds)
