@@ -95,6 +95,13 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert sorted(labels) == ["95 % interval", "first view", "rescued by a re-alignment",
                               "the paper preset's value (15)"]
+    # one setup, a long title: the title and the legend stay inside the narrower figure
+    one = per.reset_index()
+    fig = sweep_figure(one[one["setup"] == 1], "cfg.align.window_px", sloped + ", 1500 trials")
+    fig.canvas.draw()
+    for artist in (fig._suptitle, fig.legends[0]):
+        box = artist.get_window_extent()
+        assert 0 <= box.x0 and box.x1 <= fig.bbox.width and 0 <= box.y0 and box.y1 <= fig.bbox.height
     files = sweep_outputs(objects, meta)
     assert files["sweep_align.window_px.png"][:8] == b"\x89PNG\r\n\x1a\n"
     assert "z_vs_paper" in files["sweep_align.window_px.csv"].decode().splitlines()[0]

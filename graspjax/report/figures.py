@@ -143,7 +143,8 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
     setups = sorted(per["setup"].unique())
     values = per[key].drop_duplicates().tolist()
     wide = max(len(str(v)) for v in values) > 8  # grid points named by several values
-    fig = new_figure(max(6.0, 3.4 * len(setups)), 3.9 + (1.2 if wide else 0))
+    width = max(6.0, 3.4 * len(setups))
+    fig = new_figure(width, 3.9 + (1.2 if wide else 0))
     axes = fig.subplots(1, len(setups), squeeze=False, sharey=True)[0]
     paper = paper_value(key) if paper is None else paper
     for ax, setup in zip(axes, setups, strict=True):
@@ -171,9 +172,11 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
         ax.set_ylim(0, 105)
     axes[0].set_ylabel("grasp success (%)")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.1 if not wide else 0.08, 1, 1))
-    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
+    fig.suptitle(textwrap.fill(title, int(13 * width)), fontsize=10)  # within the figure's width
+    columns = len(labels) if width >= 9 else 2  # a one-panel figure stacks its legend
+    rows = -(-len(labels) // columns)
+    fig.tight_layout(rect=(0, (0.05 + 0.05 * rows) * (0.8 if wide else 1), 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=columns, fontsize=8, frameon=False)
     return fig
 
 
