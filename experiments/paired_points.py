@@ -19,9 +19,7 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.report import load_attempts, object_outcomes
-
-sys.path.insert(0, str(Path(__file__).parent))
-from paired_rows import changes  # noqa: E402
+from graspjax.stats import paired_changes
 
 COLUMNS = {"S1 a-f": (1, "abcdef"), "S2": (2, "abcdef"), "S3": (3, "abcdef"), "S1 g-l": (1, "ghijkl")}
 
@@ -65,7 +63,7 @@ def main(folders: list[str], reference: int = 0) -> None:
             rescued = 100 * (mine.success & mine.rescued).mean()
             cell = f"{rate:.1f} % ({rate - rescued:.1f} + {rescued:.1f})"
             if point != reference:
-                gained, lost, z = changes(base.success, mine.success)
+                gained, lost, z = paired_changes(base.success, mine.success)
                 cell += (f"; {rate - 100 * base.success.mean():+.1f} "
                          f"({gained} gained / {lost} lost), z {z:+.1f}")
             cells.append(cell)

@@ -26,10 +26,7 @@ import pandas as pd  # noqa: E402
 
 from graspjax.report import load_attempts, load_rounds, markdown, object_outcomes  # noqa: E402
 from graspjax.report.density import consistency  # noqa: E402
-from graspjax.stats import wilson  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).parent))
-from paired_rows import changes  # noqa: E402
+from graspjax.stats import paired_changes, wilson  # noqa: E402
 
 
 def _rate(success: pd.Series) -> tuple[float, float, float, int]:
@@ -48,7 +45,7 @@ def point_table(outcomes: pd.DataFrame, rounds: pd.DataFrame, reference: int) ->
         rate, low, high, n = _rate(part.success.astype(bool))
         here = part.set_index(["trial", "object"]).success.astype(bool)
         shared = here.index.intersection(base.index)
-        gained, lost, z = changes(base.loc[shared], here.loc[shared])
+        gained, lost, z = paired_changes(base.loc[shared], here.loc[shared])
         row = {c.removeprefix("cfg."): part[c].iloc[0] for c in settings}
         row |= {"rounds": len(layout), "near": layout.near_fraction.mean(),
                 "touching": layout.touching_fraction.mean(), "stacked": layout.stacked.mean(),

@@ -34,6 +34,20 @@ def mcnemar_p(only_here: int, only_reference: int) -> float:
     return min(1.0, 2 * tail)
 
 
+def mcnemar_z(only_here: int, only_reference: int) -> float:
+    """McNemar's z of paired binary outcomes, (b - c) / sqrt(b + c); 0 when no pair differs."""
+    n = only_here + only_reference
+    return (only_here - only_reference) / math.sqrt(n) if n else 0.0
+
+
+def paired_changes(before, after) -> tuple[int, int, float]:
+    """Paired bool outcomes (arrays of the same pairs): (gained, lost, McNemar's z), `gained`
+    the pairs that succeed after but not before."""
+    before, after = np.asarray(before, bool), np.asarray(after, bool)
+    gained, lost = int((after & ~before).sum()), int((before & ~after).sum())
+    return gained, lost, mcnemar_z(gained, lost)
+
+
 def paired_detectable(discordant: int, pairs: int) -> float:
     """Smallest paired difference of success rates detectable at 5 % (two-sided), 80 % power."""
     share = max(discordant, 1) / max(pairs, 1)
