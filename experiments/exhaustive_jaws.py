@@ -49,7 +49,7 @@ from graspjax.imagefiles.batches import detect_files
 from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
 from graspjax.io import InputError
 from graspjax.perception.cluster import valid_mask
-from graspjax.perception.jaws import _path_heights, check_jaws
+from graspjax.perception.jaws import check_jaws, path_heights
 from graspjax.perception.support import plane_height
 
 BAND_REACH = 0.045  # how far each side of the centre a band may run (m): past half the opening
@@ -138,7 +138,7 @@ def main() -> int:
 
     def one(centre, axis):
         """The band through `centre` along `axis` (the T-beam's rule), and its jaws checked."""
-        rise, _, seen = _path_heights(full, camera, centre, axis, approach, across,
+        rise, _, seen = path_heights(full, camera, centre, axis, approach, across,
                                       jnp.zeros(1, jnp.float32), jnp.float32(0.0))
         rise, seen = rise[..., 0], seen[..., 0]  # (2, A) along each side; no depth: inf
         inside = jnp.abs(rise) <= tolerance

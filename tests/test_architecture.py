@@ -160,3 +160,42 @@ def test_no_module_but_the_configuration_is_longer_than_450_lines():
     long = {name: len(path.read_text().splitlines()) for name, path in MODULES.items()
             if name != "config" and len(path.read_text().splitlines()) > 450}
     assert long == {}
+
+
+EXPERIMENTS = ROOT.parent / "experiments"
+
+
+def test_experiment_files_name_what_exists():
+    """Every experiment file parses (`bash -n` for scripts), imports only public names that the
+    package has, names only experiment files that exist, and is listed in experiments/README.md."""
+    import importlib
+    import importlib.util
+    import subprocess
+
+    listed = (EXPERIMENTS / "README.md").read_text()
+    files = sorted(p for p in EXPERIMENTS.iterdir() if p.suffix in (".py", ".sh"))
+    assert files
+    problems = []
+    for path in files:
+        text = path.read_text()
+        if f"`{path.name}" not in listed:
+            problems.append(f"{path.name}: not in experiments/README.md")
+        for named in set(re.findall(r"experiments/([\w.-]+\.(?:py|sh))", text)):
+            if not (EXPERIMENTS / named).exists():
+                problems.append(f"{path.name}: names experiments/{named}, which is not there")
+        if path.suffix == ".sh":
+            check = subprocess.run(["bash", "-n", str(path)], capture_output=True, text=True)
+            if check.returncode:
+                problems.append(f"{path.name}: {check.stderr.strip()}")
+            continue
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                top = node.module.split(".")[0]
+                if top == "graspjax":
+                    module = importlib.import_module(node.module)
+                    for alias in node.names:
+                        if alias.name.startswith("_") or not hasattr(module, alias.name):
+                            problems.append(f"{path.name}: {node.module}.{alias.name}")
+                elif not (EXPERIMENTS / f"{top}.py").exists() and importlib.util.find_spec(top) is None:
+                    problems.append(f"{path.name}: imports {node.module}, which is not there")
+    assert problems == []

@@ -68,7 +68,7 @@ class JawCheck:
     unknown: jax.Array  # () share of the path's samples without depth
 
 
-def _path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
+def path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
                   approach: jax.Array, across: jax.Array, lateral: jax.Array,
                   level: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Depth below `center` along `approach` of the surface seen through points at `level` below
@@ -147,7 +147,7 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     across = width / 2 + fraction * (outer - width / 2)  # (A,) band edge -> outer jaw face
     step = (outer - width / 2) / (samples - 1)
     lateral = jnp.asarray(np.linspace(-0.5, 0.5, lanes), jnp.float32) * gripper.finger_width
-    height, out, seen = _path_heights(depth, camera, center, axis, approach, across, lateral, wanted)
+    height, out, seen = path_heights(depth, camera, center, axis, approach, across, lateral, wanted)
     top = jnp.min(height, -1)  # (2, A) the highest surface across the finger
 
     # Down: the open jaws' footprints free to below the finger tips.
@@ -159,7 +159,7 @@ def check_jaws(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Ar
     # pad's lanes, where it may already have fallen; through the top's level they meet a top
     # that goes on near the lane.
     index = jnp.arange(samples)
-    at_top = _path_heights(depth, camera, center, axis, approach, across, lateral, jnp.float32(0))
+    at_top = path_heights(depth, camera, center, axis, approach, across, lateral, jnp.float32(0))
     landing = jnp.minimum(
         _landing(height, out, seen, width, step, center[2] / camera.fx, True, detect, gripper),
         _landing(*at_top, width, step, center[2] / camera.fx, False, detect, gripper))

@@ -116,8 +116,9 @@ def start_devices() -> None:
     MJX and its mesh libraries), for every local device at once, not in a device's first chunk:
     on a GPU the driver and the client take one or two seconds, and a device's first
     allocation up to two more if JAX preallocates its memory (`memory_as_needed`). JAX's
-    client holds the GIL for much of its start (1.05 of 1.68 s for 4 H200s:
-    experiments/gil_held.py), and the imports wait for it meanwhile (results/benchmarks).
+    client holds the GIL for much of its start (1.05 of 1.68 s for 4 H200s, measured by a thread
+    that sleeps 1 ms at a time: results/benchmarks/scaling_h200x4/host2/gil_held.txt), and the
+    imports wait for it meanwhile.
     A failure is left to the run's own first use of the devices, which raises it again."""
     import threading
 
