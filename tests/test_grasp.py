@@ -258,6 +258,12 @@ def test_a_band_cut_from_a_gentle_slope_has_no_wall(camera, detect, render):
     unchecked = detect(jnp.asarray(render([_wedge(25.0)])), camera)
     assert bool(unchecked.found)
     assert float(unchecked.width) < 0.03  # the strip, far narrower than the 5 x 6.5 cm ramp
+    # Called eagerly the setting stays a Python bool (on which Python 3.12 deprecates `~`):
+    # every placement's reason is the one it gets under `jit`.
+    checked = detect(jnp.asarray(render([_wedge(25.0)])), camera, WALLS)
+    eager = detect_grasp(jnp.asarray(render([_wedge(25.0)])), camera, WALLS)
+    assert int((checked.candidates.reason == GraspReason.NO_WALL).sum()) > 0
+    np.testing.assert_array_equal(eager.candidates.reason, checked.candidates.reason)
 
 
 @pytest.mark.parametrize("shift_px", [0.0, 0.3, 0.55])

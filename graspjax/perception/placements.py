@@ -171,7 +171,7 @@ def _check(below_surface, edge, cluster, z_s, camera: Camera, g_xy, axis, c,
     wall_points = _wall_points(g_xy, axis, c / 2 + beyond, gripper, config.finger_samples)
     wall_free, _ = sample_nearest(below_surface, _to_pixels(wall_points, camera, z_s), jnp.inf)
     needed = edge + (beyond + half_pixel) * slope
-    walls = ~config.wall_check | jnp.all(wall_free >= needed[..., None], -1)
+    walls = jnp.logical_not(config.wall_check) | jnp.all(wall_free >= needed[..., None], -1)
 
     reason = jnp.select(
         [~wide_enough, ~fits, ~in_view, collision, ~room, ~walls],
