@@ -20,6 +20,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.dtypes import canonicalize_dtype
 
 from graspjax.batch.plan import Group, WorldKey
 from graspjax.config import Config, stack_configs
@@ -102,7 +103,7 @@ class Program:
         # The shapes of any batch: the group's first world, as point 0 of a one-point grid.
         example = dataclasses.replace(self.group.worlds[0], point=0)
         spec = jax.tree.map(lambda x: jax.ShapeDtypeStruct((self.batch,) + x.shape[1:],
-                                                           x.dtype),
+                                                           canonicalize_dtype(x.dtype)),
                             self.spec((example,), [self.group.config]))
         group = self.group
         return spec, (group.letters, group.collide, group.attempts, self.keep_views)
@@ -124,7 +125,8 @@ class Program:
                        for name in ("start_round", "attempt"))
         if all(p is not None for p in stored):
             return stored
-        arrays = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), self.arrays)
+        arrays = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, canonicalize_dtype(x.dtype)),
+                              self.arrays)
         keep_views = self.keep_views
 
         def start_fn(arrays, spec):

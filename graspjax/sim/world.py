@@ -305,7 +305,7 @@ def simulate(scene: Scene, model: mjx.Model, data: mjx.Data, grasp: GraspPose,
     plan = Schedule.of(config)
     n_exec = plan.segments
     waypoints, quat = hand_waypoints(scene, grasp, config)
-    refused = execute & grasp.valid & ~reachable
+    refused = execute & grasp.valid & jnp.logical_not(reachable)
     executing = execute & grasp.valid & reachable
     opened = scene.gripper.opening / 2
     mine = (jnp.arange(scene.num_objects) == target) & (target >= 0) & take_out
