@@ -1,10 +1,10 @@
 """Every private name of MuJoCo MJX and JAX that graspjax uses, and nowhere else.
 
-Checked against mujoco-mjx 3.17.0 with jax 0.10.2 (CPU) and jax 0.11.2 (CUDA); pyproject pins
-both to those minor versions. JAX 0.12 is not allowed yet because it was never checked: JAX
-0.11 and later need Python 3.12 (on Python 3.11, pip's newest JAX is 0.10.2), and the only
-Python 3.12 machine here, the GPU machine, has no package registry to fetch 0.12 from; the
-names below must be looked up again in 0.12's JAX and the MJX release built for it. An
+Checked against mujoco-mjx 3.17.0 with jax 0.10.2 (Python 3.11, CPU), jax 0.11.2 (Python
+3.12, CUDA) and jax 0.12.0.1 (Python 3.12.1, CPU: every name below resolves and the suite's
+fast tests, the physics, the executables' store and the distributed runs pass; not yet on a
+GPU); pyproject allows those minor versions. JAX 0.13 is not allowed until it is checked the
+same way: the names below looked up again in its JAX and the MJX release built for it. An
 upgrade of either starts here: each name below says what it is and who uses it, and
 `tests/test_architecture.py` keeps private access out of every other module. Nothing is
 imported until a name is first used, so importing this module loads neither MuJoCo nor JAX's

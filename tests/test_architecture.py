@@ -125,6 +125,20 @@ def test_private_mjx_and_jax_names_are_reached_only_through_privates():
     assert offenders == []
 
 
+def test_every_private_name_resolves_in_the_installed_versions():
+    """Each name `privates.py` lists is found where it says, in the JAX and MJX installed (an
+    upgrade that moves one fails here, not in a run)."""
+    from graspjax import privates
+
+    missing = []
+    for name in privates._NAMES:
+        try:
+            getattr(privates, name)
+        except (ImportError, AttributeError) as error:
+            missing.append(f"{name}: {error}")
+    assert missing == []
+
+
 def test_the_physics_rework_has_one_door():
     """Outside `sim.physics`, modules import the package's public names only, never its parts."""
     inside = {name for name in MODULES if name.startswith("sim.physics.")}
