@@ -69,8 +69,8 @@ class JawCheck:
 
 
 def path_heights(depth: jax.Array, camera: Camera, center: jax.Array, axis: jax.Array,
-                  approach: jax.Array, across: jax.Array, lateral: jax.Array,
-                  level: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+                 approach: jax.Array, across: jax.Array, lateral: jax.Array,
+                 level: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Depth below `center` along `approach` of the surface seen through points at `level` below
     it, `across` (A,) along the closing axis on both sides and `lateral` (L,) along the edge:
     heights (2, A, L) (inf: no depth), how far out along the closing axis the ray met the
