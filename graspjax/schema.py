@@ -74,6 +74,8 @@ ATTEMPT_COLUMNS = {
     "cfg.{key}": "the value of configuration key `key` at the row's grid point",
 }
 SORT = ["point", "setup", "trial", "attempt_order", "object"]  # trial: the round in Setups 2, 3
+WORLD_MAJOR = ["setup", "trial", "attempt_order", "object", "point"]  # each attempt's grid points
+# side by side: how a paired sweep's rows compress best (`report.files.keep_attempts`)
 LAYOUT_COLUMNS = ("touching_fraction", "near_fraction", "stacked", "min_face_gap_m",
                   "spread_m")  # rounds.csv:
 # the settled layout's statistics (`rows.round_rows`)
@@ -294,14 +296,15 @@ SURFACE_LABELS = np.array([s.name.lower().replace("_", " ") if s != Surface.NONE
                            for s in sorted(Surface)], dtype=object)  # index: Surface + 1
 
 
-def attempt_order(frame: pd.DataFrame) -> np.ndarray:
+def attempt_order(frame: pd.DataFrame, order: list[str] = SORT) -> np.ndarray:
     """The permutation (n,) that puts attempt rows in the canonical order: point, setup, trial
-    (the round in Setups 2, 3), attempt (unattempted last), object (missing last); stable."""
+    (the round in Setups 2, 3), attempt (unattempted last), object (missing last); stable.
+    `order`: these keys in another order (`WORLD_MAJOR`)."""
     keys = {"point": frame["point"], "setup": frame["setup"], "trial": frame["trial"],
             "attempt_order": frame["attempt"].where(frame["attempt"] >= 0, 99),
             "object": frame["object"]}
     columns = []
-    for name in SORT:
+    for name in order:
         codes, _ = pd.factorize(keys[name], sort=True)  # missing values: -1
         columns.append(np.where(codes < 0, np.iinfo(codes.dtype).max, codes))
     return np.lexsort(columns[::-1])  # the last key is lexsort's first

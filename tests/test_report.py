@@ -206,6 +206,26 @@ def test_rows_kept_as_compact_parquet_read_back_as_the_csv_and_give_the_same_rep
         assert (copy / name).read_bytes() == (reference / name).read_bytes(), name
 
 
+def test_kept_rows_are_stored_world_major_and_read_back_in_the_canonical_order(tmp_path):
+    """A two-point sweep's rows: the Parquet holds each attempt's points side by side (where
+    they repeat), `load_attempts` gives them back point by point, as written."""
+    from graspjax.report import load_attempts
+    from graspjax.report.files import keep_attempts
+
+    points = [_frame({(1, "a"): (3, 4), (1, "b"): (2, 4)}, {"point": p, "attempt": 0,
+                                                          "rise_m": 0.1 * p}) for p in (0, 1)]
+    frame = pd.concat(points, ignore_index=True)  # canonical: point, setup, trial, ..., object
+    frame = frame.sort_values(["point", "setup", "trial", "object"], ignore_index=True)
+    frame.to_csv(tmp_path / "attempts.csv", index=False)
+    keep_attempts(tmp_path)
+    stored = pd.read_parquet(tmp_path / "attempts.parquet")
+    assert stored["point"].tolist()[:4] == [0, 1, 0, 1]  # trial 0: a at both points, then b
+    assert stored[["trial", "object"]].iloc[:4].values.tolist() == [[0, "a"], [0, "a"],
+                                                                     [0, "b"], [0, "b"]]
+    back = load_attempts(tmp_path)
+    pd.testing.assert_frame_equal(back, frame, check_dtype=False)
+
+
 def test_a_damaged_or_non_numeric_attempts_file_is_one_line_naming_it(tmp_path, capsys):
     """A gzip file that is not one or is cut short, bytes that are not text, and a column the
     report counts with that holds words: one line naming the file, exit 2, nothing written."""
