@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from graspjax.figures import png  # noqa: E402
 from graspjax.report import load_attempts, load_rounds, markdown, object_outcomes  # noqa: E402
 from graspjax.report.density import consistency  # noqa: E402
 from graspjax.stats import paired_changes, wilson  # noqa: E402
@@ -107,7 +108,7 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
            table: pd.DataFrame, path: Path):
     tried = attempts[(attempts.attempt >= 0) & (attempts.object.fillna("") != "")]
     success = tried.success.astype(bool).to_numpy()
-    fig, axes = plt.subplots(1, 5, figsize=(19, 3.8))
+    fig, axes = plt.subplots(1, 5, figsize=(19, 3.8), dpi=130)
     _points(axes[0], table)
     axes = axes[1:]
     per_round = outcomes.merge(rounds[["point", "round", "near_fraction"]].rename(
@@ -131,8 +132,8 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
     fig.suptitle("Setup 3: success against clutter, each density point (left) and every point's "
                  "rounds and attempts pooled (right; bins of 20 or more); 95 % Wilson intervals",
                  fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    path.write_bytes(png(fig))  # laid out tightly, as every figure of the report
+    plt.close(fig)
 
 
 def main(folder: str, reference: int = 0) -> None:

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import io
 
+import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from PIL import Image
 
 
 def new_figure(width: float = 6.4, height: float = 4.8, dpi: int = 120) -> Figure:
@@ -23,6 +25,9 @@ def png(fig: Figure, title: str = "", laid_out: bool = False) -> bytes:
         fig.suptitle(title)
     if not laid_out:
         fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
+    fig.canvas.draw()
+    pixels = np.asarray(fig.canvas.buffer_rgba())[..., :3]  # (H, W, 3) on an opaque face
+    buffer = io.BytesIO()  # a 256-colour palette: a plot's flat colours and their edges, in
+    # about a third of the bytes of full colour, and quicker to write
+    Image.fromarray(pixels).quantize(256, method=Image.Quantize.FASTOCTREE).save(buffer, "png")
     return buffer.getvalue()
