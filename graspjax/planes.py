@@ -19,7 +19,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pandas as pd
-from mujoco import mjx
 
 from graspjax.batch.plan import chunks
 from graspjax.batch.program import program
@@ -42,6 +41,7 @@ from graspjax.procedure import (
     view_keys,
 )
 from graspjax.schema import PLANES_COLUMNS, SURFACE_LABELS
+from graspjax.sim.scene import mjx
 from graspjax.sim.world import physics_model
 from graspjax.stats import detectable_difference, wilson
 from graspjax.tree import pytree_dataclass

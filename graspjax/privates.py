@@ -19,6 +19,8 @@ from __future__ import annotations
 import contextlib
 import importlib
 import io
+import sys
+import threading
 from typing import Any
 
 # name here: (module, its name there), what it is, and who uses it
@@ -70,11 +72,26 @@ def __getattr__(name: str) -> Any:
     if name not in _NAMES:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     module_name, attribute = _NAMES[name]
-    with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
-        module = importlib.import_module(module_name)
+    module = quiet_import(module_name)  # mjx prints that its optional backends are missing
     value = module if attribute is None else getattr(module, attribute)
     globals()[name] = value
     return value
+
+
+_QUIET = threading.RLock()  # one quiet import at a time, in every thread of the process
+
+
+def quiet_import(module_name: str) -> Any:
+    """`importlib.import_module(module_name)`, with what its first import prints to stdout
+    dropped. `contextlib.redirect_stdout` swaps the process's one `sys.stdout`: two swaps
+    that overlap in two threads (programs are traced in threads) can leave it swapped for
+    good, and every later print of the process is lost. So they never overlap, and a module
+    already imported is returned without a swap."""
+    with _QUIET:
+        if module_name in sys.modules:
+            return sys.modules[module_name]
+        with contextlib.redirect_stdout(io.StringIO()):
+            return importlib.import_module(module_name)
 
 
 def impl(x: Any) -> Any:

@@ -125,6 +125,14 @@ def test_private_mjx_and_jax_names_are_reached_only_through_privates():
     assert offenders == []
 
 
+def test_only_privates_swaps_stdout():
+    """`sys.stdout` is swapped in one place (`privates.quiet_import`, one swap at a time): two
+    swaps that overlap in two threads can lose every later print of the process."""
+    offenders = [name for name, path in MODULES.items()
+                 if name != "privates" and "redirect_stdout" in path.read_text()]
+    assert offenders == []
+
+
 def test_every_private_name_resolves_in_the_installed_versions():
     """Each name `privates.py` lists is found where it says, in the JAX and MJX installed (an
     upgrade that moves one fails here, not in a run)."""

@@ -791,7 +791,8 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     said = [proc.communicate(timeout=600) for proc in procs]
     for proc, (_, stderr) in zip(procs, said, strict=True):
         assert proc.returncode == 0, stderr[-2000:]
-    assert "process 0 writes the results" in said[1][0] and "success" in said[0][0]
+    assert "success" in said[0][0], said[0][1][-2000:]
+    assert "process 0 writes the results" in said[1][0], said[1][1][-2000:]
     # where its seconds went, from the interpreter's start (Linux): before, then the run's phases
     if os.path.exists("/proc/self/stat"):
         before = re.search(r"^seconds: before ([\d.]+), start [\d.]+, chunks ", said[0][0],

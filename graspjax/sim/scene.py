@@ -24,21 +24,19 @@ direction) and x is the closing axis.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import io
 
 import jax
 import mujoco
 import numpy as np
 
 from graspjax.config import MAX_WALL_HEIGHT, GripperConfig, LayoutConfig, SimConfig
+from graspjax.privates import quiet_import
 from graspjax.sim.objects import OBJECTS, object_mjcf, resting_poses_of
 from graspjax.sim.physics import HAND, STATIC
 from graspjax.sim.raycast import Solids, solids_of
 
-with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
-    from mujoco import mjx
+mjx = quiet_import("mujoco.mjx")  # mjx prints that its optional backends are missing
 
 # Contact bits: a geom pair collides when contype of one matches conaffinity of the other.
 _TABLE, _OBJECT, _GRIPPER = 1, 2, 4

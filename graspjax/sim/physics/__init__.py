@@ -10,16 +10,13 @@ run both). Every private MJX or JAX name the rework needs comes from `graspjax.p
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import numpy as np
 
+from graspjax.privates import quiet_import
 from graspjax.sim.physics.collision import HAND, OBJECTS, STATIC, WORLDS
 from graspjax.sim.physics.collision import step as reworked_step
 
-with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
-    from mujoco import mjx
+mjx = quiet_import("mujoco.mjx")  # mjx prints that its optional backends are missing
 
 STEPS = ("graspjax", "mjx")  # the kinds of step `step` takes (`SimConfig.step`)
 

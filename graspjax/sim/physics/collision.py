@@ -28,22 +28,19 @@ steps with MJX's collision unchanged.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
-import io
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from graspjax import privates
-from graspjax.privates import impl
+from graspjax.privates import impl, quiet_import
 from graspjax.sim.physics import convex, solver
 from graspjax.sim.physics.scatters import without_sorted_scatters
 
-with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
-    from mujoco import mjx
+mjx = quiet_import("mujoco.mjx")  # mjx prints that its optional backends are missing
 
 WORLDS = "worlds"  # the name of the vmapped axis of worlds (`jax.vmap(..., axis_name=WORLDS)`)
 NEAR = 0.01  # a part runs when one of its pairs' bounding spheres are closer than this (m)

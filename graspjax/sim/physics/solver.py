@@ -31,8 +31,6 @@ only the order of the Hessian's float32 sums differs (tests/test_solver.py compa
 
 from __future__ import annotations
 
-import contextlib
-import io
 from typing import NamedTuple
 
 import jax
@@ -41,10 +39,9 @@ import mujoco
 import numpy as np
 
 from graspjax import privates
-from graspjax.privates import impl
+from graspjax.privates import impl, quiet_import
 
-with contextlib.redirect_stdout(io.StringIO()):  # mjx prints optional-backend warnings
-    from mujoco import mjx
+mjx = quiet_import("mujoco.mjx")  # mjx prints that its optional backends are missing
 
 MIN_VALUE = mujoco.mjMINVAL  # MuJoCo's floor of divisors (cone and frictionloss terms)
 
