@@ -1,6 +1,6 @@
-"""The `graspjax` command line: arguments parsed, checked into requests (`arguments.py`), the
-work handed to `experiment` (run, sweep, planes, detect), `report` or `bench`, what they
-return printed.
+"""The `graspjax` command line: arguments parsed (`parser.py`), checked into requests
+(`arguments.py`), the work handed to `experiment` (run, sweep, planes, detect), `report` or
+`bench`, what they return printed.
 
 User mistakes (missing files, bad values, unknown keys) print one line to
 stderr and exit with status 2; nothing is written unless everything worked.
@@ -8,16 +8,16 @@ stderr and exit with status 2; nothing is written unless everything worked.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
 
 from graspjax import arguments
 from graspjax.arguments import UsageError
-from graspjax.config import METHODS, ConfigError
+from graspjax.config import ConfigError
 from graspjax.disk import check_writable
 from graspjax.io import InputError
+from graspjax.parser import build_parser
 from graspjax.runtime import distributed
 
 
@@ -210,164 +210,15 @@ def cmd_report(args) -> int:
     return 0
 
 
-CONFIG_HELP = ("settings file: the dotted keys of --set with their values, in TOML ([align] "
-               "window_px = 12, or align.window_px = 12) or YAML (with PyYAML); a key may not "
-               "be given by --set as well (keys: graspjax config)")
-
-
-def _add_experiment_arguments(p) -> None:
-    p.add_argument("--table", help="paper preset: 1 (a-f, Setups 1-3), 2 (g-l, Setup 1) or 1,2")
-    p.add_argument("--setup", help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
-    p.add_argument("--objects", help="objects to attempt, e.g. a,b,c (default a-f)")
-    p.add_argument("--trials", type=int, default=10,
-                   help="trials per object (Setup 1) or rounds (Setups 2, 3); paper: 10")
-    p.add_argument("--seed", type=int, default=0,
-                   help="base seed of every layout and key (0 to 2147483647)")
-    p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
-                   help="paper: exact depth, the paper's checks, exact execution (default); "
-                        "realistic: Kinect sensor, our wall check, execution error")
-    p.add_argument("--method", choices=list(METHODS),
-                   help="grasp method: paper (the double T-beam, default), highest-pca or "
-                        "antipodal (docs/baselines.md); the same as --set method=...")
-    p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a configuration value, e.g. align.window_px=10")
-    p.add_argument("--config", metavar="FILE", help=CONFIG_HELP)
-    p.add_argument("--batch", type=int,
-                   help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a "
-                        "CPU): a world's rows depend on its key, the device kind and this alone")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the run in --out (same command): only unfinished chunks run")
-    p.add_argument("--overwrite", action="store_true", help="replace a run already in --out")
-    p.add_argument("--part", metavar="I/N",
-                   help="run every N-th chunk from chunk I, into a folder shared by N processes "
-                        "(one per host; see docs/running.md)")
-    p.add_argument("--distributed", nargs="?", const="auto", metavar="HOST:PORT,N,I",
-                   help="one of N processes (hosts) of one run on JAX's distributed runtime: "
-                        "alone, the launcher says which (Slurm, Open MPI); else coordinator, "
-                        "process count, this process's index (see docs/running.md)")
-    p.add_argument("--processes", type=int, metavar="N",
-                   help="CPU: play the run's groups (programs) in up to N processes side by side "
-                        "(default: GRASPJAX_PROCESSES, else one per core, at most 4; a GPU takes "
-                        "1); the same attempts as one process")
-    p.add_argument("--fast", action="store_true",
-                   help="GPU: allow non-deterministic XLA ops (the bin scene steps about 1.1x as fast; "
-                        "not bit-reproducible)")
-    p.add_argument("--save-views", choices=["none", "failed", "all"], default="none",
-                   help="keep the images, detections and planes of these attempts (views/*.npz)")
-    p.add_argument("--max-views", type=int, default=100,
-                   help="keep views of at most this many attempts (default 100)")
-    p.add_argument("--dry-run", action="store_true",
-                   help="print the worlds, chunks and programs the run would play, which "
-                        "programs are stored, and an estimated time from the timings last "
-                        "recorded on this device kind; run nothing, write nothing")
-    p.add_argument("--compile-first", action="store_true",
-                   help="load or compile every program on every device before the first chunk "
-                        "(benchmarks: timings.csv then times play alone; the same rows)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="graspjax",
-        description="Batch evaluator of double T-beam grasp detection and plane-detection "
-                    "end-tool alignment (JAX / MuJoCo MJX).")
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    arguments.add_detect_parser(sub).set_defaults(func=cmd_detect)
-
-    p = sub.add_parser("run", help="grasp attempts in simulation: attempts, tables, figures")
-    _add_experiment_arguments(p)
-    p.set_defaults(func=cmd_run)
-
-    p = sub.add_parser("sweep", help="a parameter grid of runs (e.g. --grid align.window_px=5,15)")
-    _add_experiment_arguments(p)
-    p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
-                   help="values of one configuration key; several --grid give the full grid")
-    p.add_argument("--paired", action="store_true",
-                   help="every grid point plays the same worlds (same seed): paired differences")
-    p.set_defaults(func=cmd_sweep)
-
-    p = sub.add_parser("planes", help="perception-only study of the re-alignment's plane: every "
-                       "first view of settled worlds, judged per grid point (no grasping)")
-    p.add_argument("--setup", required=True, help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
-    p.add_argument("--objects", help="objects of the worlds, e.g. a,b,c (default a-f)")
-    p.add_argument("--trials", type=int, default=100,
-                   help="worlds per object (Setup 1) or rounds (Setups 2, 3); a run's first "
-                        "attempts with the same seed")
-    p.add_argument("--seed", type=int, default=0,
-                   help="base seed of every layout and key (0 to 2147483647)")
-    p.add_argument("--preset", choices=["paper", "realistic"], default="paper")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a configuration value, e.g. procedure.view_tilt_deg=30")
-    p.add_argument("--config", metavar="FILE", help=CONFIG_HELP)
-    p.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
-                   help="traced alignment values, e.g. align.window_px=5,15,30 (every "
-                        "combination; one compiled program)")
-    p.add_argument("--batch", type=int,
-                   help="worlds per device call, at most 65536 (default: 2048 on a GPU, 10 on a CPU)")
-    p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--overwrite", action="store_true", help="replace a study already in --out")
-    p.add_argument("--dry-run", action="store_true",
-                   help="print the worlds and chunks the study would play; write nothing")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=cmd_planes)
-
-    p = sub.add_parser("config", help="list the configuration keys --set takes: default per "
-                       "preset, unit, traced (a sweep compiles once) or static, meaning")
-    p.add_argument("prefix", nargs="?", default="", metavar="PREFIX",
-                   help="only the keys that start with this, e.g. align.")
-    p.add_argument("--preset", choices=["paper", "realistic"],
-                   help="only this preset's defaults (default: every preset's)")
-    p.add_argument("--format", choices=["text", "csv", "json"], default="text",
-                   help="aligned text (default), CSV or JSON")
-    p.set_defaults(func=cmd_config)
-
-    p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
-    p.add_argument("folder", help="a run or sweep output directory")
-    p.add_argument("--debug", type=int, default=0, metavar="N",
-                   help="also draw the first N saved attempts (views/) into DIR/debug/")
-    p.set_defaults(func=cmd_report)
-
-    p = sub.add_parser("assets", help="write the objects' meshes and MJCF files (assets/objects)")
-    p.add_argument("folder", nargs="?", default="assets/objects", help="output folder")
-    p.set_defaults(func=cmd_assets)
-
-    p = sub.add_parser("bench", help="benchmarks (print numbers; compile time apart)")
-    p.add_argument("what", choices=["perception", "detect", "physics", "pipeline", "finish"],
-                   help="what to measure (detect: graspjax detect on real-looking images; "
-                        "finish: a run's end after its last chunk, on --rows-from's rows)")
-    p.add_argument("--rows-from", metavar="FOLDER",
-                   help="finish: a finished run or sweep folder whose rows are repeated")
-    p.add_argument("--rows", type=int, default=96_000,
-                   help="finish: attempt rows of the run timed (default 96,000)")
-    p.add_argument("--objects", default="abcdef", help="physics, pipeline: objects of the scene")
-    p.add_argument("--setup", default="3", help="physics: setup 1, 2 or 3; pipeline: e.g. 1,2,3")
-    p.add_argument("--seconds", type=float, default=1.0, help="physics: simulated time timed")
-    p.add_argument("--trials", type=int, default=100, help="pipeline: trials (or rounds)")
-    p.add_argument("--batch", type=int,
-                   help="perception: images per call (default 4096); detect: images per call "
-                        "(default 1024 on a GPU, 32 on the CPU); physics: worlds (default 4096 "
-                        "on a GPU, 16 on the CPU); pipeline: worlds per batch (default: device-sized)")
-    p.add_argument("--width", type=int, help="image width (perception 160, detect 640)")
-    p.add_argument("--height", type=int, help="image height (perception 120, detect 480)")
-    p.add_argument("--repeats", type=int, default=10, help="timed calls (median is reported)")
-    p.add_argument("--out", help="write the full record to this JSON file")
-    p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")
-    p.add_argument("--preset", choices=["paper", "realistic"],
-                   help="configuration preset (default paper; see graspjax run --help; "
-                        "detect: as graspjax detect --preset)")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE")
-    p.set_defaults(func=cmd_bench)
-    return parser
+COMMANDS = {"detect": cmd_detect, "run": cmd_run, "sweep": cmd_sweep, "planes": cmd_planes,
+            "config": cmd_config, "report": cmd_report, "assets": cmd_assets, "bench": cmd_bench}
 
 
 def main(argv: list[str] | None = None) -> int:
     from graspjax.provenance import command
 
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    args = build_parser().parse_args(argv)
     try:
         from graspjax.runtime import xla
 
@@ -375,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
         if problem:
             raise UsageError(problem)
         with command(argv):  # recorded as typed (config.json's "command")
-            return args.func(args)
+            return COMMANDS[args.command](args)
     except (InputError, ConfigError, UsageError) as exc:
         print(f"graspjax: error: {exc}", file=sys.stderr)
         return 2

@@ -24,7 +24,7 @@ LAYERS = [
     ("studies, files, reports, benchmarks", ["planes", "saved_views", "viz", "outputs", "report", "report.*",
                                              "bench", "bench_finish"]),
     ("workflows", ["experiment"]),
-    ("entry point", ["cli", "arguments"]),
+    ("entry point", ["cli", "parser", "arguments"]),
 ]
 
 
@@ -94,14 +94,17 @@ HELPERS = {"runtime.players", "runtime.tracer"}  # started by the run as `python
 
 
 def test_the_entry_points_are_the_command_line_and_the_run_s_helpers():
-    """`cli` is the user's entry point; the only others are the helper processes a run starts
-    itself (`python -c "from graspjax.X import main; ..."`), and exactly those define main()."""
+    """`cli` is the user's entry point (its arguments are `parser`'s); the only others are the
+    helper processes a run starts itself (`python -c "from graspjax.X import main; ..."`), and
+    exactly those define main()."""
     started = set()
     for name, path in MODULES.items():
         text = path.read_text()
         assert "cli" not in _imports(path), f"{name} imports the command line"
         if name != "cli":
-            assert "argparse" not in text and '__name__ == "__main__"' not in text, name
+            assert '__name__ == "__main__"' not in text, name
+        if name not in ("cli", "parser"):
+            assert "argparse" not in text, name
         started |= set(re.findall(r"from graspjax\.([\w.]+) import main", text))
         defines_main = re.search(r"^def main\(", text, re.M) is not None
         assert defines_main == (name in HELPERS | {"cli"}), name
@@ -183,6 +186,12 @@ def test_no_module_but_the_configuration_is_longer_than_450_lines():
             if name != "config" and len(path.read_text().splitlines()) > 450}
     assert long == {}
 
+
+
+def test_the_command_line_s_dispatch_is_at_most_350_lines():
+    """`cli.py` dispatches and prints; the subcommands' arguments are `parser.py`'s and their
+    checks `arguments.py`'s."""
+    assert len((ROOT / "cli.py").read_text().splitlines()) <= 350
 
 EXPERIMENTS = ROOT.parent / "experiments"
 

@@ -866,7 +866,7 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, monkeypatch
 
 def test_the_largest_seed_and_batch_are_taken_where_every_point_s_seed_stays_in_range():
     from graspjax.arguments import experiment_request
-    from graspjax.cli import build_parser
+    from graspjax.parser import build_parser
 
     sweep = ["sweep", "--setup", "1", "--grid", "align.window_px=5,6", "--out", "x"]
     for args in (["run", "--setup", "1", "--seed", "2147483647", "--batch", "65536", "--out", "x"],
@@ -947,7 +947,7 @@ def test_figure_names_stay_in_the_folder_and_are_distinct(tmp_path):
 
 def _request(args):
     from graspjax.arguments import experiment_request
-    from graspjax.cli import build_parser
+    from graspjax.parser import build_parser
 
     parsed = build_parser().parse_args([*args, "--out", "x"])
     return experiment_request(parsed, parsed.grid if args[0] == "sweep" else None)
@@ -1015,7 +1015,7 @@ def test_a_grid_over_a_key_of_the_settings_file_is_refused(tmp_path, capsys):
 
 def test_planes_takes_a_settings_file_as_run_does(tmp_path):
     from graspjax.arguments import plane_request
-    from graspjax.cli import build_parser
+    from graspjax.parser import build_parser
 
     path = tmp_path / "s.toml"
     path.write_text("[procedure]\nview_tilt_deg = 30\n")
