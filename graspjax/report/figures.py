@@ -12,7 +12,7 @@ from matplotlib.patches import Rectangle
 from graspjax.figures import new_figure, png
 from graspjax.report.tables import point_labels, sweep_axes, varying_config
 from graspjax.schema import outcome_label
-from graspjax.stats import mcnemar_p, paired_detectable, wilson
+from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, wilson
 
 
 def success_figure(summary: pd.DataFrame) -> bytes:
@@ -124,9 +124,9 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
             "lost": (joined["success"] < joined["success_paper"]).groupby(by).sum(),
             "pairs": joined.groupby(by).size()})
         discordant = counts["gained"] + counts["lost"]
-        counts["z_vs_paper"] = (counts["gained"] - counts["lost"]) / np.sqrt(discordant.clip(lower=1))
-        counts["p_vs_paper"] = [mcnemar_p(int(g), int(lo)) for g, lo in zip(
-            counts["gained"], counts["lost"], strict=True)]
+        changes = list(zip(counts["gained"].astype(int), counts["lost"].astype(int), strict=True))
+        counts["z_vs_paper"] = [mcnemar_z(g, lo) for g, lo in changes]
+        counts["p_vs_paper"] = [mcnemar_p(g, lo) for g, lo in changes]
         counts["detectable_vs_paper"] = [paired_detectable(int(d), int(n)) for d, n in zip(
             discordant, counts["pairs"], strict=True)]
         per = per.drop(columns=paired).merge(counts.drop(columns="pairs").reset_index(),
