@@ -1,6 +1,6 @@
 """Why re-aligned attempts fail, from attempts.csv alone (the ground-truth columns realign1_*).
 
-    python3 experiments/realign_diagnosis.py results/target_labels/studies/realign_turn_paper [more folders]
+    python3 experiments/realign_diagnosis.py results/studies/realign_gpu_300 [more folders]
 
 Each re-aligned attempt gets one cause: the chosen plane's inliers lie mostly off the target
 (wrong plane: table, other object, bin); else the re-aligned view found no grasp (by the

@@ -95,8 +95,8 @@ def _points(ax, table: pd.DataFrame):
         ax.errorbar(pos, 100 * rate, yerr=100 * np.stack([rate - low, high - rate]), fmt="o-",
                     capsize=3, color=color, label=label)
     settings = list(table.columns[:list(table.columns).index("rounds")])
-    labels = [", ".join(f"{key.split('.')[-1]}={row[key]:g}" for key in settings)
-              + f"\n{100 * row.touching:.0f} % touch" for _, row in table.iterrows()]
+    labels = ["\n".join([*(f"{key.split('.')[-1]}={row[key]:g}" for key in settings),
+                          f"{100 * row.touching:.0f} % touch"]) for _, row in table.iterrows()]
     ax.set_xticks(pos, labels, fontsize=7)
     ax.set_title("each grid point (its settings; settled contact)", fontsize=9)
     ax.set_ylabel("success (%)")
@@ -108,7 +108,8 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
            table: pd.DataFrame, path: Path):
     tried = attempts[(attempts.attempt >= 0) & (attempts.object.fillna("") != "")]
     success = tried.success.astype(bool).to_numpy()
-    fig, axes = plt.subplots(1, 5, figsize=(19, 3.8), dpi=130)
+    fig, axes = plt.subplots(1, 5, figsize=(21, 4.2), dpi=130,
+                             gridspec_kw={"width_ratios": [1.8, 1, 1, 1, 1.2]})
     _points(axes[0], table)
     axes = axes[1:]
     per_round = outcomes.merge(rounds[["point", "round", "near_fraction"]].rename(
@@ -121,9 +122,9 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
     _binned(axes[1], state, success, [0.5, 1.5, 2.5], ["covered", "on another", "touching",
                                                        "apart"], "the target when the robot looked")
     gap = 100 * tried.target_gap_m.to_numpy()
-    _binned(axes[2], gap, success, [-1.0, -0.01, 0.5, 2.0], ["overlap >1", "overlap", "0-0.5",
-                                                             "0.5-2", "> 2"],
-            "the target's nearest outline gap (cm)")
+    _binned(axes[2], gap, success, [-1.0, -0.01, 0.5, 2.0], ["< -1", "-1 to 0", "0-0.5", "0.5-2",
+                                                             "> 2"],
+            "the target's nearest outline gap (cm; below 0: overlapping)")
     room = 100 * tried.finger_clearance_m.to_numpy()
     executed = np.isfinite(room)
     _binned(axes[3], room[executed], success[executed], [0.0, 0.5, 1.0, 2.0],
