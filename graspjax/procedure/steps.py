@@ -4,6 +4,7 @@ centre, detect, re-align, execute and judge, one record."""
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -220,6 +221,22 @@ def first_look(scene: Scene, data, eligible, attempting, in_bin, key, config: Co
             (depth, objects, candidate), k_views)
 
 
+class _Search(NamedTuple):
+    """The search's carry from one view to the next (`_search`), of one world."""
+
+    rotation: jax.Array  # (3, 3) the camera's next view (world)
+    position: jax.Array  # (3,)
+    found: jax.Array  # () bool: the last view found a grasp on the target
+    blocked: jax.Array  # () bool: no grasp, and no re-alignment possible
+    pose: GraspPose  # the grasp found (nan until then)
+    turns: jax.Array  # () int32: re-alignments made
+    detect_reason: jax.Array  # () int32 `GraspReason` of the last view
+    align_reason: jax.Array  # () int32 `AlignReason` of the last re-alignment tried (-1: none)
+    lost: jax.Array  # () bool: the last view saw nothing of the target
+    under: jax.Array  # () int32: the object under the grasp found (-1: none)
+    first: tuple[jax.Array, jax.Array]  # the first view's segmentation precision and recall
+
+
 def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Config, keep_views: bool):
     """Steps 1-5 on a settled state (after kinematics): the credited object, whether a target
     point was chosen, the grasp pose, the search's record fields and, if `keep_views`, every
@@ -232,29 +249,27 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
 
     def searching(loop):
         """View r is taken: no grasp yet, the search not blocked, within the budget."""
-        r, (_, _, found, blocked, *_), _ = loop
-        return ~found & ~blocked & (r <= budget) & (r < views_at_most)
+        r, carry, _ = loop
+        return ~carry.found & ~carry.blocked & (r <= budget) & (r < views_at_most)
 
     def look(loop):
         """View r of a world that still searches (a world that stopped keeps its carry)."""
         r, carry, kept = loop
-        rot, pos, _, _, pose, turns, _, align_reason, _, under, first = carry
-        v = view(scene, data, rot, pos, target, point, in_bin, camera, config,
-                 jax.random.fold_in(k_views, r))
+        v = view(scene, data, carry.rotation, carry.position, target, point, in_bin, camera,
+                 config, jax.random.fold_in(k_views, r))
         found = v.grasp.found & aimed
-        pose = where_tree(found, v.grasp_pose, pose)
-        under = jnp.where(found, v.grasp_object, under)
-        first = jax.tree.map(lambda new, old: jnp.where(r == 0, new, old), (v.precision, v.recall),
-                             first)
-        detect_reason = v.grasp.reason
         may_turn = ~found & (r < budget)  # the last view never re-aligns
         move = may_turn & v.can_realign
-        align_reason = jnp.where(may_turn, v.alignment.reason, align_reason)
-        blocked = may_turn & ~v.can_realign
-        rot = jnp.where(move, v.next_rotation, rot)
-        pos = jnp.where(move, v.next_position, pos)
-        carry = (rot, pos, found, blocked, pose, turns + move.astype(jnp.int32), detect_reason,
-                 align_reason, v.lost, under, first)
+        carry = _Search(
+            rotation=jnp.where(move, v.next_rotation, carry.rotation),
+            position=jnp.where(move, v.next_position, carry.position),
+            found=found, blocked=may_turn & ~v.can_realign,
+            pose=where_tree(found, v.grasp_pose, carry.pose),
+            turns=carry.turns + move.astype(jnp.int32), detect_reason=v.grasp.reason,
+            align_reason=jnp.where(may_turn, v.alignment.reason, carry.align_reason),
+            lost=v.lost, under=jnp.where(found, v.grasp_object, carry.under),
+            first=jax.tree.map(lambda new, old: jnp.where(r == 0, new, old),
+                               (v.precision, v.recall), carry.first))
         taken = where_tree(move, v.truth, NO_PLANE)
         kept = jax.tree.map(lambda buffer, x: buffer.at[r].set(x), kept,
                             ((v, jnp.array(True)) if keep_views else None, taken))
@@ -262,9 +277,11 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
 
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
     no_pose = GraspPose(nan3, nan3, nan3, jnp.array(False))
-    carry = (centre_rot, centre_pos, jnp.array(False), jnp.array(False), no_pose, jnp.int32(0),
-             jnp.int32(GraspReason.NO_DEPTH), jnp.int32(-1), jnp.array(False), jnp.int32(-1),
-             (jnp.float32(jnp.nan), jnp.float32(jnp.nan)))
+    carry = _Search(rotation=centre_rot, position=centre_pos, found=jnp.array(False),
+                    blocked=jnp.array(False), pose=no_pose, turns=jnp.int32(0),
+                    detect_reason=jnp.int32(GraspReason.NO_DEPTH), align_reason=jnp.int32(-1),
+                    lost=jnp.array(False), under=jnp.int32(-1),
+                    first=(jnp.float32(jnp.nan), jnp.float32(jnp.nan)))
     # Views not taken keep these: no plane, and (kept views) blank images marked not looked.
     # The view's shapes cost a trace of its own, so only kept views ask for them.
     kept = None
@@ -276,8 +293,7 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
     kept = (kept, jax.tree.map(lambda x: jnp.broadcast_to(x, (views_at_most,)), NO_PLANE))
     # A masked loop: it ends when no world of a batch still searches (vmap runs it until then).
     _, carry, (per_view, taken) = jax.lax.while_loop(searching, look, (jnp.int32(0), carry, kept))
-    _, _, found, blocked, pose, turns, detect_reason, align_reason, lost, under, first = carry
-    pose = dataclasses.replace(pose, valid=found & aimed)
+    pose = dataclasses.replace(carry.pose, valid=carry.found & aimed)
     realign = jax.tree.map(lambda x: x[:MAX_REORIENTATIONS], taken)  # the last view never turns
     views = None
     if keep_views:
@@ -291,7 +307,8 @@ def _search(scene: Scene, data, eligible, attempting, in_bin, key, config: Confi
                       position=jnp.concatenate([position[None], _view_poses(centre_pos, v.next_position)]),
                       looked=jnp.concatenate([jnp.array([True]), searched]),
                       grasp=v.grasp, alignment=v.alignment, state=physics_state(data))
-    progress = (blocked, turns, detect_reason, align_reason, lost & ~found, realign, under, first)
+    progress = (carry.blocked, carry.turns, carry.detect_reason, carry.align_reason,
+                carry.lost & ~carry.found, realign, carry.under, carry.first)
     return target, aimed, pose, progress, views
 
 
