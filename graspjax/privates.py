@@ -78,21 +78,23 @@ def __getattr__(name: str) -> Any:
     return value
 
 
-_QUIET = threading.RLock()  # one quiet import at a time, in every thread of the process
+_QUIET = threading.Lock()  # the one swap of stdout, in every thread of the process
 
 
-def quiet_import(module_name: str) -> Any:
-    """`importlib.import_module(module_name)`, with what its first import prints to stdout
-    dropped. `contextlib.redirect_stdout` swaps the process's one `sys.stdout`: two swaps
-    that overlap in two threads (programs are traced in threads) can leave it swapped for
-    good, and every later print of the process is lost. So they never overlap, and a module
-    already imported is returned without a swap."""
-    with _QUIET:
-        if module_name in sys.modules:
-            return sys.modules[module_name]
-        with contextlib.redirect_stdout(io.StringIO()):
-            return importlib.import_module(module_name)
-
+def quiet_import(module_name: str, noisy: str = "mujoco.mjx") -> Any:
+    """`importlib.import_module(module_name)`. The package `noisy` prints on its first import
+    (mjx: that its optional backends are missing): when `module_name` is in it and it is not
+    imported yet, it is imported first with stdout dropped. `contextlib.redirect_stdout` swaps
+    the process's one `sys.stdout`, and programs are traced in threads: two swaps that overlap
+    can leave it swapped for good (every later print of the process lost), and a print of
+    another thread during a swap is lost. So there is one swap per process, under a lock, and
+    none for anything else."""
+    if (module_name == noisy or module_name.startswith(noisy + ".")) and noisy not in sys.modules:
+        with _QUIET:
+            if noisy not in sys.modules:  # another thread may have imported it meanwhile
+                with contextlib.redirect_stdout(io.StringIO()):
+                    importlib.import_module(noisy)
+    return importlib.import_module(module_name)  # waits for another thread still importing it
 
 def impl(x: Any) -> Any:
     """The JAX implementation's private fields of an `mjx.Data` or `mjx.Model` (contacts,
