@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 
-from graspjax import arguments
 from graspjax.config import METHODS
 
 CONFIG_HELP = ("settings file: the dotted keys of --set with their values, in TOML ([align] "
@@ -65,6 +64,68 @@ def add_experiment_arguments(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def add_detect_parser(sub):
+    """`graspjax detect`'s arguments (its sub-parser, returned)."""
+    p = sub.add_parser("detect", help="detect grasps on depth images (real cameras welcome)")
+    p.add_argument("images", nargs="+", metavar="IMAGE",
+                   help="depth images of one size: .npy (H, W) or (H, W, 1) in metres, .npz with "
+                        "'depth' (m) and optionally 'K', or with an organised point cloud 'xyz' "
+                        "(H, W, 3; m, camera frame; intrinsics fitted to it), a 16-bit .png or "
+                        ".tif (see --depth-scale), a float32 .tif in metres; a directory stands "
+                        "for its .npy, .npz, .png, .tif and .tiff files")
+    p.add_argument("--depth-scale", type=float, default=0.001,
+                   help="metres per unit of a 16-bit .png or .tif (default 0.001: millimetres)")
+    p.add_argument("--camera-pose", metavar="FILE",
+                   help="the camera's pose, camera to world (a 4x4 .npy/.txt/JSON, or a gqcnn "
+                        ".tf): every grasp is also given in the world frame (pose_world)")
+    g = p.add_argument_group("intrinsics (full-resolution pixels; one way at most; default: "
+                             "each .npz's K, else the Kinect's 57 x 43 degrees, with a one-line "
+                             "warning on stderr)")
+    g.add_argument("--intrinsics", metavar="FILE",
+                   help="JSON with fx, fy, cx, cy (or K), Open3D's PinholeCameraIntrinsic JSON, "
+                        "a ROS camera_info .yaml, a gqcnn .intr, or a 3x3 .npy/.txt")
+    g.add_argument("--K", metavar="FX,0,CX,0,FY,CY,0,0,1", help="the 3x3 matrix, row by row")
+    g.add_argument("--fx", type=float, help="focal length in pixels")
+    g.add_argument("--fy", type=float, help="focal length in pixels (default: --fx)")
+    g.add_argument("--cx", type=float, help="principal point column (default: image centre)")
+    g.add_argument("--cy", type=float, help="principal point row (default: image centre)")
+    g.add_argument("--fov-x", type=float, help="horizontal field of view in degrees")
+    g.add_argument("--fov-y", type=float, help="vertical field of view in degrees")
+    g = p.add_argument_group("workspace (everything outside is invalid for every step)")
+    g.add_argument("--roi", metavar="X0,Y0,X1,Y1",
+                   help="columns X0 <= u < X1 and rows Y0 <= v < Y1, full-resolution pixels")
+    g.add_argument("--mask", metavar="FILE", help="PNG or .npy of the image's size, nonzero = workspace")
+    g.add_argument("--range", metavar="MIN,MAX", help="depth range in metres (default 0,10)")
+    g.add_argument("--bin", action="store_true",
+                   help="a bin or tote: each image's workspace is its bin's interior found from "
+                        "depth (the floor's convex hull) within --roi/--mask; give a --roi around "
+                        "the whole bin, or none")
+    p.add_argument("--downsample", type=int,
+                   help="block factor of the detection resolution (default: the one that brings "
+                        "a pixel nearest 1.4 mm at the image's median depth, from the intrinsics)")
+    p.add_argument("--preset", choices=["paper", "realistic"], default="paper",
+                   help="the detector's checks: the paper's, or with the wall check where the "
+                        "jaws touch (realistic)")
+    p.add_argument("--method", choices=list(METHODS),
+                   help="grasp method on each target's window: paper (the double T-beam, "
+                        "default), highest-pca or antipodal (docs/baselines.md); the same jaw "
+                        "checks and ranking follow")
+    p.add_argument("--top", type=int, metavar="K",
+                   help="return the K best distinct grasps, ranked (default 1)")
+    p.add_argument("--out", help="results table: FILE.csv, or a directory for results.csv and "
+                                 "results.json")
+    p.add_argument("--json", help="write the record (a list for several images) to this JSON file")
+    p.add_argument("--figure", help="write the debug figure of the one image to this PNG file")
+    p.add_argument("--figures", metavar="DIR", help="write one debug figure per image into DIR")
+    p.add_argument("--batch", type=int, help="images per compiled call (default 16 on a GPU, 1 "
+                                             "on a CPU: one image at a time runs faster there)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a configuration value, e.g. align.window_px=10 or "
+                        "image.max_targets=1")
+    return p
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="graspjax",
@@ -72,7 +133,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "end-tool alignment (JAX / MuJoCo MJX).")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    arguments.add_detect_parser(sub)
+    add_detect_parser(sub)
 
     p = sub.add_parser("run", help="grasp attempts in simulation: attempts, tables, figures")
     add_experiment_arguments(p)
