@@ -35,8 +35,9 @@ step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
   echo "== $folder: exit $code after $((SECONDS - start)) s"
   tail -n 2 "$folder.log"
   if [ "$code" -ne 0 ]; then return "$code"; fi
-  if [ -f "$folder/attempts.csv" ]; then  # the rows as compact Parquet (report.files.keep_attempts)
-    python3 -c "import sys; from graspjax.report.files import keep_attempts; keep_attempts(sys.argv[1])" \
+  if [ -f "$folder/attempts.csv" ]; then  # the rows as compact Parquet, less what the study
+    # never reads (report.files.keep_attempts, schema.STUDY_OMITS)
+    python3 -c "import sys; from graspjax.report.files import keep_attempts; from graspjax.schema import STUDY_OMITS; keep_attempts(sys.argv[1], STUDY_OMITS)" \
       "$folder"
   fi
   gzip -f "$folder/rounds.csv" "$folder/planes.csv" 2>/dev/null

@@ -14,6 +14,7 @@ from graspjax.report import (
     summarize,
     sweep_axes,
 )
+from graspjax.schema import STUDY_OMITS
 from graspjax.stats import wilson
 
 
@@ -203,6 +204,31 @@ def test_rows_kept_as_compact_parquet_read_back_as_the_csv_and_give_the_same_rep
         (copy / name).unlink()
     write_report(copy)
     for name in report:
+        assert (copy / name).read_bytes() == (reference / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("study", ["realign_gpu_300", "window_sloped_setup3_gpu_1800"])
+def test_a_committed_study_s_report_rebuilds_from_rows_without_what_it_never_reads(tmp_path,
+                                                                                   study):
+    """A parameter study keeps its rows without `schema.STUDY_OMITS` (`keep_attempts(omit=...)`):
+    its tables and figures rebuild from those rows byte for byte (a report that read one of them
+    would fail here), and keeping them again without those columns changes no value."""
+    import shutil
+    from pathlib import Path
+
+    from graspjax.report import load_attempts, write_report
+    from graspjax.report.files import keep_attempts
+
+    reference = Path(__file__).parents[1] / "results" / "studies" / study
+    copy = tmp_path / study
+    shutil.copytree(reference, copy)
+    rows = load_attempts(copy)
+    assert not set(STUDY_OMITS) & set(rows.columns)
+    keep_attempts(copy, STUDY_OMITS)
+    pd.testing.assert_frame_equal(load_attempts(copy), rows)
+    written = [p.name for p in write_report(copy)[0]]
+    assert "outcomes.png" in written and any(n.startswith("sweep_") for n in written)
+    for name in written:
         assert (copy / name).read_bytes() == (reference / name).read_bytes(), name
 
 

@@ -97,17 +97,19 @@ def load_attempts(folder: str | Path) -> pd.DataFrame:
     return parse_attempts(text, str(path))
 
 
-def keep_attempts(folder: str | Path) -> Path:
+def keep_attempts(folder: str | Path, omit: tuple[str, ...] = ()) -> Path:
     """A finished folder's rows kept for the repository: `attempts.parquet` (zstd) in place of
     attempts.csv, each measured float column as float32 split into byte streams (the CSV's 7
     significant digits are float32's: every value reads back as the same text; tested), the
     rows world-major (a paired sweep's grid points of one attempt side by side, where they
-    often repeat: a quarter to two fifths smaller again). The report reads it where no CSV is
-    (`load_attempts`), in the canonical order."""
+    often repeat: a quarter to two fifths smaller again), without the columns `omit` (a
+    parameter study's: `schema.STUDY_OMITS`; the report needs none of them, tested). The report
+    reads it where no CSV is (`load_attempts`), in the canonical order."""
     import numpy as np
 
     folder = Path(folder)
     frame = load_attempts(folder)
+    frame = frame.drop(columns=[c for c in omit if c in frame.columns])
     frame = frame.take(attempt_order(frame, WORLD_MAJOR))  # repeats side by side; read back
     # in the canonical order by `load_attempts`
     floats = [c for c in frame.columns  # measured values; settings (`cfg.`) stay as given
