@@ -45,9 +45,9 @@ import numpy as np
 
 from graspjax.arguments import UsageError, detect_settings
 from graspjax.codes import GraspReason
+from graspjax.errors import InputError
 from graspjax.imagefiles.batches import detect_files
 from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
-from graspjax.io import InputError
 from graspjax.perception.cluster import valid_mask
 from graspjax.perception.jaws import check_jaws, path_heights
 from graspjax.perception.support import plane_height
@@ -180,8 +180,8 @@ def main() -> int:
 
     view_height = np.asarray(result.views.height)
     tried = [f"{1e3 * view_height[v_, u_]:.0f} mm {GraspReason(int(why)).name}" for (u_, v_), why in
-             zip(np.asarray(result.attempt_pixels)[:int(result.attempts)],
-                 np.asarray(result.attempt_reasons)[:int(result.attempts)], strict=True)]
+             zip(np.asarray(result.tried_pixels)[:int(result.targets_tried)],
+                 np.asarray(result.tried_reasons)[:int(result.targets_tried)], strict=True)]
     print(f"{args.image}: detector {'found a grasp' if bool(result.found) else 'found none'}; "
           f"its targets: {', '.join(tried)}")
     print(f"{len(points)} centres x {len(axes)} axes = {len(reason)} grasps")

@@ -53,7 +53,7 @@ def intrinsics(args):
     import numpy as np
 
     from graspjax.imagefiles.inputs import IntrinsicsRequest
-    from graspjax.io import check_matrix
+    from graspjax.imagefiles.readers import check_matrix
 
     given = {"--fx/--fy/--cx/--cy": any(v is not None for v in (args.fx, args.fy, args.cx, args.cy)),
              "--K": args.K is not None, "--intrinsics": args.intrinsics is not None,
@@ -363,7 +363,7 @@ def report_folder(args):
     """`graspjax report`'s checked folder (a Path); --debug checked too."""
     from pathlib import Path
 
-    from graspjax.io import InputError
+    from graspjax.errors import InputError
 
     folder = Path(args.folder)
     if not folder.is_dir():

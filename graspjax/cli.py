@@ -16,7 +16,7 @@ from graspjax import arguments
 from graspjax.arguments import UsageError
 from graspjax.config import ConfigError
 from graspjax.disk import check_writable
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.parser import build_parser
 from graspjax.runtime import distributed
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graspjax.io import InputError
+from graspjax.errors import InputError
 
 
 def _umask() -> int:

@@ -200,40 +200,9 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
 
     clock.append(time.perf_counter())
     with bar:
-        helpers = []
-        try:
-            # Each process keeps to cores of its own only when every program loads from the
-            # store: a process compiling on one core could not take the core another is done
-            # with (measured cold on 2 cores: slower kept apart than in one process).
-            warm = len(shares) > 1 and all(program(groups[g], batch, keep_views=False).stored()
-                                           for g in work)
-            for process, groups_of_helper in enumerate(shares[:-1], start=1):
-                todo = tuple(c.index for c in ours
-                             if c.group in groups_of_helper and c.index not in folder.done)
-                if todo:
-                    helpers.append(Helper(play_helper_share, experiment, str(out.absolute()), meta,
-                                          process,
-                                          todo, progress, cores_of(process, len(shares))
-                                          if warm else None))
-            if helpers:
-                log(f"playing the groups in {len(helpers) + 1} processes side by side")
-            with kept_to(cores_of(0, len(shares)) if helpers and warm else None):
-                _play(groups, configs, batch, skip, folder, columns, progress, log,
-                      process=part if distributed else 0,
-                      saver=saver, keep_views=experiment.save_views != "none",
-                      overlap=not compile_first, status=bar.set_description_str,
-                      after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
-            while any(helper.running() for helper in helpers):  # stream the helpers' rows
-                folder.catch_up()
-                for helper in helpers:
-                    helper.check()
-                time.sleep(0.5)
-            folder.catch_up()
-            for helper in helpers:
-                helper.wait()
-        finally:
-            for helper in helpers:
-                helper.stop()
+        _play_shares(experiment, out, meta, groups, configs, batch, ours, shares, skip, folder,
+                     columns, progress, log, bar.set_description_str, compile_first,
+                     process=part if distributed else 0, saver=saver)
     if distributed:
         barrier("played")  # every process's chunks are in the folder
         if part > 0:
@@ -273,6 +242,48 @@ def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:
     must plan (and so number the chunks) alike."""
     configs = [c for _, c in experiment.points]
     return configs, plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+
+
+def _play_shares(experiment: Experiment, out: Path, meta: dict, groups: list[Group],
+                 configs: list[Config], batch: int, ours: list, shares: list[list[int]],
+                 skip: set[int], folder: RunFolder, columns: RunColumns, progress, log, status,
+                 compile_first: bool, process: int, saver) -> None:
+    """The chunks of `ours` not in `skip` played into `folder`: the last of `shares` here, each
+    other share by a helper process of its own (`runtime.players`), whose rows stream into the
+    folder as they come; a failed helper stops the run."""
+    helpers = []
+    try:
+        # Each process keeps to cores of its own only when every program loads from the
+        # store: a process compiling on one core could not take the core another is done
+        # with (measured cold on 2 cores: slower kept apart than in one process).
+        work = {g for share in shares for g in share}
+        warm = len(shares) > 1 and all(program(groups[g], batch, keep_views=False).stored()
+                                       for g in work)
+        for helper_process, groups_of_helper in enumerate(shares[:-1], start=1):
+            todo = tuple(c.index for c in ours
+                         if c.group in groups_of_helper and c.index not in folder.done)
+            if todo:
+                helpers.append(Helper(play_helper_share, experiment, str(out.absolute()), meta,
+                                      helper_process, todo, progress,
+                                      cores_of(helper_process, len(shares)) if warm else None))
+        if helpers:
+            log(f"playing the groups in {len(helpers) + 1} processes side by side")
+        with kept_to(cores_of(0, len(shares)) if helpers and warm else None):
+            _play(groups, configs, batch, skip, folder, columns, progress, log,
+                  process=process, saver=saver, keep_views=experiment.save_views != "none",
+                  overlap=not compile_first, status=status,
+                  after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
+        while any(helper.running() for helper in helpers):  # stream the helpers' rows
+            folder.catch_up()
+            for helper in helpers:
+                helper.check()
+            time.sleep(0.5)
+        folder.catch_up()
+        for helper in helpers:
+            helper.wait()
+    finally:
+        for helper in helpers:
+            helper.stop()
 
 
 def _play(groups: list[Group], configs: list[Config], batch: int, skip: set[int],
@@ -361,9 +372,9 @@ def detect_images(inputs, outputs: DetectOutputs, batch: int | None = None, quie
     detector, `batch` images per call (None: `batches.default_image_batch`); its records (JSON values),
     with the files of `outputs` written atomically once everything has run (figures as each
     image is done)."""
+    from graspjax.figures.views import real_image_figure
     from graspjax.imagefiles import records as rec
     from graspjax.imagefiles.batches import detect_files
-    from graspjax.viz import real_image_figure
 
     many = len(inputs.paths) > 1
     names = figure_names(inputs.paths)

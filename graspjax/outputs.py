@@ -47,7 +47,7 @@ import numpy as np
 import pandas as pd
 
 from graspjax.disk import write_atomic
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.report.files import read_attempts_csv, read_rounds_csv
 from graspjax.schema import TIMINGS_COLUMNS, attempt_order
 

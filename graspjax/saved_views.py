@@ -7,7 +7,7 @@ method took z_min and the credited object's pixels (ground truth),
 the camera poses, the detection of each view (its surface cluster, contour,
 straight edges and every T-beam placement) and its alignment planes, about
 0.2 MB per attempt. `graspjax report DIR --debug N` draws the first N as the
-paper's Figs. 2-5 and 8 (`viz.attempt_figure`).
+paper's Figs. 2-5 and 8 (`figures.views.attempt_figure`).
 """
 
 from __future__ import annotations

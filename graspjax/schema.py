@@ -230,7 +230,7 @@ DETECT_COLUMNS = {
     "u": "G's pixel column in the file", "v": "its row",
     "target_u": "the target's nearest point, pixel column", "target_v": "its row",
     "target_height": "the target's height above the support plane (m; empty: no plane)",
-    "attempts": "targets tried (the reported one is the best grasp's, else the last)",
+    "targets_tried": "targets tried (the reported one is the best grasp's, else the last)",
     "view": "camera (the image as taken) or virtual (re-projected to look straight down)",
     "support": "the support plane's fit (`SupportReason` name)",
     "support_nx": "its normal in the camera frame", "support_ny": "", "support_nz": "",

@@ -153,7 +153,7 @@ class Worlds:
 
     def __init__(self, scene):
         from graspjax.config import Config
-        from graspjax.sim.physics.collision import WORLDS
+        from graspjax.sim.physics import WORLDS
         from graspjax.sim.scene import mjx
         from graspjax.sim.world import physics_model, reset, simulate
 

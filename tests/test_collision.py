@@ -10,7 +10,8 @@ import pytest
 
 from graspjax.config import Config
 from graspjax.sim.physics import collision
-from graspjax.sim.physics.collision import HAND, OBJECTS, STATIC, WORLDS
+from graspjax.sim.physics.owners import HAND, OBJECTS, STATIC, WORLDS
+from graspjax.sim.physics.step import step_with
 from graspjax.sim.scene import build_scene, mjx
 from graspjax.sim.world import move_hand, reset
 
@@ -182,9 +183,9 @@ def test_the_step_is_mjx_stage_by_stage(pair_scene):
     scene, model, mj_model = pair_scene
     data = mjx.make_data(mj_model)
     theirs = jax.make_jaxpr(lambda d: mjx.step(model, d))(data)
-    ours = jax.make_jaxpr(lambda d: collision.step_with(model, d, mjx.collision))(data)
+    ours = jax.make_jaxpr(lambda d: step_with(model, d, mjx.collision))(data)
     assert str(ours) == str(theirs)
-    without_collision = jax.make_jaxpr(lambda d: collision.step_with(model, d, lambda m, d: d))(data)
+    without_collision = jax.make_jaxpr(lambda d: step_with(model, d, lambda m, d: d))(data)
     assert str(without_collision) != str(theirs)
 
 

@@ -7,7 +7,7 @@ import threading
 import pytest
 
 from graspjax.batch.plan import Chunk
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.runtime import compiles, exported
 
 

@@ -68,7 +68,7 @@ def test_tilted_table_with_a_finger_in_view(table):
     assert _angle_deg(r.support.normal, table.up) < 0.05
     assert np.rad2deg(float(r.support.tilt)) == pytest.approx(13.0, abs=0.05)
     assert float(r.support.distance) == pytest.approx(0.73, abs=5e-4)
-    assert int(r.target_reason) == TargetReason.FOUND and int(r.attempts) == 1
+    assert int(r.target_reason) == TargetReason.FOUND and int(r.targets_tried) == 1
     assert float(r.target_height) == pytest.approx(0.04, abs=1e-3)
     _check_grasp(r, table)
     np.testing.assert_allclose(r.rotation[:, 2], -table.up, atol=1e-3)
@@ -150,7 +150,7 @@ def test_a_large_fine_image_is_detected_at_the_resolution_it_needs(tmp_path):
 
 def test_the_input_reduction_follows_the_pixel_footprint_and_the_pixel_count():
     from graspjax import Camera
-    from graspjax.imagefiles.inputs import block_median, input_reduction, reduced
+    from graspjax.imagefiles.resolution import block_median, input_reduction, reduced
 
     image = RealImageConfig()  # pixels of at least 1 mm, at most 1280 x 1024 of them
     flat = np.full((480, 640), 0.73, np.float32)
@@ -176,8 +176,8 @@ def test_a_reduced_image_keeps_its_range_out_of_the_medians(tmp_path):
     """Pixels outside the depth range take no part in a block's median (those outside the
     workspace do: the jaws' checks see them), and a workspace too small for the reduced
     resolution is refused in one line."""
+    from graspjax.errors import InputError
     from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
-    from graspjax.io import InputError
 
     depth = np.full((1920, 2560), 0.7, np.float32)
     depth[:, :1281] = 0.2  # nearer than --range: a block straddling column 1280 keeps 0.7
@@ -199,8 +199,8 @@ def test_a_reduction_to_less_than_8x8_pixels_is_one_line(tmp_path):
     """A reduction that leaves less than 8 x 8 pixels (10 cm pixels asked for, 0.6 m away
     through the Kinect's 57 degrees: 6 x 4 left) is an `InputError` naming the setting, not a
     `Camera` that refuses its size."""
+    from graspjax.errors import InputError
     from graspjax.imagefiles.inputs import prepare
-    from graspjax.io import InputError
 
     np.save(tmp_path / "d.npy", np.full((480, 640), 0.6, np.float32))
     with pytest.raises(InputError, match=r"reducing 640x480 by 98 \(to pixels of "
@@ -212,8 +212,8 @@ def test_each_files_own_k_is_checked_for_a_plausible_field_of_view(tmp_path):
     """Intrinsics that give the images a field of view no depth camera has (here a K whose
     focal length is 100 times too long) are refused before anything is computed, naming the
     file whose K it is."""
+    from graspjax.errors import InputError
     from graspjax.imagefiles.inputs import prepare
-    from graspjax.io import InputError
 
     depth = np.full((480, 640), 0.6, np.float32)
     k = np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]])
@@ -228,8 +228,8 @@ def test_each_files_own_k_is_checked_for_a_plausible_field_of_view(tmp_path):
 def test_every_image_of_a_folder_needs_a_plausible_median_depth(tmp_path):
     """A median depth (in the depth range) no depth camera reads, here a file of kilometres
     after one of metres, is refused before anything is computed, naming that file."""
+    from graspjax.errors import InputError
     from graspjax.imagefiles.inputs import prepare
-    from graspjax.io import InputError
 
     np.save(tmp_path / "a.npy", np.full((480, 640), 0.6, np.float32))
     np.save(tmp_path / "b.npy", np.full((480, 640), 0.0006, np.float32))
@@ -409,9 +409,9 @@ def test_bin_on_an_image_without_a_floor_names_it(tmp_path):
     """`--bin` over a tote and an image of noise: the run stops in `prepare`, before anything
     is computed or written, with one line naming the image; and a third image padded into a
     batch of two keeps its own bin."""
+    from graspjax.errors import InputError
     from graspjax.imagefiles.batches import detect_files
     from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
-    from graspjax.io import InputError
 
     scene = bin_scene(whole=True)
     np.save(tmp_path / "a.npy", scene.depth)
@@ -442,7 +442,7 @@ def test_the_jaws_see_a_bins_walls_outside_its_workspace():
     depth, camera, rotation = _tote_with_a_part_near_a_wall()
     box_ws = np.zeros(depth.shape, bool)
     box_ws[10:-10, 10:-10] = True
-    from graspjax.imagefiles.inputs import block_median, reduced
+    from graspjax.imagefiles.resolution import block_median, reduced
 
     factor = round(depth.shape[1] / RealImageConfig().working_width)
     seen = np.where(box_ws, depth, 0.0)

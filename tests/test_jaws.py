@@ -223,7 +223,7 @@ def test_a_top_falling_gently_past_the_band_is_grasped_on_its_followed_surface()
 
     tbeam_only = detect(RealImageConfig(contour_search=False, max_targets=1))
     assert not bool(tbeam_only.found)
-    assert tbeam_only.attempt_reasons[0] == GraspReason.JAWS_BLOCKED
+    assert tbeam_only.tried_reasons[0] == GraspReason.JAWS_BLOCKED
     r = detect(RealImageConfig(max_targets=1))
     assert bool(r.found) and bool(r.ranked.contour[0])
     axis = rotation @ r.closing_axis
@@ -286,8 +286,8 @@ def test_only_the_graspable_part_of_a_workspace_is_returned():
     depth, camera, workspace, rotation, eye = table_with(solids)
     r = detect_one(depth, workspace, camera, Config(), RealImageConfig())
     assert bool(r.found)
-    assert int(r.attempts) >= 2
-    assert r.attempt_reasons[0] == GraspReason.TOO_WIDE
+    assert int(r.targets_tried) >= 2
+    assert r.tried_reasons[0] == GraspReason.TOO_WIDE
     top = rotation.T @ (np.array(_at(x=0.07, y=-0.08, z=0.03)) - eye)
     assert np.linalg.norm(r.position - top) < 0.02
     assert abs(float(r.ranked.width[0]) - 0.03) < 0.003
@@ -310,9 +310,9 @@ def test_a_target_given_up_gives_up_its_object():
     depth, camera, workspace, rotation, eye = table_with(_wedge_and_box())
     r = detect_one(depth, workspace, camera, Config(), RealImageConfig(max_targets=3))
     assert bool(r.found)
-    assert int(r.attempts) == 2
-    assert r.attempt_reasons[0] != GraspReason.FOUND and r.attempt_reasons[1] == GraspReason.FOUND
-    assert int(r.ranked.attempt[0]) == 1
+    assert int(r.targets_tried) == 2
+    assert r.tried_reasons[0] != GraspReason.FOUND and r.tried_reasons[1] == GraspReason.FOUND
+    assert int(r.ranked.target[0]) == 1
     top = rotation.T @ (np.array(_at(x=0.09, y=-0.05, z=0.015)) - eye)
     assert np.linalg.norm(r.position - top) < 0.02
     assert np.linalg.norm(r.target_point - top) < 0.03  # the second target is on the box
@@ -330,12 +330,12 @@ def test_a_batch_gives_each_image_what_it_gets_alone():
     batch = jax.tree.map(np.asarray, detect_batch(depths, workspace, stack_cameras([camera] * 2),
                                                   Config(), image))
     alone = [detect_one(depth, workspace, camera, Config(), image) for depth in depths]
-    assert int(alone[0].attempts) == 2 and bool(alone[1].ranked.contour[0])  # both branches
+    assert int(alone[0].targets_tried) == 2 and bool(alone[1].ranked.contour[0])  # both branches
     for i, single in enumerate(alone):
         got = jax.tree.map(lambda x, i=i: x[i], batch)
         assert bool(got.found) and bool(single.found)
-        assert int(got.attempts) == int(single.attempts)
-        np.testing.assert_array_equal(got.attempt_reasons, single.attempt_reasons)
+        assert int(got.targets_tried) == int(single.targets_tried)
+        np.testing.assert_array_equal(got.tried_reasons, single.tried_reasons)
         np.testing.assert_array_equal(got.ranked.valid, single.ranked.valid)
         np.testing.assert_array_equal(got.ranked.contour, single.ranked.contour)
         valid = single.ranked.valid
@@ -381,11 +381,11 @@ def test_a_blocked_bar_is_grasped_where_its_contour_is_free(beside, tbeam_reason
         return detect_one(depth, workspace, camera, Config(), image)
 
     tbeam_only = detect(RealImageConfig(contour_search=False))
-    assert tbeam_only.attempt_reasons[0] == tbeam_reason  # the bar, highest, first (with the
+    assert tbeam_only.tried_reasons[0] == tbeam_reason  # the bar, highest, first (with the
     # ledges a later target holds: the ledges' tops, closing across the whole 6 cm)
     r = detect(RealImageConfig())
     assert bool(r.found) and bool(r.ranked.contour[0])
-    assert r.attempt_reasons[0] == GraspReason.FOUND and int(r.ranked.attempt[0]) == 0
+    assert r.tried_reasons[0] == GraspReason.FOUND and int(r.ranked.target[0]) == 0
     centre = rotation @ r.position + eye - [*CENTRE, 0.0]  # world, from the bar's centre
     axis = rotation @ r.closing_axis
     assert abs(axis[0]) > 0.97  # across the bar

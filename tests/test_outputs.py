@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.outputs import (
     LOCK,
     RunFolder,

@@ -8,7 +8,7 @@ import jax
 import pytest
 
 from graspjax import experiment
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.runtime import players
 
 

@@ -49,7 +49,7 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     """A paired window study (5, 15, 25 px) on the same objects: the figure's title names the
     preset, setups, trials and pairing, the paper's 15 px is marked, a panel per setup shows
     first view and rescued stacked; McNemar's z against 15 px by hand."""
-    from graspjax.report.figures import sweep_figure, sweep_outputs, sweep_title, swept_points
+    from graspjax.figures.report import sweep_figure, sweep_outputs, sweep_title, swept_points
 
     parts = []
     # Setup 1, object a, 10 trials: successes and rescues per window, same worlds (seed 0).
@@ -429,7 +429,7 @@ def test_a_grid_of_several_keys_is_compared_point_by_point_with_the_papers_point
     """A readings grid (anchor, turn) of three points on the same 10 worlds: every point
     against the paper's (nearest, pixel) by hand; the anchor's own file pairs centre with
     nearest only where the turn is the same (pixel), never across turns."""
-    from graspjax.report.figures import grid_point_outputs, swept_points
+    from graspjax.figures.report import grid_point_outputs, swept_points
 
     parts = []
     for anchor, turn, success in (("nearest", "pixel", [1] * 8 + [0] * 2),

@@ -125,6 +125,7 @@ def test_the_physics_step_leaves_xla_nothing_to_sort():
     from graspjax.config import Config
     from graspjax.sim import scene_for
     from graspjax.sim.physics import collision, solver
+    from graspjax.sim.physics.step import reworked_step, step_with
     from graspjax.sim.scene import mjx
     from graspjax.sim.world import physics_model
 
@@ -132,11 +133,11 @@ def test_the_physics_step_leaves_xla_nothing_to_sort():
     model, data = physics_model(scene, Config()), mjx.make_data(scene.mj_model)
 
     def unrewritten(d):
-        return collision.step_with(
+        return step_with(
             model, d, lambda m, d: collision.collision(m, d, scene.geom_owner), solver.solve)
 
     assert scatters(unrewritten, data, sorted_only=True) > 10
-    assert scatters(lambda d: collision.step(model, d, scene.geom_owner), data,
+    assert scatters(lambda d: reworked_step(model, d, scene.geom_owner), data,
                     sorted_only=True) == 0
 
 

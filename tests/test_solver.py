@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from graspjax.config import Config, override
-from graspjax.sim.physics import collision, solver
+from graspjax.sim.physics import solver
+from graspjax.sim.physics.step import constrained
 from graspjax.sim.scene import build_scene, mjx
 from graspjax.sim.world import reset
 
@@ -24,7 +25,7 @@ def _constrained(scene, slide: float):
     data = reset(scene, mjx.make_data(scene.mj_model), pos, quat, active)
     qvel = data.qvel.at[scene.object_qvel[CUBE]].set(slide)
     data = data.replace(qvel=qvel)
-    return collision.constrained(scene.model, data, mjx.collision)
+    return constrained(scene.model, data, mjx.collision)
 
 
 @pytest.fixture(scope="module")

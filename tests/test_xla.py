@@ -63,7 +63,7 @@ def test_the_compile_cache_is_created_private_and_refused_when_others_may_write_
     private and refuses, in one line naming it and before anything is read from it or any run
     starts, a cache folder (or a store in it) that others may write or another user owns."""
     from graspjax.cli import main
-    from graspjax.io import InputError
+    from graspjax.errors import InputError
     from graspjax.runtime.xla import compilation_cache
 
     cache = tmp_path / "new" / "cache"
@@ -93,7 +93,7 @@ def test_a_store_in_the_cache_that_others_may_write_is_refused_before_it_is_read
     import jax
 
     from graspjax.disk import keep, store
-    from graspjax.io import InputError
+    from graspjax.errors import InputError
 
     session = jax.config.jax_compilation_cache_dir
     jax.config.update("jax_compilation_cache_dir", str(tmp_path / "cache"))

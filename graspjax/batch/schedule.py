@@ -89,100 +89,28 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
     todo = [c for c in chunks(groups, batch) if c.index not in done]
     needed = list(dict.fromkeys(c.group for c in todo))
     programs = {g: program(groups[g], batch, keep_views) for g in needed}
-    fresh = {g for g, p in programs.items() if not p.compiled}
+    fresh = {g for g, p in programs.items() if not p.compiled}  # before any compile starts
     devices = jax.local_devices()
     tasks = 1 + sum(len(p.devices) for p in programs.values() if not p.compiled)  # + lowering
-    lock = threading.Lock()  # the waiting list, the logged and fresh programs, the progress
     with concurrent.futures.ThreadPoolExecutor(max_workers=tasks) as pool:
         compiling = start_compiles(list(programs.values()), pool, log)
         if compiling:
             log(f"compiling {len(compiling)} program(s) ...")
-        logged: set[int] = set()
-        pending = {id(p): f"{p.name} (Setup {', '.join(map(str, p.group.setups))})"
-                   for p in programs.values() if id(p) in compiling}
-
-        def tell() -> None:
-            status(f"compiling {', '.join(pending.values())}" if pending else "")
-
-        tell()
-
-        def copy_of(prog: Program, device: int) -> list[concurrent.futures.Future]:
-            """What `device` waits for to play `prog`: its own copy's compile and the scene
-            (the last future); not the other devices' copies."""
-            futures = compiling.get(id(prog), [])
-            return [futures[device], futures[-1]] if futures else []
-
-        def ready(prog: Program, device: int) -> None:
-            """Wait for `device`'s copy of `prog` (a failed compile raises here)."""
-            for future in copy_of(prog, device):
-                future.result()
-            with lock:
-                if id(prog) in compiling and id(prog) not in logged:
-                    logged.add(id(prog))
-                    log(f"compiled the program of {prog.name} "
-                        f"({prog.group.attempts} attempt(s) per world): "
-                        f"{prog.origin} in {prog.trace_s:.1f} s, "
-                        f"compiled in {prog.compile_s:.1f} s")
-                    pending.pop(id(prog), None)
-                    tell()
-
+        players = _Players(programs, fresh, compiling, points, began, process, progress, log,
+                           status)
         if not overlap:
             for prog in programs.values():
                 for device in range(len(devices)):
-                    ready(prog, device)
-
-        def counted(attempts: int) -> None:
-            with lock:
-                progress(attempts)
-
-        def play(chunk: Chunk, device: int) -> ChunkResult:
-            """Play one chunk on `device` into its result; a failed compile of its program
-            raises here."""
-            prog = programs[chunk.group]
-            ready(prog, device)
-            start = time.perf_counter()
-            drop, records, views = prog.play(chunk.worlds, points, device, counted)
-            wall_s = time.perf_counter() - start
-            real = len(chunk.worlds)
-            attempts = sum(int(np.sum(np.asarray(r.aimed)[:real])) for r in records)
-            with lock:
-                first = chunk.group in fresh  # a group's first chunk carries its compile time
-                fresh.discard(chunk.group)
-            timings = {"chunk": chunk.index, "group": chunk.group,
-                       "scene": prog.name, "worlds": real,
-                       "batch": prog.batch, "attempts": attempts,
-                       "program": prog.origin,
-                       "executable": prog.executable(device),
-                       "trace_s": round(prog.trace_s if first else 0.0, 3),
-                       "compile_s": round(prog.compile_s if first else 0.0, 3),
-                       "started_s": round(start - began, 3),
-                       "wall_s": round(wall_s, 3),
-                       "peak_gib": peak_gib(prog.devices[device]), "device": device,
-                       "process": process}
-            return ChunkResult(chunk, prog.group, drop, records, timings, views)
-
+                    players.ready(prog, device)
         waiting = heaviest_first(todo, groups)
         finished: queue.Queue = queue.Queue()  # (result or error, device) as chunks end
         stop = threading.Event()
         handled = [threading.Semaphore(1) for _ in devices]  # views kept: the caller is done
 
-        def device_loop(device: int) -> None:
-            while True:
-                if keep_views:
-                    handled[device].acquire()
-                chunk = take_ready(waiting, lambda c: copy_of(programs[c.group], device),
-                                   lock, stop)
-                if chunk is None:
-                    break
-                try:
-                    finished.put((play(chunk, device), device))
-                except BaseException as error:  # handed to the caller, which raises it
-                    finished.put((error, device))
-                    break
-            finished.put((None, device))
-
-        threads = [threading.Thread(target=device_loop, args=(d,), daemon=True,
-                                    name=f"device {d}") for d in range(len(devices))]
+        threads = [threading.Thread(target=players.device_loop, daemon=True, name=f"device {d}",
+                                    args=(d, waiting, finished, stop,
+                                          handled[d] if keep_views else None))
+                   for d in range(len(devices))]
         for thread in threads:
             thread.start()
         try:
@@ -203,3 +131,96 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
                 semaphore.release()
             for thread in threads:
                 thread.join()
+
+
+class _Players:
+    """What `run_chunks`'s device threads share: the programs and their compiles, and how a
+    device plays one chunk into its result. `lock` guards the logged and fresh programs, the
+    compiles still pending and the progress."""
+
+    def __init__(self, programs: dict[int, Program], fresh: set[int], compiling: dict,
+                 points: list[Config], began: float, process: int,
+                 progress: Callable[[int], None], log: Callable[[str], None],
+                 status: Callable[[str], None]):
+        self.programs, self.compiling, self.points = programs, compiling, points
+        self.began, self.process, self.progress, self.log, self.status = (began, process,
+                                                                          progress, log, status)
+        self.lock = threading.Lock()
+        self.fresh = fresh  # groups whose first chunk carries the compile time
+        self.logged: set[int] = set()
+        self.pending = {id(p): f"{p.name} (Setup {', '.join(map(str, p.group.setups))})"
+                        for p in programs.values() if id(p) in compiling}
+        self.tell()
+
+    def tell(self) -> None:
+        """The programs still compiling, for the progress bar."""
+        self.status(f"compiling {', '.join(self.pending.values())}" if self.pending else "")
+
+    def copy_of(self, prog: Program, device: int) -> list[concurrent.futures.Future]:
+        """What `device` waits for to play `prog`: its own copy's compile and the scene (the
+        last future); not the other devices' copies."""
+        futures = self.compiling.get(id(prog), [])
+        return [futures[device], futures[-1]] if futures else []
+
+    def ready(self, prog: Program, device: int) -> None:
+        """Wait for `device`'s copy of `prog` (a failed compile raises here)."""
+        for future in self.copy_of(prog, device):
+            future.result()
+        with self.lock:
+            if id(prog) in self.compiling and id(prog) not in self.logged:
+                self.logged.add(id(prog))
+                self.log(f"compiled the program of {prog.name} "
+                         f"({prog.group.attempts} attempt(s) per world): "
+                         f"{prog.origin} in {prog.trace_s:.1f} s, "
+                         f"compiled in {prog.compile_s:.1f} s")
+                self.pending.pop(id(prog), None)
+                self.tell()
+
+    def device_loop(self, device: int, waiting: list[Chunk], finished: queue.Queue,
+                    stop: threading.Event, handled: threading.Semaphore | None) -> None:
+        """One device's thread: the next ready chunk of `waiting` played, its result (or the
+        error that stopped it) put on `finished`, until none is left or `stop`; then None.
+        With views kept, each chunk waits for `handled`: the caller is done with its last."""
+        while True:
+            if handled is not None:
+                handled.acquire()
+            chunk = take_ready(waiting, lambda c: self.copy_of(self.programs[c.group], device),
+                               self.lock, stop)
+            if chunk is None:
+                break
+            try:
+                finished.put((self.play(chunk, device), device))
+            except BaseException as error:  # handed to the caller, which raises it
+                finished.put((error, device))
+                break
+        finished.put((None, device))
+
+    def counted(self, attempts: int) -> None:
+        with self.lock:
+            self.progress(attempts)
+
+    def play(self, chunk: Chunk, device: int) -> ChunkResult:
+        """Play one chunk on `device` into its result; a failed compile of its program raises
+        here."""
+        prog = self.programs[chunk.group]
+        self.ready(prog, device)
+        start = time.perf_counter()
+        drop, records, views = prog.play(chunk.worlds, self.points, device, self.counted)
+        wall_s = time.perf_counter() - start
+        real = len(chunk.worlds)
+        attempts = sum(int(np.sum(np.asarray(r.aimed)[:real])) for r in records)
+        with self.lock:
+            first = chunk.group in self.fresh  # a group's first chunk carries its compile time
+            self.fresh.discard(chunk.group)
+        timings = {"chunk": chunk.index, "group": chunk.group,
+                   "scene": prog.name, "worlds": real,
+                   "batch": prog.batch, "attempts": attempts,
+                   "program": prog.origin,
+                   "executable": prog.executable(device),
+                   "trace_s": round(prog.trace_s if first else 0.0, 3),
+                   "compile_s": round(prog.compile_s if first else 0.0, 3),
+                   "started_s": round(start - self.began, 3),
+                   "wall_s": round(wall_s, 3),
+                   "peak_gib": peak_gib(prog.devices[device]), "device": device,
+                   "process": self.process}
+        return ChunkResult(chunk, prog.group, drop, records, timings, views)

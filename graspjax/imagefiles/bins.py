@@ -17,7 +17,7 @@ import numpy as np
 
 from graspjax.camera import Camera
 from graspjax.config import RealImageConfig
-from graspjax.io import InputError
+from graspjax.errors import InputError
 
 
 def bin_interior(depth: np.ndarray, camera: Camera, workspace: np.ndarray,

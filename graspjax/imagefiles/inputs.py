@@ -19,14 +19,21 @@ import numpy as np
 
 from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
 from graspjax.config import Config, RealImageConfig, override
+from graspjax.errors import InputError
 from graspjax.imagefiles.bins import bin_interior
-from graspjax.io import (
-    InputError,
+from graspjax.imagefiles.readers import (
     load_camera_pose,
     load_intrinsics,
     load_mask,
     read_depth,
     scaled_depth,
+)
+from graspjax.imagefiles.resolution import (
+    block_median,
+    detection_factor,
+    in_range,
+    input_reduction,
+    reduced,
 )
 from graspjax.perception.workspace import block_factors
 
@@ -138,7 +145,7 @@ class Inputs:
     # (`bins.bin_interior`), bits packed along rows (N, H, ceil(W / 8)) uint8; else None
     roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
-    camera_pose: np.ndarray | None  # (4, 4) camera to world (`io.load_camera_pose`), or None
+    camera_pose: np.ndarray | None  # (4, 4) camera to world (`readers.load_camera_pose`), or None
     config: Config
     image: RealImageConfig
 
@@ -168,70 +175,6 @@ class Inputs:
         if self.reduction == 1:
             return pixel
         return (np.asarray(pixel, np.float64) + 0.5) * self.reduction - 0.5
-
-
-def in_range(depth: np.ndarray, image: RealImageConfig) -> np.ndarray:
-    """The image's valid depths in the depth range (n,) in metres: 0 and non-finite values
-    are no depth."""
-    return depth[np.isfinite(depth) & (depth > 0) & (depth >= image.min_depth)
-                 & (depth <= image.max_depth)]
-
-
-def pixel_footprint(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> float:
-    """Metres per pixel of `camera` (along its coarser axis) at the image's median valid depth
-    in the depth range (`in_range`)."""
-    return float(np.median(in_range(depth, image))) / min(camera.fx, camera.fy)
-
-
-def input_reduction(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> int:
-    """The block factor that brings an image to the full resolution the detection needs: the
-    largest whole factor that keeps its pixels at most `image.full_pixel` wide at the image's
-    median valid depth (`pixel_footprint`), and at least what brings it to
-    `image.max_full_pixels` pixels (an image coarser and smaller than that: 1)."""
-    pixel = pixel_footprint(depth, camera, image)
-    by_pixel = int(image.full_pixel / pixel) if pixel > 0 else 1
-    by_count = math.ceil(math.sqrt(camera.width * camera.height / image.max_full_pixels))
-    return max(1, by_pixel, by_count)
-
-
-def detection_factor(depth: np.ndarray, camera: Camera, image: RealImageConfig) -> int:
-    """The detection resolution's block factor from the full resolution (`camera`, `depth`):
-    `image.downsample` if set, else the whole factor that brings its pixels nearest to
-    `image.detect_pixel` at the median valid depth, by ratio (0.94 mm pixels go to 1.9 mm, not
-    stay at 0.94, for 1.4 mm): chosen from the intrinsics and the scene's distance, not the
-    pixel count (a wide lens's 1280 columns keep their pixels), or, with `detect_pixel` 0,
-    from the width (`workspace.block_factors`)."""
-    if image.downsample or not image.detect_pixel:
-        return block_factors(camera.width, image)[0]
-    pixel = pixel_footprint(depth, camera, image)
-    if not pixel > 0:
-        return 1
-    ratio = image.detect_pixel / pixel
-    low = max(1, math.floor(ratio))
-    return low + 1 if ratio * ratio > low * (low + 1) else low  # the nearer by ratio
-
-
-def block_median(depth: np.ndarray, factor: int) -> np.ndarray:
-    """Depth (H, W) -> (H // factor, W // factor): each block's median of its valid pixels
-    (0 where it has none); the last rows and columns that fill no block are dropped."""
-    if factor == 1:
-        return depth
-    h, w = depth.shape[0] // factor, depth.shape[1] // factor
-    blocks = depth[:h * factor, :w * factor].reshape(h, factor, w, factor).swapaxes(1, 2)
-    blocks = np.where(np.isfinite(blocks) & (blocks > 0), blocks, np.nan).reshape(h, w, -1)
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a block without valid pixels
-        median = np.nanmedian(blocks, axis=-1)
-    return np.nan_to_num(median, nan=0.0).astype(np.float32)
-
-
-def reduced(camera: Camera, factor: int) -> Camera:
-    """The intrinsics of an image block-medianed by `factor` (`block_median`)."""
-    if factor == 1:
-        return camera
-    return Camera(camera.width // factor, camera.height // factor, camera.fx / factor,
-                  camera.fy / factor, (camera.cx + 0.5) / factor - 0.5,
-                  (camera.cy + 0.5) / factor - 0.5)
 
 
 def _settings_type():
@@ -336,6 +279,36 @@ def _workspace_box(roi: tuple[int, int, int, int], width: int, height: int) -> n
     return inside
 
 
+def _workspace(roi: tuple[int, int, int, int] | None, mask: str | None, width: int,
+               height: int) -> np.ndarray:
+    """Where the search may look (height, width) bool, in the files' pixels: the box `roi` and
+    the `mask` file, each where given; one line where they do not overlap."""
+    workspace = np.ones((height, width), bool)
+    if roi is not None:
+        workspace &= _workspace_box(roi, width, height)
+    if mask is not None:
+        workspace &= load_mask(mask, (height, width))
+        if not workspace.any():
+            raise InputError(f"the mask {mask} and the workspace box {roi} do not overlap")
+    return workspace
+
+
+def _reduced_workspace(workspace: np.ndarray, reduction: int) -> np.ndarray:
+    """`workspace` at the resolution the images are taken at (blocks of `reduction`): a pixel
+    is in it when most of its block is; one line where nothing is left."""
+    if reduction == 1:
+        return workspace
+    height, width = workspace.shape
+    small_h, small_w = height // reduction, width // reduction
+    blocks = workspace[:small_h * reduction, :small_w * reduction]
+    reduced = blocks.reshape(small_h, reduction, small_w, reduction).mean(axis=(1, 3)) > 0.5
+    if not reduced.any():
+        raise InputError(f"the workspace is too small for the {small_w}x{small_h} "
+                         f"resolution the {width}x{height} images are taken at (block "
+                         f"{reduction}): give a larger --roi or mask")
+    return reduced
+
+
 def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             intrinsics: IntrinsicsRequest = IntrinsicsRequest(),
             roi: tuple[int, int, int, int] | None = None, mask: str | None = None,
@@ -348,7 +321,7 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     an image without one stops the run before anything is written. Every image is read here
     once, to check it (its size, its intrinsics, its depth range) and find its bin.
 
-    `camera_pose`: a file of the camera's pose (`io.load_camera_pose`), read and checked here.
+    `camera_pose`: a file of the camera's pose (`readers.load_camera_pose`), read and checked here.
 
     Images without intrinsics (none given, none in the files) are taken with the Kinect's field
     of view, never silently: `warn` gets one line saying so (`assumed_camera`), once every
@@ -379,21 +352,8 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     if min(small_w, small_h) // coarse < 8:
         raise InputError(f"downsampling {width}x{height} by {reduction * coarse} leaves less "
                          "than 8x8 pixels")
-    workspace = np.ones((height, width), bool)
-    if roi is not None:
-        workspace &= _workspace_box(roi, width, height)
-    if mask is not None:
-        workspace &= load_mask(mask, (height, width))
-        if not workspace.any():
-            raise InputError(f"the mask {mask} and the workspace box {roi} do not overlap")
-    source_workspace = workspace
-    if reduction > 1:  # a full-resolution pixel is in the workspace when most of its block is
-        blocks = workspace[:small_h * reduction, :small_w * reduction]
-        workspace = blocks.reshape(small_h, reduction, small_w, reduction).mean(axis=(1, 3)) > 0.5
-        if not workspace.any():
-            raise InputError(f"the workspace is too small for the {small_w}x{small_h} "
-                             f"resolution the {width}x{height} images are taken at (block "
-                             f"{reduction}): give a larger --roi or mask")
+    source_workspace = _workspace(roi, mask, width, height)
+    workspace = _reduced_workspace(source_workspace, reduction)
     inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
                     width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
                     workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,

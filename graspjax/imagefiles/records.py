@@ -79,8 +79,8 @@ def record(d: Detection, inputs: Inputs) -> dict:
         "view_rotation": r.rotation,
         "window_camera": {"fx": r.view.fx, "fy": r.view.fy, "cx": r.view.cx, "cy": r.view.cy},
         "target": {"reason": r.target_reason_name,
-                   "attempts": int(r.attempts),
-                   "attempt_reasons": r.attempt_reason_names,
+                   "tried": int(r.targets_tried),
+                   "tried_reasons": r.tried_reason_names,
                    "pixel": inputs.source_pixel(r.target_pixel), "point": r.target_point,
                    "height": r.target_height},
         "grasp": {"found": bool(r.found), "reason": g.reason_name,
@@ -106,7 +106,7 @@ def record(d: Detection, inputs: Inputs) -> dict:
 def _candidate(ranked, k: int, approach, inputs: Inputs) -> dict:
     """The record of the grasp ranked k + 1 (JSON values; its pixel in the file's); every
     grasp of an image shares the `approach` (the view's axis)."""
-    return {"rank": k + 1, "score": ranked.score[k], "target": int(ranked.attempt[k]) + 1,
+    return {"rank": k + 1, "score": ranked.score[k], "target": int(ranked.target[k]) + 1,
             "position": ranked.position[k], "closing_axis": ranked.closing_axis[k],
             "pose": (pose := grasp_pose(ranked.position[k], ranked.closing_axis[k], approach)),
             "pose_world": in_world(pose, inputs.camera_pose),
@@ -123,7 +123,7 @@ def csv_rows(rec: dict) -> list[list]:
     s, t, a = rec["support_plane"], rec["target"], rec["alignment"]
     nan3 = [None] * 3
     image = [rec["image"], rec["found"], rec["reason"]]
-    rest = [*t["pixel"], t["height"], t["attempts"], rec["view"], s["reason"], *s["normal"],
+    rest = [*t["pixel"], t["height"], t["tried"], rec["view"], s["reason"], *s["normal"],
             s["distance"], s["tilt_deg"], s["inlier_fraction"], a["reason"], *a["normal"],
             rec["timing"]["load_ms"], rec["timing"]["compute_ms"], rec["method"]]
     approach = rec["grasp"]["approach"]

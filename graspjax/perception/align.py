@@ -126,6 +126,48 @@ def anchor_point(depth: jax.Array, allowed: jax.Array, config: AlignConfig) -> t
             jnp.where(found, jnp.where(allowed, depth, jnp.inf)[cv, cu], z_min))
 
 
+def _window_inliers(clean: jax.Array, valid: jax.Array, scale: jax.Array, centres: jax.Array,
+                    normals: jax.Array, origins: jax.Array, camera: Camera, config: AlignConfig
+                    ) -> tuple[jax.Array, jax.Array]:
+    """Eq. 3 for N planes (pixel units: `normals` (N, 3) through `origins` (N, 3)), each on a
+    static patch around its window's centre (`centres` (N, 3)): the inliers (N, S, S) and the
+    patches' points (N, S, S, 3, camera frame). `clean` (H, W) is the depth with 0 where not
+    `valid`; the configured window applies inside the patch of half-size `MAX_WINDOW_PX`."""
+    w = MAX_WINDOW_PX
+    size = 2 * w + 3
+    pad = size + w + 2  # slices never clamp at the border (triangle radius <= MAX_WINDOW_PX)
+    padded_z = jnp.pad(clean, pad)
+    padded_ok = jnp.pad(valid, pad)
+    grid = jnp.arange(size)
+
+    def score(centre, normal, origin):
+        top_left = jnp.floor(centre[:2]).astype(jnp.int32) - (w + 1)  # (u0, v0)
+        z = lax.dynamic_slice(padded_z, (top_left[1] + pad, top_left[0] + pad), (size, size))
+        ok = lax.dynamic_slice(padded_ok, (top_left[1] + pad, top_left[0] + pad), (size, size))
+        u = (top_left[0] + grid)[None, :].astype(jnp.float32)
+        v = (top_left[1] + grid)[:, None].astype(jnp.float32)
+        inlier = ok & _eq3(u, v, z * scale, centre, normal, origin, config)
+        pts = camera.unproject(jnp.stack(jnp.broadcast_arrays(u, v), -1), z)  # (S, S, 3)
+        return inlier, pts
+
+    return jax.vmap(score)(centres, normals, origins)
+
+
+def _plane_normals(scaled: jax.Array, n_scaled: jax.Array, scale: jax.Array, camera: Camera,
+                   config: AlignConfig) -> jax.Array:
+    """Each hypothesis's unit normal (N, 3) facing the camera: metric, from its back-projected
+    corners (`scaled` (N, 3, 3) in pixel units), or with `turn_normal="pixel"` the paper's
+    (u, v, z / d_p) normal `n_scaled` read as (x, y, z)."""
+    metric = camera.unproject(scaled[..., :2], scaled[..., 2] / scale)  # (N, 3, 3)
+    normals = jnp.cross(metric[:, 1] - metric[:, 0], metric[:, 2] - metric[:, 0])
+    normals = normals / jnp.maximum(jnp.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
+    toward_camera = jnp.sum(normals * metric[:, 0], -1) < 0
+    normals = jnp.where(toward_camera[:, None], normals, -normals)
+    if config.turn_normal == "pixel":  # the paper's unit: (u, v, z / d_p) read as (x, y, z)
+        normals = jnp.where(n_scaled[:, 2:] < 0, n_scaled, -n_scaled)
+    return normals
+
+
 def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConfig(),
                key: jax.Array | None = None, seed_mask: jax.Array | None = None) -> Alignment:
     """Score candidate planes around z_min and pick the one with most inliers.
@@ -154,39 +196,15 @@ def align_tool(depth: jax.Array, camera: Camera, config: AlignConfig = AlignConf
     scaled, n_scaled, centroid, n_norm = _scaled_planes(corners, clean, scale)
     hyp_valid = jnp.all(corner_ok, -1) & (n_norm > 1e-6) & any_valid
 
-    # --- Eq. 3 on a patch around each window's centre ------------------------------------
-    w = MAX_WINDOW_PX  # static patch half-size; Eq. 3 applies the configured window inside it
-    size = 2 * w + 3
-    pad = size + w + 2  # slices never clamp at the border (triangle radius <= MAX_WINDOW_PX)
-    padded_z = jnp.pad(clean, pad)
-    padded_ok = jnp.pad(valid, pad)
-    grid = jnp.arange(size)
-
-    def score(centre, normal, origin):
-        top_left = jnp.floor(centre[:2]).astype(jnp.int32) - (w + 1)  # (u0, v0)
-        z = lax.dynamic_slice(padded_z, (top_left[1] + pad, top_left[0] + pad), (size, size))
-        ok = lax.dynamic_slice(padded_ok, (top_left[1] + pad, top_left[0] + pad), (size, size))
-        u = (top_left[0] + grid)[None, :].astype(jnp.float32)
-        v = (top_left[1] + grid)[:, None].astype(jnp.float32)
-        inlier = ok & _eq3(u, v, z * scale, centre, normal, origin, config)
-        pts = camera.unproject(jnp.stack(jnp.broadcast_arrays(u, v), -1), z)  # (S, S, 3)
-        return inlier, pts
-
     at_anchor = jnp.stack([anchor[0], anchor[1], clean[anchor[1], anchor[0]] * scale])
     centres = (jnp.broadcast_to(at_anchor.astype(centroid.dtype), centroid.shape)
                if config.window_centre == "anchor" else centroid)  # A for every plane, or each centroid
-    inlier, pts = jax.vmap(score)(centres, n_scaled, scaled[:, 0])  # (N, S, S), (N, S, S, 3)
+    inlier, pts = _window_inliers(clean, valid, scale, centres, n_scaled, scaled[:, 0], camera,
+                                  config)  # (N, S, S), (N, S, S, 3)
     counts = jnp.where(hyp_valid, jnp.sum(inlier, axis=(1, 2)), 0).astype(jnp.int32)
     sums = jnp.sum(pts * inlier[..., None], axis=(1, 2))  # (N, 3)
 
-    # Metric normal of each hypothesis from its back-projected corners.
-    metric = camera.unproject(scaled[..., :2], scaled[..., 2] / scale)  # (N, 3, 3)
-    normals = jnp.cross(metric[:, 1] - metric[:, 0], metric[:, 2] - metric[:, 0])
-    normals = normals / jnp.maximum(jnp.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
-    toward_camera = jnp.sum(normals * metric[:, 0], -1) < 0
-    normals = jnp.where(toward_camera[:, None], normals, -normals)
-    if config.turn_normal == "pixel":  # the paper's unit: (u, v, z / d_p) read as (x, y, z)
-        normals = jnp.where(n_scaled[:, 2:] < 0, n_scaled, -n_scaled)
+    normals = _plane_normals(scaled, n_scaled, scale, camera, config)
 
     # A view must turn by at least min_turn_deg: the optical axis is +z, normals face the camera.
     turns = normals[:, 2] >= -jnp.cos(jnp.deg2rad(config.min_turn_deg))

@@ -121,6 +121,45 @@ def _unit(v: jax.Array, eps: float = 1e-12) -> jax.Array:
     return v / jnp.maximum(jnp.linalg.norm(v, axis=-1, keepdims=True), eps)
 
 
+def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array) -> jax.Array:
+    """Each walk point's edge (size,) int32: a new edge starts where the walk's tangent
+    `walk_t` (size, 2) turns from its edge's mean direction by more than the split angle
+    (`cos_split`); the walk is closed, so its last run continues the first when their
+    directions agree. Points past the contour's `length` get `size` (dropped by the fit)."""
+    size = walk_t.shape[0]
+    idx = jnp.arange(size)
+    in_contour = idx < length
+    n = jnp.maximum(length, 1)
+
+    def walk(i, carry):
+        edge, total, ids = carry
+        t, ok = walk_t[jnp.minimum(i, size - 1)], i < length
+        norm = jnp.linalg.norm(total)
+        new = ok & (norm > 0) & (jnp.dot(total / jnp.maximum(norm, 1e-12), t) < cos_split)
+        edge = edge + new.astype(jnp.int32)
+        total = jnp.where(ok, jnp.where(new, t, total + t), total)
+        return edge, total, ids.at[i].set(edge, mode="drop")
+
+    def walk_steps(state):
+        i, carry = state
+        for step in range(_WALK_UNROLL):
+            carry = walk(i + step, carry)
+        return i + _WALK_UNROLL, carry
+
+    # Only the contour's own points: a batch walks as far as its longest contour.
+    _, (last_edge, _, edge_id) = lax.while_loop(
+        lambda state: state[0] < length, walk_steps,
+        (jnp.int32(0), (jnp.int32(0), jnp.zeros(2, jnp.float32), jnp.zeros(size, jnp.int32))))
+    edge_id = jnp.where(in_contour, edge_id, last_edge)  # past the end the last edge goes on
+    # The walk is closed: its last run continues the first when their directions agree.
+    last = edge_id[n - 1]
+    first_dir = jnp.sum(jnp.where((edge_id == 0)[:, None], walk_t, 0.0), 0)
+    last_dir = jnp.sum(jnp.where(((edge_id == last) & in_contour)[:, None], walk_t, 0.0), 0)
+    wraps = (last > 0) & (jnp.dot(_unit(first_dir), _unit(last_dir)) >= cos_split)
+    edge_id = jnp.where(wraps & (edge_id == last), 0, edge_id)
+    return jnp.where(in_contour, edge_id, size)  # out-of-range ids: dropped by the fit
+
+
 def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window: int,
               split_angle_deg: float, min_edge_pixels: int, max_edges: int) -> Edges:
     """Group an ordered contour into straight edges on the plane at depth `z` (metric).
@@ -154,33 +193,7 @@ def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window:
 
     cos_split = jnp.cos(jnp.deg2rad(split_angle_deg))
 
-    def walk(i, carry):
-        edge, total, ids = carry
-        t, ok = walk_t[jnp.minimum(i, size - 1)], i < contour.length
-        norm = jnp.linalg.norm(total)
-        new = ok & (norm > 0) & (jnp.dot(total / jnp.maximum(norm, 1e-12), t) < cos_split)
-        edge = edge + new.astype(jnp.int32)
-        total = jnp.where(ok, jnp.where(new, t, total + t), total)
-        return edge, total, ids.at[i].set(edge, mode="drop")
-
-    def walk_steps(state):
-        i, carry = state
-        for step in range(_WALK_UNROLL):
-            carry = walk(i + step, carry)
-        return i + _WALK_UNROLL, carry
-
-    # Only the contour's own points: a batch walks as far as its longest contour.
-    _, (last_edge, _, edge_id) = lax.while_loop(
-        lambda state: state[0] < contour.length, walk_steps,
-        (jnp.int32(0), (jnp.int32(0), jnp.zeros(2, jnp.float32), jnp.zeros(size, jnp.int32))))
-    edge_id = jnp.where(in_contour, edge_id, last_edge)  # past the end the last edge goes on
-    # The walk is closed: its last run continues the first when their directions agree.
-    last = edge_id[n - 1]
-    first_dir = jnp.sum(jnp.where((edge_id == 0)[:, None], walk_t, 0.0), 0)
-    last_dir = jnp.sum(jnp.where(((edge_id == last) & in_contour)[:, None], walk_t, 0.0), 0)
-    wraps = (last > 0) & (jnp.dot(_unit(first_dir), _unit(last_dir)) >= cos_split)
-    edge_id = jnp.where(wraps & (edge_id == last), 0, edge_id)
-    edge_id = jnp.where(in_contour, edge_id, size)  # out-of-range ids are dropped below
+    edge_id = _edge_ids(walk_t, contour.length, cos_split)
 
     count = jax.ops.segment_sum(in_contour.astype(jnp.float32), edge_id, num_segments=size)
     top_count, top = lax.top_k(count, max_edges)  # ties keep walk order

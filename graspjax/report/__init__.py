@@ -23,8 +23,8 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.config import Config, override
+from graspjax.figures.report import comparison_figure, outcomes_figure, success_figure, sweep_outputs
 from graspjax.report.density import consistency_lines, target_clutter_lines
-from graspjax.report.figures import comparison_figure, outcomes_figure, success_figure, sweep_outputs
 from graspjax.report.files import (
     load_attempts,
     load_rounds,
@@ -128,8 +128,8 @@ def plane_outputs(rows: pd.DataFrame, meta: dict) -> dict[str, bytes]:
     """A plane study's tables and figure from its rows (planes.csv) and config.json:
     planes_summary.csv (`planes.summarize`) and planes.png (`figures.planes_figure`)."""
     from graspjax.figures import png
+    from graspjax.figures.report import planes_figure, planes_title
     from graspjax.planes import summarize
-    from graspjax.report.figures import planes_figure, planes_title
 
     grid = meta.get("grid", {})
     summary = summarize(rows, grid)
@@ -142,8 +142,8 @@ def debug_figures(folder: Path, count: int) -> dict[str, bytes]:
     configuration of its own grid point."""
     import json
 
+    from graspjax.figures.views import attempt_figure
     from graspjax.saved_views import load, point_of
-    from graspjax.viz import attempt_figure
 
     saved = sorted((folder / "views").glob("*.npz"))
     if not saved:

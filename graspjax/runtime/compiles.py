@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.provenance import SOURCES
 from graspjax.runtime import exported, tracer
 
@@ -128,97 +128,103 @@ def start_compiles(programs: list[Compilable], pool: concurrent.futures.Executor
     # One future per device's compile, and a last one for the scene (`Program.prepare`).
     futures = {id(p): [concurrent.futures.Future() for _ in range(len(p.devices) + 1)]
                for p in todo}
+    if todo:
+        pool.submit(_Lowering(todo, futures, pool, log).run)
+    return futures
 
-    def done_into(future, task: Callable, *args) -> None:
-        """Run `task(*args)`; its end, or its error, goes to `future`."""
-        try:
-            task(*args)
-            future.set_result(None)
-        except BaseException as error:  # handed to the thread that waits for it
-            future.set_exception(error)
 
-    # The scenes are built in a thread of their own, in order, each from its program's turn
-    # on: a stored program then loads beside its scene (a traced one waits for it).
-    scenes = concurrent.futures.ThreadPoolExecutor(max_workers=1)
+def _done_into(future: concurrent.futures.Future, task: Callable, *args) -> None:
+    """Run `task(*args)`; its end, or its error, goes to `future`."""
+    try:
+        task(*args)
+        future.set_result(None)
+    except BaseException as error:  # handed to the thread that waits for it
+        future.set_exception(error)
 
-    # The lowering thread keeps its own references: the caller pops programs off the dict it
-    # gets back as it reaches them, possibly before this thread does.
-    work = [(p, futures[id(p)]) for p in todo]
 
-    workers = trace_workers() if exported.store() is not None else 0
-    helpers = concurrent.futures.ThreadPoolExecutor(max_workers=workers) if workers else None
-    traced_elsewhere: dict[int, concurrent.futures.Future] = {}
+class _Lowering:
+    """`start_compiles`' lowering thread: the programs lowered in order, each handed to the pool
+    to compile for every device; their scenes built in a thread of their own, each from its
+    program's turn on (a stored program then loads beside its scene; a traced one waits for
+    it); with helper processes, the programs after the first that must be traced traced by
+    them."""
 
-    def take_over(p: Compilable) -> None:
+    def __init__(self, todo: list[Compilable], futures: dict[int, list[concurrent.futures.Future]],
+                 pool: concurrent.futures.Executor, log: Callable[[str], None]):
+        self.todo, self.pool, self.log = todo, pool, log
+        # Its own references: the caller pops programs off the dict it gets back as it
+        # reaches them, possibly before this thread does.
+        self.work = [(p, futures[id(p)]) for p in todo]
+        self.scenes = concurrent.futures.ThreadPoolExecutor(max_workers=1)
+        self.workers = trace_workers() if exported.store() is not None else 0
+        self.helpers = (concurrent.futures.ThreadPoolExecutor(max_workers=self.workers)
+                        if self.workers else None)
+        self.traced_elsewhere: dict[int, concurrent.futures.Future] = {}
+
+    def take_over(self, p: Compilable) -> None:
         """The worker's program for `p`, or none: not started yet (then traced here at once), or
         failed; a program a worker traced but the store does not hold (a key that differs) is
         traced here too, and said so."""
-        job = traced_elsewhere[id(p)]
+        job = self.traced_elsewhere[id(p)]
         if job.cancel():
             return
         try:
             p.worker_s = job.result()
         except WorkerFailed as failure:
-            log(f"{failure}; tracing it here")
+            self.log(f"{failure}; tracing it here")
             return
         if p.worker_s is not None and not p.stored():
-            log(f"the trace worker's program of {p.name} is not in the store "
-                "under this run's key; tracing it here")
+            self.log(f"the trace worker's program of {p.name} is not in the store "
+                     "under this run's key; tracing it here")
 
-    def order() -> None:
+    def order(self) -> None:
         """With helpers, the program of the most device work goes first when it must be traced:
         this thread traces it itself, so its chunks wait the least. When it is in the store (a
         warm start), the plan's order stands: nothing waits for a trace, and the first chunk
         starts as soon as the first program loads (the others load while it plays)."""
-        if not helpers or not work:
+        if not self.helpers or not self.work:
             return
         try:
-            heaviest_stored = max(todo, key=lambda p: p.work).stored()
+            heaviest_stored = max(self.todo, key=lambda p: p.work).stored()
         except Exception:  # its scene failed: its own turn raises it through its futures
             return
         if not heaviest_stored:
-            work.sort(key=lambda item: -item[0].work)
+            self.work.sort(key=lambda item: -item[0].work)
 
-    def lower_in_order() -> None:
-        order()
-        for i, (p, program_futures) in enumerate(work):
-            *device_futures, scene_future = program_futures
-            scenes.submit(done_into, scene_future, p.prepare)
-            try:
-                if helpers and not traced_elsewhere and len(work) > i + 1 and not p.stored():
-                    traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
-                                             for q, _ in work[i + 1:]})
-                    log(f"tracing {len(work) - i - 1} program(s) in "
-                        f"{min(workers, len(work) - i - 1)} worker process(es)")
-                if id(p) in traced_elsewhere:
-                    take_over(p)
-                _ = p.portable  # traced or loaded once, then lowered once for every device
-            except BaseException as error:  # handed to the threads that wait for it
-                for future in device_futures:
-                    future.set_exception(error)
-                continue
-            try:
-                start = time.perf_counter()
-                lowered = p.lower()
-                lower_s = time.perf_counter() - start
-            except BaseException as error:  # likewise
-                for future in device_futures:
-                    future.set_exception(error)
-                continue
-            for device, future in enumerate(device_futures):
-                pool.submit(done_into, future, p.compile, device, lowered, lower_s)
-
-    def lower_then_release() -> None:
+    def lower(self, i: int, p: Compilable, device_futures: list) -> None:
+        """Program i traced (here or by a helper) or loaded, lowered once, and handed to the
+        pool to compile for every device; an error goes to every device's future."""
+        work, helpers = self.work, self.helpers
         try:
-            lower_in_order()
-        finally:
-            scenes.shutdown(wait=False)  # the scenes submitted are still built
-            if helpers:
-                helpers.shutdown(wait=False, cancel_futures=True)
+            if helpers and not self.traced_elsewhere and len(work) > i + 1 and not p.stored():
+                self.traced_elsewhere.update({id(q): helpers.submit(trace_in_worker, q)
+                                              for q, _ in work[i + 1:]})
+                self.log(f"tracing {len(work) - i - 1} program(s) in "
+                         f"{min(self.workers, len(work) - i - 1)} worker process(es)")
+            if id(p) in self.traced_elsewhere:
+                self.take_over(p)
+            _ = p.portable  # traced or loaded once, then lowered once for every device
+            start = time.perf_counter()
+            lowered = p.lower()
+            lower_s = time.perf_counter() - start
+        except BaseException as error:  # handed to the threads that wait for it
+            for future in device_futures:
+                future.set_exception(error)
+            return
+        for device, future in enumerate(device_futures):
+            self.pool.submit(_done_into, future, p.compile, device, lowered, lower_s)
 
-    if todo:
-        pool.submit(lower_then_release)
-    return futures
+    def run(self) -> None:
+        try:
+            self.order()
+            for i, (p, program_futures) in enumerate(self.work):
+                *device_futures, scene_future = program_futures
+                self.scenes.submit(_done_into, scene_future, p.prepare)
+                self.lower(i, p, device_futures)
+        finally:
+            self.scenes.shutdown(wait=False)  # the scenes submitted are still built
+            if self.helpers:
+                self.helpers.shutdown(wait=False, cancel_futures=True)
 
 
 def first_ready(waiting: list,

@@ -14,7 +14,7 @@ from __future__ import annotations
 import threading
 
 from graspjax import privates
-from graspjax.io import InputError
+from graspjax.errors import InputError
 
 AUTO = "auto"  # `--distributed` alone: the launcher's environment says who is who
 BARRIER_TIMEOUT_MS = 7 * 24 * 3600 * 1000  # a week: a process that ends its share early waits

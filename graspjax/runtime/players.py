@@ -27,7 +27,7 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
-from graspjax.io import InputError
+from graspjax.errors import InputError
 from graspjax.provenance import SOURCES
 from graspjax.runtime import tracer
 

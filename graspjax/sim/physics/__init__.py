@@ -10,24 +10,7 @@ run both). Every private MJX or JAX name the rework needs comes from `graspjax.p
 
 from __future__ import annotations
 
-import numpy as np
-
-from graspjax.privates import quiet_import
-from graspjax.sim.physics.collision import HAND, OBJECTS, STATIC, WORLDS
-from graspjax.sim.physics.collision import step as reworked_step
-
-mjx = quiet_import("mujoco.mjx")  # mjx prints that its optional backends are missing
-
-STEPS = ("graspjax", "mjx")  # the kinds of step `step` takes (`SimConfig.step`)
+from graspjax.sim.physics.owners import HAND, OBJECTS, STATIC, WORLDS
+from graspjax.sim.physics.step import STEPS, step
 
 __all__ = ["HAND", "OBJECTS", "STATIC", "STEPS", "WORLDS", "step"]
-
-
-def step(model: mjx.Model, data: mjx.Data, geom_owner: np.ndarray, skip_far: bool,
-         kind: str = "graspjax") -> mjx.Data:
-    """One physics step of one world. `geom_owner` (ngeom,) int: STATIC, HAND or the object
-    index of each geom; `skip_far`: skip the narrow phase of pairs far apart in every world
-    (kind "graspjax" only); `kind`: one of `STEPS` (module docstring)."""
-    if kind == "mjx":
-        return mjx.step(model, data)
-    return reworked_step(model, data, geom_owner, skip_far)

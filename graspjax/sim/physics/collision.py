@@ -1,5 +1,5 @@
-"""The physics step: MJX's, with the narrow phase skipped where no world of the batch needs it,
-and hull pairs (box-mesh, mesh-mesh) collided by `convex.convex_convex` (MJX's algorithm on pair
+"""The physics step's collision: MJX's, with the narrow phase skipped where no world of the batch
+needs it, and hull pairs (box-mesh, mesh-mesh) collided by `convex.convex_convex` (MJX's algorithm on pair
 grids, several times faster on the CPU: MJX's contacts up to float32 rounding, which may break
 MJX's ties among a pair's third and fourth contact points otherwise).
 
@@ -29,7 +29,6 @@ steps with MJX's collision unchanged.
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import jax
 import jax.numpy as jnp
@@ -37,15 +36,13 @@ import numpy as np
 
 from graspjax import privates
 from graspjax.privates import impl, quiet_import
-from graspjax.sim.physics import convex, solver
-from graspjax.sim.physics.scatters import without_sorted_scatters
+from graspjax.sim.physics import convex
+from graspjax.sim.physics.owners import OBJECTS, WORLDS
 
 mjx = quiet_import("mujoco.mjx")  # mjx prints that its optional backends are missing
 
-WORLDS = "worlds"  # the name of the vmapped axis of worlds (`jax.vmap(..., axis_name=WORLDS)`)
 NEAR = 0.01  # a part runs when one of its pairs' bounding spheres are closer than this (m)
 FAR = 1.0  # distance of a skipped pair's contact (m): inactive, as MJX's separated hulls give
-STATIC, HAND, OBJECTS = -3, -2, -1  # owners of geoms besides object i >= 0 (OBJECTS: a pair of two)
 _PLANE = int(mjx.GeomType.PLANE)
 _BOX, _MESH = int(mjx.GeomType.BOX), int(mjx.GeomType.MESH)
 _GRID_PAIRS = {(_BOX, _MESH), (_MESH, _MESH)}  # pair types `convex.convex_convex` collides
@@ -161,48 +158,3 @@ def collision(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool 
         kept.append(contact)
     contact = jax.tree.map(lambda *x: jnp.concatenate(x), *kept)
     return privates.with_impl(d, contact=contact)
-
-
-def step(m: mjx.Model, d: mjx.Data, geom_owner: np.ndarray, skip_far: bool = True) -> mjx.Data:
-    """The scenes' physics step: MJX's, with `solver.solve` (the elliptic cone's Hessian as one
-    product) and `collision` (skipping far pairs when `skip_far`; `geom_owner`: as for
-    `collision`) in place of MJX's."""
-    return _step_function(tuple(np.asarray(geom_owner).tolist()), skip_far)(m, d)
-
-
-@functools.cache
-def _step_function(geom_owner: tuple[int, ...], skip_far: bool):
-    """`step`'s function of (m, d) for a scene, its scatters of model indices gathered
-    (`scatters.without_sorted_scatters`): jitted, so each scene's step is traced and rewritten
-    once per process, input types and model statics, and whether the axis of worlds is bound
-    (and its size), however many loops of a program call it."""
-    owner = np.asarray(geom_owner)
-    return without_sorted_scatters(
-        lambda m, d: step_with(m, d, lambda m, d: collision(m, d, owner, skip_far), solver.solve))
-
-
-def step_with(m: mjx.Model, d: mjx.Data, collide, solve=mjx.solve) -> mjx.Data:
-    """`mjx.step` with `collide(m, d)` and `solve(m, d)` in place of MJX's collision and
-    constraint solver: `constrained`, the solver, then MJX's Euler integrator (the scenes'
-    integrator)."""
-    if m.opt.integrator != mjx.IntegratorType.EULER:
-        raise NotImplementedError(f"graspjax steps with Euler only, not {m.opt.integrator}")
-    d = constrained(m, d, collide)
-    if impl(d).efc_J.size == 0:
-        d = d.replace(qacc=d.qacc_smooth)
-    else:
-        d = mjx.sensor_acc(m, solve(m, d))
-    return mjx.euler(m, d)
-
-
-def constrained(m: mjx.Model, d: mjx.Data, collide) -> mjx.Data:
-    """MJX's forward dynamics stage by stage up to its constraint solver, with `collide(m, d)`
-    in place of its collision: the data the solver starts from."""
-    for stage in (mjx.kinematics, mjx.com_pos, mjx.camlight, mjx.tendon, mjx.crb,
-                  mjx.tendon_armature, mjx.factor_m):
-        d = stage(m, d)
-    d = collide(m, d)
-    for stage in (mjx.make_constraint, mjx.transmission, mjx.sensor_pos, mjx.fwd_velocity,
-                  mjx.sensor_vel, mjx.fwd_actuation, mjx.fwd_acceleration):
-        d = stage(m, d)
-    return d

@@ -20,9 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-class InputError(Exception):
-    """A user-supplied file or value is unusable (the message is one line)."""
+from graspjax.errors import InputError
 
 
 def _first_line(exc: Exception) -> str:

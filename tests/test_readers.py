@@ -6,7 +6,14 @@ from PIL import Image
 
 from graspjax.camera import Camera
 from graspjax.disk import write_atomic
-from graspjax.io import InputError, check_depth, check_matrix, load_intrinsics, load_mask, read_depth
+from graspjax.errors import InputError
+from graspjax.imagefiles.readers import (
+    check_depth,
+    check_matrix,
+    load_intrinsics,
+    load_mask,
+    read_depth,
+)
 from graspjax.synthetic import analytic_depth, box, rot_x, top_down_pose
 
 K = np.array([[525.0, 0.0, 319.5], [0.0, 520.0, 239.5], [0.0, 0.0, 1.0]])
@@ -321,7 +328,7 @@ def test_write_atomic_leaves_nothing_on_failure(tmp_path):
 def test_camera_pose_files_give_one_camera_to_world_matrix(tmp_path):
     """A turn of 90 degrees about z and 0.6 m up, as a 3x4 .txt, a JSON of rotation and
     translation and a gqcnn .tf (translation first, then the rotation's rows): one matrix."""
-    from graspjax.io import load_camera_pose
+    from graspjax.imagefiles.readers import load_camera_pose
 
     rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     expected = np.eye(4)

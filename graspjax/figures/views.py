@@ -172,25 +172,11 @@ def attempt_figure(saved, config: Config = Config()) -> bytes:
     return png(fig, saved.label)
 
 
-def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, result,
-                      config: Config = Config(), image: RealImageConfig = RealImageConfig(),
-                      title: str = "") -> bytes:
-    """PNG bytes of the four-panel figure of one real image through `detect_real_image`.
-
-    depth: metric depth (H, W) at full resolution; workspace: (H, W) bool; camera: its
-    intrinsics; result: the `RealImageDetection` of this image (single, not batched; its
-    `views` are what is drawn).
-    """
-    depth = np.asarray(depth, np.float32)
-    workspace = np.asarray(workspace, bool)
-    result = jax.tree.map(np.asarray, result)
-    views = result.views
+def _camera_panel(fig, ax, depth: np.ndarray, workspace: np.ndarray, camera: Camera, result,
+                  config: Config, image: RealImageConfig) -> None:
+    """Panel (a) of `real_image_figure`: the input image with the workspace, the support
+    plane's inliers, the target and the grasps drawn back into it."""
     support = result.support
-    fig = new_figure(13, 10, dpi=100)
-    axes = fig.subplots(2, 2).ravel()
-
-    # (a) The input image: workspace, support-plane inliers, target, grasp drawn back.
-    ax = axes[0]
     _frame(ax, camera)
     shown = _shown(depth)
     inside = shown[workspace & np.isfinite(shown)]
@@ -207,6 +193,7 @@ def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, 
     ax.imshow(overlay, interpolation="nearest")
     if result.target_reason == TargetReason.FOUND:
         ax.plot(*result.target_pixel, "r+", ms=14, mew=2, label="target")
+
     def fingers(centre, axis, **style):
         """Both open fingers of a grasp at `centre` (3,) closing along `axis` (2,), both in the
         detection view's frame, drawn in the camera image."""
@@ -233,10 +220,12 @@ def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, 
               else TargetReason(int(result.target_reason)).name)
     ax.set_title(f"camera view: workspace, support inliers, grasp ({reason})")
 
-    # (b) Height above the support plane in the detection view.
-    ax = axes[1]
+
+def _support_panel(fig, ax, result, view_name: str) -> None:
+    """Panel (b) of `real_image_figure`: the height above the support plane in the detection
+    view (its depth where there is no plane), and the target."""
+    views, support = result.views, result.support
     _frame(ax, views.camera)
-    view_name = "virtual view facing the support" if bool(result.virtual) else "camera view"
     if bool(support.found):
         im = ax.imshow(np.where(views.depth > 0, views.height, np.nan), cmap="magma",
                        vmin=0.0, interpolation="nearest")
@@ -253,6 +242,27 @@ def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, 
     if result.target_reason == TargetReason.FOUND:
         ax.plot(*result.target, "c+", ms=14, mew=2)
 
+
+def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, result,
+                      config: Config = Config(), image: RealImageConfig = RealImageConfig(),
+                      title: str = "") -> bytes:
+    """PNG bytes of the four-panel figure of one real image through `detect_real_image`.
+
+    depth: metric depth (H, W) at full resolution; workspace: (H, W) bool; camera: its
+    intrinsics; result: the `RealImageDetection` of this image (single, not batched; its
+    `views` are what is drawn).
+    """
+    depth = np.asarray(depth, np.float32)
+    workspace = np.asarray(workspace, bool)
+    result = jax.tree.map(np.asarray, result)
+    views = result.views
+    fig = new_figure(13, 10, dpi=100)
+    axes = fig.subplots(2, 2).ravel()
+
+    view_name = "virtual view facing the support" if bool(result.virtual) else "camera view"
+    _camera_panel(fig, axes[0], depth, workspace, camera, result, config, image)
+    _support_panel(fig, axes[1], result, view_name)
+
     # (c, d) Detection and alignment in the reported target's window.
     seed = np.zeros(views.window.shape, bool)
     if result.target_reason == TargetReason.FOUND:
@@ -265,7 +275,7 @@ def real_image_figure(depth: np.ndarray, workspace: np.ndarray, camera: Camera, 
         _frame(ax, views.window_camera)
     _draw_detection(axes[2], views.window, views.window_camera, result.grasp, cluster, contour,
                     z_s, config)
-    axes[2].set_title(f"{view_name} window, target {int(result.attempts)} of "
+    axes[2].set_title(f"{view_name} window, target {int(result.targets_tried)} of "
                       f"{image.max_targets}\n{axes[2].get_title()}", fontsize=9)
     _draw_alignment(axes[3], views.window, result.alignment, inliers)
     return png(fig, title)

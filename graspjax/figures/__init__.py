@@ -1,5 +1,9 @@
-"""Matplotlib figures drawn off-screen and returned as PNG bytes (tables' figures and debug
-pictures alike); nothing here needs a display."""
+"""Every figure graspjax draws, off-screen, returned as PNG bytes; nothing here needs a display.
+
+This module holds the canvas every figure is drawn on (`new_figure`, `png`); `report.py` the
+report's figures, from a run folder's rows alone (no JAX); `views.py` the debug pictures of
+one simulated attempt or one real image, like the paper's Figs. 2-5 and 8.
+"""
 
 from __future__ import annotations
 

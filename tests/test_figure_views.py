@@ -4,10 +4,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from graspjax.figures.views import attempt_figure
 from graspjax.perception.grasp import surface_contour
 from graspjax.saved_views import SavedAttempt
 from graspjax.synthetic import box
-from graspjax.viz import attempt_figure
 
 
 def test_attempt_figure_of_an_overview_and_one_view(camera, detect, align, render):
