@@ -360,14 +360,20 @@ def distributed(text: str | None, part: str | None):
 
 
 def report_folder(args):
-    """`graspjax report`'s checked folder (a Path); --debug checked too."""
+    """`graspjax report`'s checked folder (a Path), or with --compare its checked folders (a
+    list); --debug checked too."""
     from pathlib import Path
 
     from graspjax.errors import InputError
 
-    folder = Path(args.folder)
-    if not folder.is_dir():
-        raise InputError(f"no such directory: {folder}")
+    if (args.folder is None) == (args.compare is None):
+        raise UsageError("give a folder to report, or --compare DIR ... (not both)")
+    if args.compare is not None and args.debug:
+        raise UsageError("--debug draws one folder's attempts: not with --compare")
+    folders = [Path(f) for f in (args.compare or [args.folder])]
+    for folder in folders:
+        if not folder.is_dir():
+            raise InputError(f"no such directory: {folder}")
     if args.debug < 0:
         raise UsageError(f"--debug must be >= 0, got {args.debug}")
-    return folder
+    return folders if args.compare is not None else folders[0]

@@ -191,6 +191,8 @@ def cmd_report(args) -> int:
     from graspjax.report import read_meta, write_report
 
     folder = arguments.report_folder(args)
+    if isinstance(folder, list):
+        return _compare(folder)
     other = made_by_other_code(read_meta(folder))
     if other:  # its rows stand; tables and figures drawn by this code may differ in form
         print(f"graspjax: note: {folder} was {other}: its rows are kept, its tables and figures "
@@ -207,6 +209,22 @@ def cmd_report(args) -> int:
         print(f"graspjax: note: {folder} holds a run not yet finished ({state}); its tables "
               "say so in their titles", file=sys.stderr)
     print("wrote " + ", ".join(str(p.relative_to(folder)) for p in files) + f" to {folder}")
+    return 0
+
+
+def _compare(folders) -> int:
+    """`graspjax report --compare`: the paired table on stdout (`report.compare`)."""
+    from graspjax.report.compare import compared_rows, comparison_table
+
+    try:
+        frame, names = compared_rows(folders)
+    except (FileNotFoundError, ValueError) as exc:
+        raise InputError(str(exc).splitlines()[0]) from None
+    except KeyError as exc:
+        raise InputError(f"the rows lack the column {exc} a comparison needs") from None
+    print(f"Paired against {names[0]} (each object of a trial or round; z: McNemar's; "
+          "resolves: the smallest change its pairs detect at 5 %, 80 % power)\n")
+    print(comparison_table(frame, names), end="")
     return 0
 
 

@@ -178,8 +178,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=["text", "csv", "json"], default="text",
                    help="aligned text (default), CSV or JSON")
 
-    p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv")
-    p.add_argument("folder", help="a run or sweep output directory")
+    p = sub.add_parser("report", help="rebuild tables and figures from DIR/attempts.csv, or "
+                                      "compare runs paired (--compare)")
+    p.add_argument("folder", nargs="?", help="a run or sweep output directory")
+    p.add_argument("--compare", nargs="+", metavar="DIR",
+                   help="print a paired comparison instead: runs of the same worlds against the "
+                        "first (--compare A B ...), or a paired sweep's grid points against its "
+                        "first (--compare SWEEP); per table column success, first view + rescued, "
+                        "objects gained / lost, McNemar's z and p")
     p.add_argument("--debug", type=int, default=0, metavar="N",
                    help="also draw the first N saved attempts (views/) into DIR/debug/")
 
