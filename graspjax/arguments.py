@@ -161,6 +161,9 @@ def grid(items: list[str], base, fixed=()):
             raise UsageError(f"--grid {name}: every value needs {len(names)} parts joined by ':'")
         axes.append([dict(zip(names, v, strict=True)) for v in values])
     keys = [k for axis in axes for k in axis[0]]
+    if any(k.startswith("image.") for k in keys):
+        raise UsageError(f"--grid {next(k for k in keys if k.startswith('image.'))}: a setting of "
+                         "graspjax detect (real depth images); a simulated run does not read it")
     twice = sorted({k for k in keys if keys.count(k) > 1} | (set(keys) & set(fixed)))
     if twice:
         raise UsageError(f"{twice[0]} is given twice (in two --grid, or in --grid and --set or "
@@ -208,6 +211,10 @@ def settings(args):
     twice = [key for key in given if key in from_file]
     if twice:
         raise UsageError(f"{twice[0]} is given twice (in --config {path} and on the command line)")
+    images_only = [key for key in (*given, *from_file) if key.startswith("image.")]
+    if images_only:
+        raise UsageError(f"{images_only[0]} is a setting of graspjax detect (real depth images); "
+                         "a simulated run does not read it")
     base = preset(args.preset)
     try:
         config = override(base, {**from_file, **given})

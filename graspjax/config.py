@@ -611,6 +611,12 @@ def settings_file(path: str) -> dict[str, str]:
     return out
 
 
+def run_settings(config: Config) -> dict[str, Any]:
+    """A simulated run's settings by dotted name (its `config.json`): every key but the
+    real-image steps' (`image.*`), which a run never reads (and refuses to be given)."""
+    return {k: v for k, v in named_fields(config).items() if not k.startswith("image.")}
+
+
 def differences(config: Any, reference: Any) -> dict[str, Any]:
     """Dotted names and values where `config` differs from `reference`."""
     theirs = named_fields(reference)
@@ -653,34 +659,12 @@ def stack_configs(configs: list[Any]) -> Any:
 
 
 @_config
-class Config:
-    """Everything one run needs, addressed by dotted names (`--set align.window_px=10`)."""
-
-    method: Literal["paper", "highest-pca", "antipodal"] = "paper"  # the grasp method: the
-    # paper's double T-beam, or a baseline on the same worlds (`baseline`; docs/baselines.md)
-    camera: CameraConfig = CameraConfig()  # the tool camera
-    gripper: GripperConfig = GripperConfig()  # shared by the T-beam and the physics
-    detect: DetectorConfig = DetectorConfig()  # grasp point detection (paper 3.1)
-    align: AlignConfig = AlignConfig()  # end-tool alignment (paper 3.2)
-    sim: SimConfig = SimConfig()  # physics and grasp execution
-    layout: LayoutConfig = LayoutConfig()  # random scenes of the three setups
-    procedure: ProcedureConfig = ProcedureConfig()  # the grasping procedure
-    perception: PerceptionConfig = PerceptionConfig()  # what the method sees and knows
-    baseline: BaselineConfig = BaselineConfig()  # the other grasp methods' settings
-
-    def __post_init__(self):
-        _require(self.method in METHODS,
-                 f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
-        _require(self.detect.grasp_depth <= self.gripper.finger_length,
-                 "detect.grasp_depth must be <= gripper.finger_length")
-
-
-@_config
 class RealImageConfig:
     """Real depth images (`graspjax detect`): working views, support plane, robust targets.
 
-    Not part of `Config`: a simulated camera looks straight down at a clean
-    table. `graspjax detect` addresses these fields as `--set image.NAME=VALUE`.
+    `Config.image`, read by `graspjax detect` alone (a simulated camera looks straight down at
+    a clean table; a run or sweep refuses `image.*` settings). `graspjax detect` addresses
+    these fields as `--set image.NAME=VALUE`.
     The depth band of the hole filling and of the speck test is the
     detector's `surface_tolerance`.
     """
@@ -769,6 +753,30 @@ class RealImageConfig:
 
 
 # ---------------------------------------------------------------------------
+@_config
+class Config:
+    """Everything one run needs, addressed by dotted names (`--set align.window_px=10`)."""
+
+    method: Literal["paper", "highest-pca", "antipodal"] = "paper"  # the grasp method: the
+    # paper's double T-beam, or a baseline on the same worlds (`baseline`; docs/baselines.md)
+    camera: CameraConfig = CameraConfig()  # the tool camera
+    gripper: GripperConfig = GripperConfig()  # shared by the T-beam and the physics
+    detect: DetectorConfig = DetectorConfig()  # grasp point detection (paper 3.1)
+    align: AlignConfig = AlignConfig()  # end-tool alignment (paper 3.2)
+    sim: SimConfig = SimConfig()  # physics and grasp execution
+    layout: LayoutConfig = LayoutConfig()  # random scenes of the three setups
+    procedure: ProcedureConfig = ProcedureConfig()  # the grasping procedure
+    perception: PerceptionConfig = PerceptionConfig()  # what the method sees and knows
+    baseline: BaselineConfig = BaselineConfig()  # the other grasp methods' settings
+    image: RealImageConfig = RealImageConfig()  # real depth images (`graspjax detect` only)
+
+    def __post_init__(self):
+        _require(self.method in METHODS,
+                 f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        _require(self.detect.grasp_depth <= self.gripper.finger_length,
+                 "detect.grasp_depth must be <= gripper.finger_length")
+
+
 # What each key means: the comments of the fields, read from this source
 
 

@@ -28,7 +28,7 @@ from graspjax.batch.plan import Group, Job, chunks, default_batch, plan, share
 from graspjax.batch.program import program
 from graspjax.batch.rows import RunColumns, attempt_rows, round_rows
 from graspjax.batch.schedule import run_chunks
-from graspjax.config import Config, differences
+from graspjax.config import Config, differences, run_settings
 from graspjax.disk import jsonable, write_atomic
 from graspjax.outputs import RunFolder, check_output_folder, remove_own_files, run_id, writing
 from graspjax.provenance import provenance
@@ -36,7 +36,6 @@ from graspjax.runtime.compiles import trace_workers
 from graspjax.runtime.distributed import barrier
 from graspjax.runtime.distributed import process as process_of_run
 from graspjax.runtime.players import Assignment, Helper, cores_of, kept_to
-from graspjax.tree import named_fields
 
 
 def progress_bar(total: int, quiet: bool, initial: int = 0, unit: str = "attempt",
@@ -146,7 +145,7 @@ def run_meta(experiment: Experiment, batch: int) -> dict:
             "config_file": experiment.config_file,
             "grid": {k: [p[0][k] for p in experiment.points] for k in experiment.keys},
             "points": len(experiment.points),
-            "config": named_fields(experiment.base),
+            "config": run_settings(experiment.base),
             "batch": batch, "deterministic": experiment.deterministic,
             "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": experiment.save_views,
             **provenance()}
@@ -345,7 +344,7 @@ def plane_study(jobs: list[Job], base: Config, points: list[tuple[dict[str, str]
         meta = {"seed": seed, "preset": preset, "jobs": [dataclasses.asdict(j) for j in jobs],
                 "overrides": differences(base, Config()), "config_file": config_file,
                 "grid": grid, "batch": batch,
-                "config": named_fields(base), "timings": timings, **provenance()}
+                "config": run_settings(base), "timings": timings, **provenance()}
         write_atomic(out / "planes.csv.gz",
                      gzip.compress(rows.to_csv(index=False).encode(), mtime=0))
         outputs = plane_outputs(rows, meta)

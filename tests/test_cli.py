@@ -353,6 +353,24 @@ def test_config_lists_every_key_with_each_preset_s_default(capsys):
     assert record["defaults"] == {"paper": False, "realistic": True} and record["kind"] == "traced"
 
 
+def test_real_image_settings_are_config_s_and_a_simulated_run_refuses_them(tmp_path, capsys):
+    """`Config.image` holds `graspjax detect`'s real-image settings: `graspjax config` lists them
+    and `--set image.*` reaches them; a run or sweep, which never reads them, refuses them in one
+    line and writes nothing."""
+    from graspjax.config import Config, RealImageConfig, override
+
+    assert override(Config(), ["image.top_k=3"]).image == RealImageConfig(top_k=3)
+    assert main(["config", "image.top_k"]) == 0
+    assert capsys.readouterr().out.splitlines()[1].split()[:3] == ["image.top_k", "1", "1"]
+    job = ["--setup", "1", "--objects", "a", "--trials", "1", "--out", str(tmp_path / "run")]
+    for args in (["run", *job, "--set", "image.top_k=3"],
+                 ["sweep", *job, "--grid", "image.top_k=1,3"]):
+        assert main(args) == 2
+        err = capsys.readouterr().err.strip()
+        assert "image.top_k" in err and "graspjax detect" in err and len(err.splitlines()) == 1
+        assert not (tmp_path / "run").exists()
+
+
 def test_config_with_an_unknown_prefix_is_one_line_and_exit_2(capsys):
     assert main(["config", "algn."]) == 2
     captured = capsys.readouterr()

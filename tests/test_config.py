@@ -19,6 +19,7 @@ from graspjax.config import (
     override,
     parse_assignments,
     preset,
+    run_settings,
     stack_configs,
 )
 from graspjax.tree import named_fields
@@ -217,7 +218,7 @@ def test_the_reference_results_are_the_presets():
     for folder in folders:
         meta = json.loads((folder / "config.json").read_text())
         assert meta["grid"] == {}, folder
-        expected = json.loads(json.dumps(named_fields(preset(meta["preset"]))))
+        expected = json.loads(json.dumps(run_settings(preset(meta["preset"]))))
         assert meta["config"] == expected, (folder, differences_of(meta["config"], expected))
 
 

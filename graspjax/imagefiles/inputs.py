@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import typing
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -146,8 +145,11 @@ class Inputs:
     roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
     camera_pose: np.ndarray | None  # (4, 4) camera to world (`readers.load_camera_pose`), or None
-    config: Config
-    image: RealImageConfig
+    config: Config  # `image`: its real-image steps' settings (`Config.image`)
+
+    @property
+    def image(self) -> RealImageConfig:
+        return self.config.image
 
     def read(self, path: Path) -> tuple[np.ndarray, Camera, str]:
         """One image at full resolution: its depth (H, W), its camera and where its
@@ -177,27 +179,14 @@ class Inputs:
         return (np.asarray(pixel, np.float64) + 0.5) * self.reduction - 0.5
 
 
-def _settings_type():
-    """`Config`'s sections plus `image`, so that `--set` names and suggestions cover both."""
-    hints = typing.get_type_hints(Config)
-    fields = [(f.name, hints[f.name], dataclasses.field(default=getattr(Config(), f.name)))
-              for f in dataclasses.fields(Config)]
-    fields.append(("image", RealImageConfig, dataclasses.field(default=RealImageConfig())))
-    return dataclasses.make_dataclass("DetectSettings", fields, frozen=True)
-
-
-_Settings = _settings_type()
-
-
 def split_overrides(items: Sequence[str]) -> tuple[Config, RealImageConfig]:
     """Settings by dotted name: `image.NAME=V` for `RealImageConfig`, the rest for `Config`;
     applied in order, a later item replacing an earlier one (the user's `--set` over the
     preset's)."""
-    settings = _Settings()
+    config = Config()
     for item in items:
-        settings = override(settings, [item])
-    config = Config(**{f.name: getattr(settings, f.name) for f in dataclasses.fields(Config)})
-    return config, settings.image
+        config = override(config, [item])
+    return config, config.image
 
 
 def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
@@ -357,9 +346,9 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
                     width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
                     workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,
-                    mask=mask, config=config,
-                    camera_pose=None if camera_pose is None else load_camera_pose(camera_pose),
-                    image=dataclasses.replace(image, bin=image.bin or bin))
+                    mask=mask, camera_pose=None if camera_pose is None else load_camera_pose(camera_pose),
+                    config=dataclasses.replace(config, image=dataclasses.replace(
+                        image, bin=image.bin or bin)))
     interiors = []
     for i, path in enumerate(paths):
         depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
