@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from graspjax.camera import Camera
-from graspjax.config import Config, RealImageConfig
+from graspjax.config import Config, RealImageConfig, for_device
 from graspjax.perception import align_tool, detect_grasp
 from graspjax.perception.support import known_support
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
@@ -45,6 +45,7 @@ def perception_benchmark(batch: int = 4096, width: int = 160, height: int = 120,
     """Images/s of detect_grasp + align_tool batched, and single-image latency after compile."""
     from graspjax.synthetic import random_scene, top_down_pose
 
+    config = for_device(config, jax.default_backend())  # the settings of the device it runs on
     camera = Camera.kinect(width, height)
     rng = np.random.default_rng(seed)
     progress(f"rendering {unique} random scenes at {width}x{height} ...")
@@ -155,6 +156,7 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     """
     from graspjax.imagefiles.batches import detect_batch, detect_single, stack_cameras
 
+    config = for_device(config, jax.default_backend())  # the settings of the device it runs on
     progress(f"rendering {unique} real-looking scenes at {width}x{height} ...")
     camera, workspace, scenes = detect_workload(width, height, unique, seed)
     depth = jnp.asarray(scenes[np.arange(batch) % unique])

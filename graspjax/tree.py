@@ -37,7 +37,7 @@ def concat_trees(*trees):
 def map_where(fn, where: jax.Array, chunk: int | None, fill, *xs):
     """`fn` over the entries of `xs` (each (N, ...)) where `where` (N,) bool holds, and `fill` (a
     tree of (N, ...) arrays of `fn`'s result's shapes and dtypes) elsewhere. `fn` maps (M, ...) inputs to a
-    tree of (M, ...) results. With a `chunk` (`cpu_chunk`), only the kept entries are computed,
+    tree of (M, ...) results. With a `chunk` (`detect.checks_in_chunks`), only the kept entries are computed,
     `chunk` at a time: a loop over chunks of their indices while any is left (one image's count;
     a batch's loop lasts as long as its longest); with None, every entry at once, no loop."""
     n = where.shape[0]
@@ -56,15 +56,6 @@ def map_where(fn, where: jax.Array, chunk: int | None, fill, *xs):
             lambda whole, new: whole.at[index].set(new, mode="drop"), out, part)
 
     return jax.lax.while_loop(lambda state: state[0] < count, step, (jnp.int32(0), fill))[1]
-
-
-def cpu_chunk(chunk: int) -> int | None:
-    """`map_where`'s chunk for JAX's default backend (where a function is jitted and run unless
-    placed elsewhere): `chunk` on a CPU, where the work skipped is time saved; None elsewhere (a
-    GPU computes every entry at once, and each loop step costs a launch and a host sync: an
-    H200's batch of 1,024 images ran 4-7 % slower with the loop;
-    results/benchmarks/detect_checked_only)."""
-    return chunk if jax.default_backend() == "cpu" else None
 
 
 def named_fields(obj: Any, prefix: str = "") -> dict[str, Any]:

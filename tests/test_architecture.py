@@ -138,6 +138,33 @@ def test_only_privates_swaps_stdout():
     assert offenders == []
 
 
+def test_no_kernel_reads_the_backend_it_is_traced_for():
+    """What depends on the device is a static setting chosen where a program is built
+    (`config.for_device`), never read from JAX's backend while a kernel is traced: one image's
+    and one world's modules, the procedure and the pytree helpers never ask for it."""
+    kernels = [name for name in MODULES if name.split(".")[0] in
+               ("perception", "sim", "procedure", "synthetic", "tree", "geometry", "camera")]
+    assert len(kernels) > 20
+    offenders = [name for name in kernels if "default_backend" in MODULES[name].read_text()]
+    assert offenders == []
+
+
+def test_a_program_s_device_chooses_how_placements_are_checked():
+    """`for_device`: a CPU's programs check placements in chunks (as set), any other device's
+    all at once; a setting of False stays False everywhere."""
+    import dataclasses
+
+    from graspjax.config import Config, for_device
+
+    config = Config()
+    assert config.detect.checks_in_chunks and for_device(config, "cpu") is config
+    assert not for_device(config, "gpu").detect.checks_in_chunks
+    assert for_device(config, "gpu").align == config.align  # nothing else changes
+    off = dataclasses.replace(config, detect=dataclasses.replace(config.detect,
+                                                                 checks_in_chunks=False))
+    assert not for_device(off, "cpu").detect.checks_in_chunks
+
+
 def test_every_private_name_resolves_in_the_installed_versions():
     """Each name `privates.py` lists is found where it says, in the JAX and MJX installed (an
     upgrade that moves one fails here, not in a run)."""

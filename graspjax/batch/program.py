@@ -23,7 +23,7 @@ import numpy as np
 from jax.dtypes import canonicalize_dtype
 
 from graspjax.batch.plan import Group, WorldKey
-from graspjax.config import Config, stack_configs
+from graspjax.config import Config, for_device, stack_configs
 from graspjax.procedure import Record, RoundState, Views, WorldSpec, attempt, settle, start_round
 from graspjax.runtime import executables, exported
 from graspjax.sim.physics import WORLDS
@@ -172,7 +172,9 @@ class Program:
         np.put_along_axis(members, order, True, axis=1)
         used = sorted({w.point for w in padded})  # a chunk's points share their static values
         which = np.searchsorted(used, [w.point for w in padded])
-        config = jax.tree.map(lambda x: x[which], stack_configs([points[i] for i in used]))
+        platform = self.devices[0].platform  # the static settings of the device it runs on
+        config = jax.tree.map(lambda x: x[which], stack_configs(
+            [for_device(points[i], platform) for i in used]))
         return WorldSpec(seed=np.array([w.seed for w in padded], np.int32),
                          setup=np.array([w.setup for w in padded], np.int32),
                          trial=np.array([w.trial for w in padded], np.int32),

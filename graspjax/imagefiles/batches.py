@@ -17,6 +17,7 @@ import jax
 import numpy as np
 
 from graspjax.camera import Camera
+from graspjax.config import for_device
 from graspjax.imagefiles.inputs import Inputs
 from graspjax.perception.real_image import RealImageDetection, detect_real_image
 
@@ -70,7 +71,7 @@ def detect_files(inputs: Inputs, batch: int | None = None,
     """
     batch = max(1, min(batch or default_image_batch(), len(inputs.paths)))
     own = inputs.bins is not None
-    settings = (inputs.config, inputs.image)
+    settings = (for_device(inputs.config, jax.default_backend()), inputs.image)  # this device's
 
     def detect(depths, workspace, cameras):
         """depths (B, H, W), the workspace (H, W) or each image's (B, H, W), B `Camera`s: the

@@ -50,7 +50,7 @@ from graspjax.codes import GraspReason
 from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
 from graspjax.perception.placements import sample_nearest
-from graspjax.tree import cpu_chunk, map_where, pytree_dataclass
+from graspjax.tree import map_where, pytree_dataclass
 
 
 @pytree_dataclass
@@ -203,13 +203,13 @@ def check_jaws_where(placed: jax.Array, depth: jax.Array, camera: Camera, center
                      detect: DetectorConfig, gripper: GripperConfig, image: RealImageConfig
                      ) -> JawCheck:
     """`check_jaws` on the grasps (centres, axes (N, 3), widths (N,)) where `placed` (N,) bool,
-    on a CPU `_JAW_CHUNK` at a time (`tree.cpu_chunk`; a target often has fewer placements than
-    are checked); elsewhere reason -1 and nan."""
+    `_JAW_CHUNK` at a time with `detect.checks_in_chunks` (a CPU's programs: a target often
+    has fewer placements than are checked), else all at once; elsewhere reason -1 and nan."""
     n = placed.shape[0]
     nan = jnp.full(n, jnp.nan, jnp.float32)
     return map_where(
         jax.vmap(lambda c, a, w: check_jaws(depth, camera, c, a, approach, w, detect, gripper, image)),
-        placed, cpu_chunk(_JAW_CHUNK),
+        placed, _JAW_CHUNK if detect.checks_in_chunks else None,
         JawCheck(reason=jnp.full(n, -1, jnp.int32), depth=nan, clearance=nan, landing=nan,
                  contact_width=nan, unknown=nan),
         center, axis, width)

@@ -18,7 +18,7 @@ from graspjax.codes import GraspReason, names
 from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.contour import Edges
 from graspjax.perception.reasons import furthest_reason
-from graspjax.tree import cpu_chunk, map_where, pytree_dataclass
+from graspjax.tree import map_where, pytree_dataclass
 
 
 @pytree_dataclass
@@ -128,15 +128,16 @@ def check_placements(depth: jax.Array, valid: jax.Array, cluster: jax.Array, z_s
 
     Returns each placement's `GraspReason` `(...)` (the first check it fails, in stage order)
     and the finger-tip depth it can reach below the surface `(...)` (m; nan where not
-    admissible). On a CPU only the admissible placements are checked, `_CHECK_CHUNK` at a time
-    (`tree.cpu_chunk`; most of a T-beam's edge pairs do not face each other).
+    admissible). With `config.checks_in_chunks` (a CPU's programs) only the admissible
+    placements are checked, `_CHECK_CHUNK` at a time (most of a T-beam's edge pairs do not face
+    each other); else all at once.
     """
     below_surface = jnp.where(valid, depth - z_s, jnp.inf)  # free depth under the top (H, W)
     edge = jnp.max(jnp.where(cluster, depth, -jnp.inf)) - z_s  # the band's edge below its mean
     n = c.size
     reason, reach = map_where(
         lambda g, a, w: _check(below_surface, edge, cluster, z_s, camera, g, a, w, config, gripper),
-        admissible.reshape(-1), cpu_chunk(_CHECK_CHUNK),
+        admissible.reshape(-1), _CHECK_CHUNK if config.checks_in_chunks else None,
         (jnp.full(n, GraspReason.NO_ANTIPODAL, jnp.int32), jnp.full(n, jnp.nan, jnp.float32)),
         g_xy.reshape(-1, 2), axis.reshape(-1, 2), c.reshape(-1))
     return reason.reshape(c.shape), reach.reshape(c.shape)
