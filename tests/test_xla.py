@@ -88,12 +88,12 @@ def test_the_compile_cache_is_created_private_and_refused_when_others_may_write_
 
 
 def test_a_store_in_the_cache_that_others_may_write_is_refused_before_it_is_read(tmp_path):
-    """`disk.store`, which every read of the exported programs and resting poses goes through,
-    checks the cache and the store folder each time; `disk.keep` creates both private."""
+    """`stores.store`, which every read of the exported programs and resting poses goes through,
+    checks the cache and the store folder each time; `stores.keep` creates both private."""
     import jax
 
-    from graspjax.disk import keep, store
     from graspjax.errors import InputError
+    from graspjax.runtime.stores import keep, store
 
     session = jax.config.jax_compilation_cache_dir
     jax.config.update("jax_compilation_cache_dir", str(tmp_path / "cache"))

@@ -14,7 +14,7 @@ import pandas as pd
 from graspjax.batch.plan import Group, Job, chunks, default_batch, plan
 from graspjax.batch.program import program
 from graspjax.config import Config
-from graspjax.disk import keep, store
+from graspjax.runtime.stores import keep, store
 
 
 @dataclasses.dataclass(frozen=True)

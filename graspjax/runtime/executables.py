@@ -27,7 +27,8 @@ import threading
 
 import jax
 
-from graspjax import disk, privates
+from graspjax import privates
+from graspjax.runtime import stores
 
 FORMAT = 1  # bump when the file layout changes
 # XLA flags that do not change what a single-device program compiles to (as in JAX's cache key)
@@ -77,7 +78,7 @@ def compile_on(lowered: jax.stages.Lowered, name: str | None, donate: tuple[int,
             try:
                 from jax.experimental.serialize_executable import serialize
 
-                disk.keep(path, FORMAT.to_bytes(4, "little") + serialize(compiled)[0])
+                stores.keep(path, FORMAT.to_bytes(4, "little") + serialize(compiled)[0])
             except (ValueError, NotImplementedError):  # an executable XLA cannot serialize
                 pass
         return compiled, "compiled"
@@ -101,7 +102,7 @@ def _load(path: pathlib.Path, lowered: jax.stages.Lowered, device: jax.Device
 
 def store() -> pathlib.Path | None:
     """The folder of executables: beside the compilation cache, None when that is off."""
-    return disk.store("executables")
+    return stores.store("executables")
 
 
 def _path(name: str | None, donate: tuple[int, ...], device: jax.Device) -> pathlib.Path | None:

@@ -26,8 +26,9 @@ from collections.abc import Callable
 
 import jax
 
-from graspjax import disk, privates
+from graspjax import privates
 from graspjax.provenance import source_digest
+from graspjax.runtime import stores
 
 FORMAT = 1  # bump when the file layout below changes
 _PACKAGES = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy")
@@ -83,7 +84,7 @@ class Portable:
 
 def store() -> pathlib.Path | None:
     """The folder of exported programs: beside the compilation cache, None when that is off."""
-    return disk.store("exported")
+    return stores.store("exported")
 
 
 def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = None) -> Portable:
@@ -111,7 +112,7 @@ def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = No
     with _one_source_line():
         program = jax.export.export(jax.jit(flat))(*in_leaves)
     if path is not None:
-        disk.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
+        stores.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start,
                     None if path is None else path.stem)
 

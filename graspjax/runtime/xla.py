@@ -12,8 +12,8 @@ import re
 def compilation_cache() -> None:
     """Keep compiled programs across runs (set GRASPJAX_CACHE=0 to switch off), in a folder
     created private (mode 0700); one that others may write or another user owns is refused
-    before anything is read from it (`disk.check_cache`: what it holds runs as code)."""
-    from graspjax.disk import check_cache
+    before anything is read from it (`stores.check_cache`: what it holds runs as code)."""
+    from graspjax.runtime.stores import check_cache
 
     folder = os.environ.get("GRASPJAX_CACHE", os.path.expanduser("~/.cache/graspjax/jax"))
     if folder in ("0", "off", ""):

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graspjax.disk import keep, store
+from graspjax.runtime.stores import keep, store
 
 
 @dataclasses.dataclass(frozen=True)
