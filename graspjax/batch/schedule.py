@@ -1,5 +1,5 @@
-"""The chunks of a run played on every local device: which chunk a device takes next, and
-each finished chunk's result on the host.
+"""The chunks of a run played on every local device (`runtime.devices`): which chunk a device
+takes next, and each finished chunk's result on the host.
 
 The groups' programs (`program.py`) compile in the background (`runtime/compiles.py`); the next
 chunk is the first in plan order whose program is ready, so the device runs one group while
@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
-import queue
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -22,7 +21,8 @@ from graspjax.batch.plan import Chunk, Group, chunks
 from graspjax.batch.program import ChunkViews, Program, program
 from graspjax.config import Config
 from graspjax.procedure import Record
-from graspjax.runtime.compiles import start_compiles, take_ready
+from graspjax.runtime.compiles import start_compiles
+from graspjax.runtime.devices import play_on_devices
 from graspjax.sim.objects import OBJECTS
 
 
@@ -102,35 +102,10 @@ def run_chunks(groups: list[Group], points: list[Config], batch: int, done: set[
             for prog in programs.values():
                 for device in range(len(devices)):
                     players.ready(prog, device)
-        waiting = heaviest_first(todo, groups)
-        finished: queue.Queue = queue.Queue()  # (result or error, device) as chunks end
-        stop = threading.Event()
-        handled = [threading.Semaphore(1) for _ in devices]  # views kept: the caller is done
-
-        threads = [threading.Thread(target=players.device_loop, daemon=True, name=f"device {d}",
-                                    args=(d, waiting, finished, stop,
-                                          handled[d] if keep_views else None))
-                   for d in range(len(devices))]
-        for thread in threads:
-            thread.start()
-        try:
-            running = len(threads)
-            while running:
-                result, device = finished.get()
-                if result is None:
-                    running -= 1
-                    continue
-                if isinstance(result, BaseException):
-                    raise result
-                yield result
-                if keep_views:
-                    handled[device].release()
-        finally:
-            stop.set()
-            for semaphore in handled:
-                semaphore.release()
-            for thread in threads:
-                thread.join()
+        yield from play_on_devices(
+            heaviest_first(todo, groups), len(devices),
+            lambda chunk, device: players.copy_of(programs[chunk.group], device), players.play,
+            players.lock, one_at_a_time=keep_views)
 
 
 class _Players:
@@ -175,25 +150,6 @@ class _Players:
                          f"compiled in {prog.compile_s:.1f} s")
                 self.pending.pop(id(prog), None)
                 self.tell()
-
-    def device_loop(self, device: int, waiting: list[Chunk], finished: queue.Queue,
-                    stop: threading.Event, handled: threading.Semaphore | None) -> None:
-        """One device's thread: the next ready chunk of `waiting` played, its result (or the
-        error that stopped it) put on `finished`, until none is left or `stop`; then None.
-        With views kept, each chunk waits for `handled`: the caller is done with its last."""
-        while True:
-            if handled is not None:
-                handled.acquire()
-            chunk = take_ready(waiting, lambda c: self.copy_of(self.programs[c.group], device),
-                               self.lock, stop)
-            if chunk is None:
-                break
-            try:
-                finished.put((self.play(chunk, device), device))
-            except BaseException as error:  # handed to the caller, which raises it
-                finished.put((error, device))
-                break
-        finished.put((None, device))
 
     def counted(self, attempts: int) -> None:
         with self.lock:
