@@ -33,7 +33,9 @@ step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
   echo "== $folder: exit $code after $((SECONDS - start)) s"
   tail -n 2 "$folder.log"
   if [ "$code" -ne 0 ]; then return "$code"; fi
-  python3 -c "import sys; from graspjax.report.files import keep_attempts; keep_attempts(sys.argv[1])" \
+  # the rows as compact Parquet; a comparison of methods, like a parameter study, without the
+  # columns no comparison reads (schema.STUDY_OMITS)
+  python3 -c "import sys; from graspjax.report.files import keep_attempts; from graspjax.schema import STUDY_OMITS; keep_attempts(sys.argv[1], STUDY_OMITS if '/methods/' in sys.argv[1] else ())" \
     "$folder" || return 1
   gzip -f "$folder/rounds.csv" 2>/dev/null
   rm -f "$folder.log"

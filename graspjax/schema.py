@@ -79,9 +79,9 @@ WORLD_MAJOR = ["setup", "trial", "attempt_order", "object", "point"]  # each att
 STUDY_OMITS = ("rise_m", "jaw_opening_m", "finger_clearance_m", "target_gap_m", "segment_precision",
                "segment_recall", *(f"grasp_{name}_{axis}" for name in ("tcp", "approach", "closing")
                                    for axis in "xyz"))  # the measured columns a committed
-# parameter study leaves out of its kept rows (`keep_attempts(omit=...)`): the executed grasp's
-# pose and measurements, the target's gap and its segmentation, which neither its report nor
-# `experiments/realign_*.py` reads; its command gives them back (three quarters of its bytes)
+# parameter study or comparison of methods leaves out of its kept rows (`keep_attempts(omit=)`):
+# the executed grasp's pose and measurements, the target's gap and its segmentation, which
+# neither its report nor `experiments/realign_*.py` reads; its command gives them back
 LAYOUT_COLUMNS = ("touching_fraction", "near_fraction", "stacked", "min_face_gap_m",
                   "spread_m")  # rounds.csv:
 # the settled layout's statistics (`rows.round_rows`)
