@@ -31,7 +31,7 @@ from graspjax.batch.schedule import run_chunks
 from graspjax.config import Config, differences, run_settings
 from graspjax.disk import jsonable, write_atomic
 from graspjax.outputs import RunFolder, check_output_folder, remove_own_files, run_id, writing
-from graspjax.provenance import provenance
+from graspjax.provenance import process_age, provenance
 from graspjax.runtime.compiles import trace_workers
 from graspjax.runtime.distributed import barrier
 from graspjax.runtime.distributed import process as process_of_run
@@ -102,17 +102,6 @@ class RunResult:
     # kept), "rows" (the sorted attempts, rounds, timings), "report" (tables, figures)
 
 
-def _since_process_start() -> float | None:
-    """Seconds since this process started (Linux's /proc; None elsewhere): what the interpreter,
-    the imports and the devices' start took before a run began."""
-    try:
-        stat = Path("/proc/self/stat").read_text()
-        ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22, starttime, in clock ticks
-        return time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError, AttributeError):
-        return None
-
-
 def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite: bool = False,
         part: int = 0, parts: int = 1, quiet: bool = False, processes: int = 1,
         distributed: bool = False, compile_first: bool = False) -> RunResult:
@@ -158,7 +147,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     from graspjax.saved_views import ViewSaver
 
     clock = [time.perf_counter()]  # the ends of the run's phases (`RunResult.seconds`)
-    before = _since_process_start()
+    before = process_age()
 
     batch = experiment.batch or default_batch()
     configs, groups = _grouped(experiment)

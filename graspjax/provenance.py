@@ -2,7 +2,8 @@
 the git commit and whether the checkout had changes, when it is one), the devices, the host
 and the command line.
 
-Every run's `config.json`, every plane study's and every benchmark record carry it.
+Every run's `config.json`, every plane study's and every benchmark record carry it; a run's
+timings, how long its process ran before it began (`process_age`).
 """
 
 from __future__ import annotations
@@ -11,11 +12,13 @@ import contextlib
 import contextvars
 import functools
 import hashlib
+import os
 import pathlib
 import platform
 import shlex
 import subprocess
 import sys
+import time
 from importlib import metadata
 
 from graspjax.version import __version__
@@ -130,3 +133,14 @@ def device_line(record: dict) -> str:
     device = record["device"]
     return (f"device: {device['kind']} ({device['platform']}) x{device['count']}, "
             f"jax {record['versions']['jax']}")
+
+
+def process_age() -> float | None:
+    """Seconds since this process started (Linux's /proc; None elsewhere): what the interpreter,
+    the imports and the devices' start took before a run began."""
+    try:
+        stat = pathlib.Path("/proc/self/stat").read_text()
+        ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22, starttime, in clock ticks
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None

@@ -147,7 +147,7 @@ def test_a_run_s_before_phase_counts_from_the_interpreter_s_start():
     """`before` in a run's seconds: a process that sleeps 1.5 s at its start, then asks, has
     been running at least that long (and not minutes)."""
     code = ("import time; time.sleep(1.5); "
-            "from graspjax.experiment import _since_process_start as age; print(age())")
+            "from graspjax.provenance import process_age as age; print(age())")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
     assert 1.5 <= float(done.stdout) < 60
