@@ -1,0 +1,188 @@
+"""Organised point clouds in PCL's `.pcd` format: the points (H, W, 3) in the camera frame.
+
+A `.pcd` file (PCL's Point Cloud Data, version 0.7) is a text header (`FIELDS`, `SIZE`,
+`TYPE`, `COUNT`, `WIDTH`, `HEIGHT`, `POINTS`, `DATA`) followed by the points in one of three
+encodings: `ascii` (a line per point), `binary` (one packed record per point) or
+`binary_compressed` (the fields one after another, each for every point, the whole LZF
+compressed). An RGB-D driver or `pcl_ros` writes a camera's cloud organised: `HEIGHT` rows of
+`WIDTH` points, a point per pixel, NaN where the sensor saw nothing. Only such a cloud is a
+depth image; an unorganised one (`HEIGHT` 1) is refused. Every problem raises `InputError`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from graspjax.errors import InputError
+
+#: PCD's `TYPE` letter and `SIZE` in bytes -> the NumPy type of one value.
+_TYPES = {("F", 4): "f4", ("F", 8): "f8", ("I", 1): "i1", ("I", 2): "i2", ("I", 4): "i4",
+          ("I", 8): "i8", ("U", 1): "u1", ("U", 2): "u2", ("U", 4): "u4", ("U", 8): "u8"}
+_HEADER_KEYS = ("VERSION", "FIELDS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT",
+                "POINTS", "DATA")
+#: The longest header a file may have before `DATA` (a PCD header is a dozen short lines).
+_MAX_HEADER_BYTES = 1 << 16
+
+
+def lzf_decompress(data: bytes, size: int) -> bytes:
+    """The `size` bytes that liblzf's compressor turned into `data`.
+
+    The stream is a series of runs, each opened by a control byte `c`: below 32, the next
+    `c + 1` bytes are literal; otherwise a copy of `(c >> 5) + 2` bytes (the length 7 + 2 says
+    that one more byte adds to it) from `((c & 31) << 8) + next byte + 1` bytes back in the
+    output, which may overlap what it writes. Raises `ValueError` on a stream that does not
+    decode to exactly `size` bytes."""
+    out = bytearray(size)
+    ip = op = 0
+    end = len(data)
+    while ip < end:
+        ctrl = data[ip]
+        ip += 1
+        if ctrl < 32:
+            length = ctrl + 1
+            if ip + length > end or op + length > size:
+                raise ValueError("a literal run past the end")
+            out[op:op + length] = data[ip:ip + length]
+            ip += length
+            op += length
+            continue
+        length = ctrl >> 5
+        if length == 7:
+            if ip >= end:
+                raise ValueError("a truncated run length")
+            length += data[ip]
+            ip += 1
+        if ip >= end:
+            raise ValueError("a truncated back reference")
+        ref = op - ((ctrl & 0x1F) << 8) - data[ip] - 1
+        ip += 1
+        length += 2
+        if ref < 0 or op + length > size:
+            raise ValueError("a back reference outside the output")
+        if ref + length <= op:
+            out[op:op + length] = out[ref:ref + length]
+        else:  # overlapping: a repeated pattern, copied byte by byte
+            for k in range(length):
+                out[op + k] = out[ref + k]
+        op += length
+    if op != size:
+        raise ValueError(f"decoded {op} bytes, the header says {size}")
+    return bytes(out)
+
+
+def _header(raw: bytes, path: Path) -> tuple[dict[str, list[str]], int]:
+    """The header's entries (key -> its words) and the offset where the data begins."""
+    fields: dict[str, list[str]] = {}
+    offset = 0
+    while offset < min(len(raw), _MAX_HEADER_BYTES):
+        newline = raw.find(b"\n", offset)
+        if newline < 0:
+            break
+        line = raw[offset:newline].decode("ascii", "replace").strip()
+        offset = newline + 1
+        if not line or line.startswith("#"):
+            continue
+        key, *words = line.split()
+        if key.upper() not in _HEADER_KEYS:
+            raise InputError(f"{path}: not a PCD header line: {line[:40]!r}")
+        fields[key.upper()] = words
+        if key.upper() == "DATA":
+            return fields, offset
+    raise InputError(f"{path}: no PCD header ending in a DATA line")
+
+
+def _layout(fields: dict[str, list[str]], path: Path) -> tuple[np.dtype, int, int]:
+    """One point's record type (named fields, each of its `COUNT`), and the cloud's width and
+    height."""
+    missing = [k for k in ("FIELDS", "SIZE", "TYPE", "WIDTH", "DATA") if k not in fields]
+    if missing:
+        raise InputError(f"{path}: the PCD header lacks {', '.join(missing)}")
+    names = fields["FIELDS"]
+    counts = fields.get("COUNT", ["1"] * len(names))
+    if not len(names) == len(fields["SIZE"]) == len(fields["TYPE"]) == len(counts):
+        raise InputError(f"{path}: FIELDS, SIZE, TYPE and COUNT differ in length")
+    try:
+        width = int(fields["WIDTH"][0])
+        height = int(fields.get("HEIGHT", ["1"])[0])
+        sizes, counts = [int(s) for s in fields["SIZE"]], [int(c) for c in counts]
+    except (ValueError, IndexError):
+        raise InputError(f"{path}: WIDTH, HEIGHT, SIZE and COUNT must be integers") from None
+    parts = []
+    for k, (name, size, kind, count) in enumerate(
+            zip(names, sizes, fields["TYPE"], counts, strict=True)):
+        code = _TYPES.get((kind.upper(), size))
+        if code is None or count < 1:
+            raise InputError(f"{path}: field {name!r} has an unknown TYPE {kind} of SIZE {size}")
+        # padding fields are all named "_": each gets a name of its own
+        parts.append((name if name != "_" else f"_{k}", "<" + code, (count,) if count > 1 else ()))
+    if width < 1 or height < 1:
+        raise InputError(f"{path}: WIDTH and HEIGHT must be at least 1, got {width} x {height}")
+    return np.dtype(parts), width, height
+
+
+def _points(raw: bytes, encoding: str, record: np.dtype, count: int, path: Path) -> np.ndarray:
+    """The `count` points (records) of the data after the header, in the file's order."""
+    if encoding == "ascii":
+        try:
+            values = np.loadtxt(raw.decode("ascii").splitlines(), dtype=np.float64, ndmin=2)
+        except ValueError as exc:
+            raise InputError(f"{path}: unreadable ASCII points: {str(exc).splitlines()[0]}") from None
+        per_point = sum(max(1, int(np.prod(record[n].shape))) for n in record.names)
+        if values.shape != (count, per_point):
+            raise InputError(f"{path}: expected {count} lines of {per_point} values, got "
+                             f"{values.shape[0]} of {values.shape[1]}")
+        points = np.zeros(count, record)
+        column = 0
+        for name in record.names:
+            width = max(1, int(np.prod(record[name].shape)))
+            points[name] = values[:, column:column + width].reshape(points[name].shape)
+            column += width
+        return points
+    if encoding == "binary":
+        if len(raw) < count * record.itemsize:
+            raise InputError(f"{path}: {len(raw)} bytes of points, {count} points need "
+                             f"{count * record.itemsize}")
+        return np.frombuffer(raw, record, count)
+    if encoding == "binary_compressed":
+        if len(raw) < 8:
+            raise InputError(f"{path}: the compressed data lacks its sizes")
+        packed, unpacked = (int(s) for s in np.frombuffer(raw[:8], "<u4"))
+        if unpacked != count * record.itemsize or len(raw) < 8 + packed:
+            raise InputError(f"{path}: compressed sizes {packed} -> {unpacked} do not match "
+                             f"{count} points of {record.itemsize} bytes")
+        try:
+            flat = lzf_decompress(raw[8:8 + packed], unpacked)
+        except ValueError as exc:
+            raise InputError(f"{path}: corrupt LZF data ({exc})") from None
+        points = np.zeros(count, record)  # each field stored whole, one after another
+        offset = 0
+        for name in record.names:
+            field = record.fields[name][0]
+            points[name] = np.frombuffer(flat, field, count, offset)
+            offset += count * field.itemsize
+        return points
+    raise InputError(f"{path}: unknown PCD DATA encoding {encoding!r} (expected ascii, binary or "
+                     "binary_compressed)")
+
+
+def read_pcd(path: str | Path) -> np.ndarray:
+    """The organised cloud of a `.pcd` file: float32 (HEIGHT, WIDTH, 3), its x, y, z fields
+    (metres, the camera frame as the driver wrote it), NaN where a point is missing.
+    An unorganised cloud (`HEIGHT` 1), one without x, y and z, or a malformed file raises
+    `InputError`."""
+    path = Path(path)
+    raw = path.read_bytes()
+    fields, offset = _header(raw, path)
+    record, width, height = _layout(fields, path)
+    if height == 1:
+        raise InputError(f"{path}: an unorganised point cloud ({width} points in one row); a "
+                         "depth image needs the camera's organised cloud (HEIGHT rows of WIDTH)")
+    missing = [a for a in "xyz" if a not in record.names]
+    if missing:
+        raise InputError(f"{path}: the cloud has no {', '.join(missing)} field "
+                         f"(it has: {', '.join(record.names)})")
+    points = _points(raw[offset:], fields["DATA"][0].lower(), record, width * height, path)
+    xyz = np.stack([points[a].astype(np.float32) for a in "xyz"], axis=-1)
+    return xyz.reshape(height, width, 3)
