@@ -35,8 +35,10 @@ def _unproject(u, v, z, cam):
     return np.stack([(u - cam["cx"]) * z / cam["fx"], (v - cam["cy"]) * z / cam["fy"], z], -1)
 
 
-def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int = 0):
-    """(unit normal toward the camera, offset d: n . p + d = height) of the largest plane."""
+def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int = 0,
+                  tilt_deg: float = 45.0):
+    """(unit normal toward the camera, offset d: n . p + d = height) of the largest plane
+    within `tilt_deg` of facing the camera."""
     v, u = np.nonzero(workspace & (depth > 0) & np.isfinite(depth))
     points = _unproject(u, v, depth[v, u], cam)[:: max(1, len(u) // 20000)]
     rng = np.random.default_rng(seed)
@@ -48,7 +50,7 @@ def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int
             continue
         n /= np.linalg.norm(n)
         n = -n if n[2] > 0 else n  # toward the camera
-        if -n[2] < np.cos(np.deg2rad(45)):
+        if -n[2] < np.cos(np.deg2rad(tilt_deg)):
             continue
         count = int(np.sum(np.abs((points - a) @ n) < 0.005))
         if count > best_count:
@@ -57,14 +59,16 @@ def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int
 
 
 def judge(rec: dict, candidate: dict, column: float | None = None,
-          finger_offset: float = FINGER_OFFSET) -> tuple[bool, str]:
-    depth = np.load(rec["image"]).astype(np.float64).squeeze()
+          finger_offset: float = FINGER_OFFSET, tilt_deg: float = 45.0) -> tuple[bool, str]:
+    """Whether `candidate` straddles an object, and the numbers that say so; the support plane
+    the largest within `tilt_deg` of facing the camera."""
+    depth = _read(rec["image"])
     cam = rec["camera"]
     height, width = depth.shape
     workspace = np.zeros_like(depth, bool)
     roi = rec["workspace"]["roi"] or [0, 0, width, height]
     workspace[roi[1]:roi[3], roi[0]:roi[2]] = True
-    normal, offset = support_plane(depth, workspace, cam)
+    normal, offset = support_plane(depth, workspace, cam, tilt_deg=tilt_deg)
     centre = np.asarray(candidate["position"])
     axis = np.asarray(candidate["closing_axis"])
     h_centre = centre @ normal + offset
@@ -80,6 +84,13 @@ def judge(rec: dict, candidate: dict, column: float | None = None,
     ok = h_centre >= MIN_HEIGHT and all(d is None or d >= MIN_DROP for d in drops)
     text = f"centre {1000 * h_centre:.0f} mm up, fingers drop {_mm(drops)}"
     return ok, text + (f" (at the pixel: {_mm(at_pixel)})" if column is not None else "")
+
+
+def _read(path: str) -> np.ndarray:
+    """Metric depth (H, W) float64 of an .npy, or of an .npz's `depth`; nan = no depth."""
+    data = np.load(path)
+    depth = data["depth"] if Path(path).suffix == ".npz" else data
+    return np.asarray(depth, np.float64).squeeze()
 
 
 def _drop(centre_height: float, height: float | None) -> float | None:

@@ -6,7 +6,7 @@ import pytest
 
 from graspjax.camera import Camera
 from graspjax.errors import InputError
-from graspjax.imagefiles.clouds import lzf_decompress, read_pcd
+from graspjax.imagefiles.clouds import lzf_decompress, read_pcd, read_pcd_points
 from graspjax.imagefiles.readers import read_depth
 from graspjax.synthetic import analytic_depth, box, rot_x, top_down_pose
 
@@ -112,3 +112,13 @@ def test_a_folder_stands_for_its_pcd_clouds_too(tmp_path):
         (tmp_path / name).write_bytes(_pcd(xyz, "binary"))
     (tmp_path / "notes.txt").write_text("not an image")
     assert [p.name for p in expand_images([tmp_path])] == ["a.PCD", "b.pcd"]
+
+
+def test_every_field_of_the_points_is_read(tmp_path):
+    """`read_pcd_points` keeps the fields besides x, y, z (a segmentation's labels, colour)."""
+    _, xyz = _cloud()
+    (tmp_path / "c.pcd").write_bytes(_pcd(xyz, "binary_compressed"))
+    points = read_pcd_points(tmp_path / "c.pcd")
+    assert points.shape == (30, 40)
+    np.testing.assert_array_equal(points["label"], (np.arange(1200) % 7).reshape(30, 40))
+    np.testing.assert_array_equal(points["rgb"], 0.5)

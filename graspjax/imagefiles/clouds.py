@@ -167,11 +167,10 @@ def _points(raw: bytes, encoding: str, record: np.dtype, count: int, path: Path)
                      "binary_compressed)")
 
 
-def read_pcd(path: str | Path) -> np.ndarray:
-    """The organised cloud of a `.pcd` file: float32 (HEIGHT, WIDTH, 3), its x, y, z fields
-    (metres, the camera frame as the driver wrote it), NaN where a point is missing.
-    An unorganised cloud (`HEIGHT` 1), one without x, y and z, or a malformed file raises
-    `InputError`."""
+def read_pcd_points(path: str | Path) -> np.ndarray:
+    """Every field of every point of an organised `.pcd` file: a structured array (HEIGHT,
+    WIDTH) of the file's records (a padding field `_` named `_K`, K its position). An
+    unorganised cloud (`HEIGHT` 1) or a malformed file raises `InputError`."""
     path = Path(path)
     raw = path.read_bytes()
     fields, offset = _header(raw, path)
@@ -179,10 +178,17 @@ def read_pcd(path: str | Path) -> np.ndarray:
     if height == 1:
         raise InputError(f"{path}: an unorganised point cloud ({width} points in one row); a "
                          "depth image needs the camera's organised cloud (HEIGHT rows of WIDTH)")
-    missing = [a for a in "xyz" if a not in record.names]
+    points = _points(raw[offset:], fields["DATA"][0].lower(), record, width * height, path)
+    return points.reshape(height, width)
+
+
+def read_pcd(path: str | Path) -> np.ndarray:
+    """The organised cloud of a `.pcd` file: float32 (HEIGHT, WIDTH, 3), its x, y, z fields
+    (metres, the camera frame as the driver wrote it), NaN where a point is missing.
+    An unorganised cloud, one without x, y and z, or a malformed file raises `InputError`."""
+    points = read_pcd_points(path)
+    missing = [a for a in "xyz" if a not in points.dtype.names]
     if missing:
         raise InputError(f"{path}: the cloud has no {', '.join(missing)} field "
-                         f"(it has: {', '.join(record.names)})")
-    points = _points(raw[offset:], fields["DATA"][0].lower(), record, width * height, path)
-    xyz = np.stack([points[a].astype(np.float32) for a in "xyz"], axis=-1)
-    return xyz.reshape(height, width, 3)
+                         f"(it has: {', '.join(points.dtype.names)})")
+    return np.stack([points[a].astype(np.float32) for a in "xyz"], axis=-1)
