@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `graspjax detect --method paper|highest-pca|antipodal` on every development capture, both
-# presets, judged by experiments/judge_real_depth.py (issue 54): the 15 gqcnn captures of
+# presets, judged by experiments/judge_real_depth.py: the 15 gqcnn captures of
 # ../shared/real_depth/ with the workspace boxes its README suggests, and the 8 captures of
 # ../shared/real_depth/more/ (experiments/real_depth_more.py). Run from the repository root:
 #   bash experiments/compare_methods_real_depth.sh results/real_depth/methods [VARIANT ...]

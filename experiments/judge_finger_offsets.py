@@ -1,4 +1,4 @@
-"""How much the judge's verdicts rest on where it puts the finger places (issue 54).
+"""How much the judge's verdicts rest on where it puts the finger places.
 
     python experiments/judge_finger_offsets.py OFFSET[,OFFSET...] results.json ...
 

@@ -1,5 +1,5 @@
 """Judge `graspjax detect`'s ranked grasps on real captures, on the raw depth, independently of
-the detector's own code (issue 19's rule).
+the detector's own code.
 
 A grasp "straddles a real object" when its centre stands at least 8 mm above the support plane
 (fitted here by a RANSAC of our own on the workspace's raw pixels) and both finger places,

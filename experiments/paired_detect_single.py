@@ -2,7 +2,7 @@
 
     python3 experiments/paired_detect_single.py REVISION [TOP_K] [ROUNDS]
 
-Separate processes on a shared 2-core machine differ by more than most changes (stop 71: the
+Separate processes on a shared 2-core machine differ by more than most changes (once: the
 same code 15.5 and 17.6 ms in two processes). Here both versions are compiled in one process
 (REVISION's `graspjax/` exported by `git archive` and imported as `graspjax_rev`), and each of
 `graspjax bench detect`'s 64 scenes goes through both, in alternating order, ROUNDS times (3),
