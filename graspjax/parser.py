@@ -71,9 +71,9 @@ def add_detect_parser(sub):
                    help="depth images of one size: .npy (H, W) or (H, W, 1) in metres, .npz with "
                         "'depth' (m) and optionally 'K', or with an organised point cloud 'xyz' "
                         "(H, W, 3; m, camera frame; intrinsics fitted to it), a 16-bit .png or "
-                        ".tif (see --depth-scale), a float32 .tif in metres, an organised PCL "
-                        ".pcd cloud (read as 'xyz'); a directory stands for its .npy, .npz, "
-                        ".png, .tif, .tiff and .pcd files")
+                        ".tif (see --depth-scale), a float32 .tif in metres, an organised .pcd "
+                        "or .ply cloud (read as 'xyz'); a directory stands for its .npy, .npz, "
+                        ".png, .tif, .tiff, .pcd and .ply files")
     p.add_argument("--depth-scale", type=float, default=0.001,
                    help="metres per unit of a 16-bit .png or .tif (default 0.001: millimetres)")
     p.add_argument("--camera-pose", metavar="FILE",

@@ -1,12 +1,12 @@
-"""PCL `.pcd` clouds (`imagefiles/clouds.py`), against files written here by hand from a known
-cloud and LZF streams worked out by hand."""
+"""Organised clouds, PCL's `.pcd` and the PLY range grid (`imagefiles/clouds.py`), against
+files written here by hand from a known cloud and LZF streams worked out by hand."""
 
 import numpy as np
 import pytest
 
 from graspjax.camera import Camera
 from graspjax.errors import InputError
-from graspjax.imagefiles.clouds import lzf_decompress, read_pcd, read_pcd_points
+from graspjax.imagefiles.clouds import lzf_decompress, read_pcd, read_pcd_points, read_ply
 from graspjax.imagefiles.readers import read_depth
 from graspjax.synthetic import analytic_depth, box, rot_x, top_down_pose
 
@@ -72,6 +72,16 @@ def _pcd(xyz: np.ndarray, encoding: str, height: int | None = None) -> bytes:
     return header + np.array([len(stream), len(flat)], "<u4").tobytes() + stream
 
 
+def _each_refused_in_one_line(tmp_path, cases: dict[str, tuple[bytes, str]]) -> None:
+    """Each file (name -> its bytes, the words its refusal must hold) refused by `read_depth`
+    with one line."""
+    for name, (data, why) in cases.items():
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(InputError, match=why) as info:
+            read_depth(tmp_path / name)
+        assert "\n" not in str(info.value), name
+
+
 @pytest.mark.parametrize("encoding", ["ascii", "binary", "binary_compressed"])
 def test_organised_pcd_gives_the_cloud_its_depth_and_the_camera(tmp_path, encoding):
     camera, xyz = _cloud()
@@ -97,11 +107,7 @@ def test_unorganised_malformed_or_foreign_pcd_is_refused_in_one_line(tmp_path):
         "type.pcd": (_pcd(xyz, "binary").replace(b"TYPE U F F F U F", b"TYPE U F F F U Q"),
                      "unknown TYPE Q"),
     }
-    for name, (data, why) in cases.items():
-        (tmp_path / name).write_bytes(data)
-        with pytest.raises(InputError, match=why) as info:
-            read_depth(tmp_path / name)
-        assert "\n" not in str(info.value), name
+    _each_refused_in_one_line(tmp_path, cases)
 
 
 def test_a_folder_stands_for_its_pcd_clouds_too(tmp_path):
@@ -122,3 +128,81 @@ def test_every_field_of_the_points_is_read(tmp_path):
     assert points.shape == (30, 40)
     np.testing.assert_array_equal(points["label"], (np.arange(1200) % 7).reshape(30, 40))
     np.testing.assert_array_equal(points["rgb"], 0.5)
+
+
+def _ply(xyz: np.ndarray, form: str, grid: bool = True, info: bool = True) -> bytes:
+    """`xyz` as PCL's PLY writer leaves an organised cloud: `obj_info num_cols`/`num_rows`,
+    the valid points as vertices (x y z float, then a uchar `red`), an empty `face` element and
+    a `range_grid` listing each pixel's vertex (none where the point is NaN); or, with
+    `grid=False`, every pixel a vertex in row order."""
+    h, w = xyz.shape[:2]
+    flat = xyz.reshape(-1, 3)
+    valid = np.isfinite(flat).all(1) if grid else np.ones(len(flat), bool)
+    order = {"ascii": "<", "binary_little_endian": "<", "binary_big_endian": ">"}[form]
+    head = ["ply", f"format {form} 1.0", "comment written by hand"]
+    if info:
+        head += ["obj_info is_mesh 0", f"obj_info num_cols {w}", f"obj_info num_rows {h}"]
+    head += [f"element vertex {valid.sum()}", "property float x", "property float y",
+             "property float z", "property uchar red", "element face 0"]
+    if grid:
+        head += [f"element range_grid {h * w}", "property list uchar int vertex_indices"]
+    header = ("\n".join(head) + "\nend_header\n").encode()
+    index = np.cumsum(valid) - 1
+    if form == "ascii":
+        lines = [" ".join([*(repr(float(v)) for v in p), "7"]) for p in flat[valid]]
+        if grid:
+            lines += [f"1 {i}" if ok else "0" for ok, i in zip(valid, index, strict=True)]
+        return header + "\n".join(lines).encode() + b"\n"
+    record = np.dtype([("x", order + "f4"), ("y", order + "f4"), ("z", order + "f4"),
+                       ("red", "u1")])
+    vertices = np.zeros(valid.sum(), record)
+    for k, axis in enumerate("xyz"):
+        vertices[axis] = flat[valid, k]
+    body = vertices.tobytes()
+    if grid:
+        body += b"".join(b"\x01" + np.array([i], order + "i4").tobytes() if ok else b"\x00"
+                         for ok, i in zip(valid, index, strict=True))
+    return header + body
+
+
+@pytest.mark.parametrize("form", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_a_ply_range_grid_gives_the_cloud_at_its_pixels(tmp_path, form):
+    _, xyz = _cloud()
+    (tmp_path / "g.ply").write_bytes(_ply(xyz, form))
+    got = read_ply(tmp_path / "g.ply")
+    assert got.shape == (30, 40, 3) and got.dtype == np.float32
+    np.testing.assert_array_equal(got, xyz)  # NaN where the grid lists no vertex
+    (tmp_path / "all.ply").write_bytes(_ply(xyz, form, grid=False))
+    np.testing.assert_array_equal(read_ply(tmp_path / "all.ply"), xyz)
+    depth, k = read_depth(tmp_path / "g.ply")
+    np.testing.assert_allclose(k, [[50.0, 0, 19.25], [0, 45.0, 15.5], [0, 0, 1]], atol=2e-3)
+
+
+def test_a_ply_with_pcl_s_camera_element_takes_its_viewport_as_the_grid(tmp_path):
+    """PCL's writer with its camera: no obj_info, every pixel a vertex, and a `camera`
+    element whose `viewportx`/`viewporty` are the cloud's width and height."""
+    _, xyz = _cloud()
+    data = _ply(xyz, "ascii", grid=False, info=False).replace(
+        b"element face 0\n", b"element face 0\nelement camera 1\nproperty float focal\n"
+        b"property int viewportx\nproperty int viewporty\n")
+    (tmp_path / "cam.ply").write_bytes(data.rstrip(b"\n") + b"\n0 40 30\n")
+    np.testing.assert_array_equal(read_ply(tmp_path / "cam.ply"), xyz)
+
+
+def test_a_ply_without_its_grid_or_a_mesh_is_refused_in_one_line(tmp_path):
+    _, xyz = _cloud()
+    mesh = _ply(xyz, "ascii").replace(b"element face 0\n", b"element face 1\n"
+                                      b"property list uchar int vertex_indices\n")
+    cases = {
+        "flat.ply": (_ply(xyz, "binary_little_endian", info=False), "unorganised point cloud"),
+        "mesh.ply": (mesh, "'face' holds lists"),
+        "short.ply": (_ply(xyz, "binary_little_endian")[:-100], "does not match its header"),
+        "cut.ply": (_ply(xyz, "ascii", grid=False)[:-60], "does not match its header"),
+        "count.ply": (_ply(xyz, "ascii", grid=False).replace(b"num_rows 30", b"num_rows 31"),
+                      "vertices and no range_grid for a 40 x 31 grid"),
+        "format.ply": (_ply(xyz, "ascii").replace(b"format ascii", b"format utf8"),
+                       "unknown PLY format"),
+        "type.ply": (_ply(xyz, "ascii").replace(b"property float x", b"property half x"),
+                     "unreadable PLY header line"),
+    }
+    _each_refused_in_one_line(tmp_path, cases)

@@ -1,4 +1,5 @@
-"""Organised point clouds in PCL's `.pcd` format: the points (H, W, 3) in the camera frame.
+"""Organised point clouds, PCL's `.pcd` and the PLY range grid: the points (H, W, 3) in the
+camera frame.
 
 A `.pcd` file (PCL's Point Cloud Data, version 0.7) is a text header (`FIELDS`, `SIZE`,
 `TYPE`, `COUNT`, `WIDTH`, `HEIGHT`, `POINTS`, `DATA`) followed by the points in one of three
@@ -6,7 +7,15 @@ encodings: `ascii` (a line per point), `binary` (one packed record per point) or
 `binary_compressed` (the fields one after another, each for every point, the whole LZF
 compressed). An RGB-D driver or `pcl_ros` writes a camera's cloud organised: `HEIGHT` rows of
 `WIDTH` points, a point per pixel, NaN where the sensor saw nothing. Only such a cloud is a
-depth image; an unorganised one (`HEIGHT` 1) is refused. Every problem raises `InputError`.
+depth image; an unorganised one (`HEIGHT` 1) is refused.
+
+A `.ply` file (Stanford's polygon format) is organised when its header gives the grid as
+`obj_info num_cols W` and `obj_info num_rows H` (as PCL's PLY writer does for an organised
+cloud, Stanford's range scans before it), or a `camera` element gives it as `viewportx` and
+`viewporty` (PCL's writer with its camera): either an element `range_grid` of W x H entries,
+each a list of the one vertex seen at that pixel or of none, or a `vertex` element of exactly
+W x H points in row order. Anything else (an unorganised cloud, a mesh) is refused. Every problem
+raises `InputError`.
 """
 
 from __future__ import annotations
@@ -192,3 +201,125 @@ def read_pcd(path: str | Path) -> np.ndarray:
         raise InputError(f"{path}: the cloud has no {', '.join(missing)} field "
                          f"(it has: {', '.join(points.dtype.names)})")
     return np.stack([points[a].astype(np.float32) for a in "xyz"], axis=-1)
+
+
+#: PLY's property types -> NumPy's (without the byte order).
+_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2",
+              "int16": "i2", "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4",
+              "uint": "u4", "uint32": "u4", "float": "f4", "float32": "f4", "double": "f8",
+              "float64": "f8"}
+_PLY_ORDERS = {"ascii": "<", "binary_little_endian": "<", "binary_big_endian": ">"}
+
+
+def _ply_header(raw: bytes, path: Path) -> tuple[str, dict[str, int], list, int]:
+    """The format, the `obj_info` integers, the elements (name, count, [(property, type,
+    list count type or None)]) in file order, and the offset where the data begins."""
+    end = raw.find(b"end_header", 0, _MAX_HEADER_BYTES)
+    if not raw.startswith(b"ply") or end < 0:
+        raise InputError(f"{path}: not a PLY file (no 'ply' ... 'end_header' header)")
+    offset = raw.index(b"\n", end) + 1
+    form, info, elements = "", {}, []
+    for line in raw[:end].decode("ascii", "replace").splitlines()[1:]:
+        words = line.split()
+        if not words or words[0] == "comment":
+            continue
+        try:
+            if words[0] == "format":
+                form = words[1]
+            elif words[0] == "obj_info" and len(words) >= 3 and words[2].lstrip("-").isdigit():
+                info[words[1]] = int(words[2])
+            elif words[0] == "element":
+                elements.append((words[1], int(words[2]), []))
+            elif words[0] == "property" and words[1] == "list":
+                elements[-1][2].append((words[4], _PLY_TYPES[words[3]], _PLY_TYPES[words[2]]))
+            elif words[0] == "property":
+                elements[-1][2].append((words[2], _PLY_TYPES[words[1]], None))
+        except (IndexError, KeyError, ValueError):
+            raise InputError(f"{path}: an unreadable PLY header line: {line[:40]!r}") from None
+    if form not in _PLY_ORDERS:
+        raise InputError(f"{path}: unknown PLY format {form!r} (expected ascii, "
+                         "binary_little_endian or binary_big_endian)")
+    return form, info, elements, offset
+
+
+def _ply_elements(data: bytes, form: str, elements: list, path: Path) -> dict[str, object]:
+    """Each element's entries: a structured array (count,) for fixed-size ones, a list of
+    lists for `range_grid`, None for an empty element."""
+    order, out = _PLY_ORDERS[form], {}
+    words = iter(data.decode("ascii", "replace").split()) if form == "ascii" else None
+    offset = 0
+    for name, count, properties in elements:
+        lists = [p for p in properties if p[2] is not None]
+        if count == 0:
+            out[name] = None
+        elif not lists:
+            record = np.dtype([(p, order + kind) for p, kind, _ in properties])
+            if words is not None:
+                values = [next(words) for _ in range(count * len(properties))]
+                table = np.asarray(values, np.float64).reshape(count, len(properties))
+                out[name] = np.zeros(count, record)
+                for k, (p, _, _) in enumerate(properties):
+                    out[name][p] = table[:, k]
+            else:
+                if offset + count * record.itemsize > len(data):
+                    raise InputError(f"{path}: the PLY data ends inside element {name!r}")
+                out[name] = np.frombuffer(data, record, count, offset)
+                offset += count * record.itemsize
+        elif name == "range_grid" and len(properties) == 1:
+            _, kind, length = properties[0]
+            entries = []
+            for _ in range(count):
+                if words is not None:
+                    n = int(next(words))
+                    entries.append([int(next(words)) for _ in range(n)])
+                    continue
+                n = int(np.frombuffer(data, order + length, 1, offset)[0])
+                offset += np.dtype(length).itemsize
+                entries.append(np.frombuffer(data, order + kind, n, offset).tolist())
+                offset += n * np.dtype(kind).itemsize
+            out[name] = entries
+        else:
+            raise InputError(f"{path}: element {name!r} holds lists (a mesh?); expected an "
+                             "organised point cloud")
+    return out
+
+
+def read_ply(path: str | Path) -> np.ndarray:
+    """The organised cloud of a `.ply` file: float32 (rows, columns, 3), its vertices' x, y, z
+    at their pixels (a range grid's, or W x H vertices in row order), NaN where none. The grid
+    is the header's `obj_info num_cols` and `num_rows`, or the `viewportx` and `viewporty` of a
+    `camera` element (PCL's writer with its camera). A cloud without its grid, a mesh or a
+    malformed file raises `InputError`."""
+    path = Path(path)
+    raw = path.read_bytes()
+    form, info, elements, offset = _ply_header(raw, path)
+    try:
+        found = _ply_elements(raw[offset:], form, elements, path)
+    except (StopIteration, ValueError, TypeError):
+        raise InputError(f"{path}: the PLY data does not match its header") from None
+    width, height = info.get("num_cols", 0), info.get("num_rows", 0)
+    camera = found.get("camera")
+    if not width and camera is not None and {"viewportx", "viewporty"} <= set(camera.dtype.names):
+        width, height = int(camera["viewportx"][0]), int(camera["viewporty"][0])
+    if width < 1 or height < 2:
+        raise InputError(f"{path}: an unorganised point cloud (no 'obj_info num_cols' and "
+                         "'num_rows', nor a camera's viewport, in its header); a depth image "
+                         "needs the camera's organised cloud")
+    vertex = found.get("vertex")
+    if vertex is None or any(a not in vertex.dtype.names for a in "xyz"):
+        raise InputError(f"{path}: no vertex element with x, y and z")
+    xyz = np.stack([vertex[a].astype(np.float32) for a in "xyz"], -1)
+    grid = found.get("range_grid")
+    if grid is None:
+        if len(xyz) != width * height:
+            raise InputError(f"{path}: {len(xyz)} vertices and no range_grid for a {width} x "
+                             f"{height} grid")
+        return xyz.reshape(height, width, 3)
+    if len(grid) != width * height:
+        raise InputError(f"{path}: a range_grid of {len(grid)} entries for a {width} x "
+                         f"{height} grid")
+    index = np.array([entry[0] if entry else -1 for entry in grid])
+    if index.max(initial=-1) >= len(xyz):
+        raise InputError(f"{path}: the range_grid names a vertex past the {len(xyz)} there are")
+    cloud = np.where((index >= 0)[:, None], xyz[np.maximum(index, 0)], np.float32(np.nan))
+    return cloud.reshape(height, width, 3).astype(np.float32)

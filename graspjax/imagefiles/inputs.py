@@ -36,7 +36,7 @@ from graspjax.imagefiles.resolution import (
 )
 from graspjax.perception.workspace import block_factors
 
-DEPTH_SUFFIXES = (".npy", ".npz", ".png", ".tif", ".tiff", ".pcd")
+DEPTH_SUFFIXES = (".npy", ".npz", ".png", ".tif", ".tiff", ".pcd", ".ply")
 #: The full opening angle (degrees) along each axis that intrinsics may give the images. Depth
 #: cameras for grasping see from about 20 degrees (long-range structured-light scanners) to
 #: about 120 (wide time-of-flight modes), and a pinhole model holds nothing near 180; 5-150

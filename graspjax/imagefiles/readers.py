@@ -5,7 +5,7 @@ Depth: `.npy` (H, W) or (H, W, 1) in metres; a 16-bit `.png` in units of
 16-bit units of `depth_scale`; `.npz` holding `depth` (metres) and optionally `K`
 (3x3), the Contact-GraspNet convention, or an organised point cloud `xyz`
 (H, W, 3) in the camera frame, whose intrinsics are fitted to its points; an organised PCL
-`.pcd` cloud (`clouds.read_pcd`), read the same way.
+`.pcd` cloud or PLY range grid (`clouds.read_pcd`, `clouds.read_ply`), read the same way.
 Intrinsics: a JSON file with fx, fy, cx, cy (or a 3x3 `K`, or Open3D's
 `intrinsic_matrix`), a gqcnn `.intr` (JSON with _fx, _fy, _cx, _cy, _width,
 _height), a ROS `camera_info` `.yaml`/`.yml`, or a 3x3 matrix in `.npy`/`.txt`.
@@ -117,8 +117,9 @@ def read_depth(path: str | os.PathLike, depth_scale: float = 0.001
     (metres per unit); `.tif`/`.tiff` float32 (mode F) in metres or 16-bit times
     `depth_scale`; `.npz` with `depth` in metres and optionally `K`, or with an organised
     point cloud `xyz` (H, W, 3) in metres in the camera frame: depth is its z and K, unless
-    the file holds one, is fitted to its points (`fit_intrinsics`); an organised `.pcd` cloud
-    (`clouds.read_pcd`) likewise. 0 and nan mark invalid pixels. Raises `InputError` for anything else.
+    the file holds one, is fitted to its points (`fit_intrinsics`); an organised `.pcd` or
+    `.ply` cloud (`clouds.read_pcd`, `clouds.read_ply`) likewise. 0 and nan mark invalid
+    pixels. Raises `InputError` for anything else.
     """
     path = Path(path)
     _existing_file(path, "a depth image")
@@ -167,20 +168,16 @@ def read_depth(path: str | os.PathLike, depth_scale: float = 0.001
         else:
             raise InputError(f"{path}: expected a single-channel TIFF of float32 metres or 16-bit "
                              f"depth, got mode {mode} ({data.dtype})")
-    elif suffix == ".pcd":
-        from graspjax.imagefiles.clouds import read_pcd
+    elif suffix in (".pcd", ".ply"):
+        from graspjax.imagefiles.clouds import read_pcd, read_ply
 
-        xyz = read_pcd(path)
+        xyz = (read_pcd if suffix == ".pcd" else read_ply)(path)
         depth = xyz[..., 2]
         matrix = fit_intrinsics(xyz, f"{path}: its points")
-    elif suffix == ".ply":
-        raise InputError(f"{path}: .ply point clouds are not read (a PLY holds no pixel grid); "
-                         "save the organised cloud as a .pcd, or as an .npz holding 'xyz' "
-                         "(H, W, 3), metres, camera frame")
     else:
         raise InputError(f"unknown depth format {suffix or '(none)'!r} for {path} "
                          "(expected .npy or .npz in metres, a 16-bit .png, a float32 or "
-                         "16-bit .tif, or an organised .pcd cloud)")
+                         "16-bit .tif, or an organised .pcd or .ply cloud)")
     return check_depth(depth, str(path)), matrix
 
 
