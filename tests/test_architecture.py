@@ -19,7 +19,7 @@ LAYERS = [
     ("one image, one world", ["perception", "perception.*", "sim", "sim.*", "synthetic",
                               "graspjax"]),
     ("the procedure; real-image inputs", ["procedure", "procedure.*", "imagefiles", "imagefiles.inputs",
-                                          "imagefiles.resolution", "imagefiles.readers",
+                                          "imagefiles.resolution", "imagefiles.readers", "imagefiles.clouds",
                                           "imagefiles.bins"]),
     ("batches", ["batch", "batch.*", "imagefiles.batches", "imagefiles.records"]),
     ("studies, files, reports, benchmarks", ["planes", "saved_views", "figures.views", "figures.report",
