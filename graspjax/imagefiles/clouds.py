@@ -187,7 +187,8 @@ def read_pcd_points(path: str | Path) -> np.ndarray:
     if height == 1:
         raise InputError(f"{path}: an unorganised point cloud ({width} points in one row); a "
                          "depth image needs the camera's organised cloud (HEIGHT rows of WIDTH)")
-    points = _points(raw[offset:], fields["DATA"][0].lower(), record, width * height, path)
+    encoding = fields["DATA"][0].lower() if fields["DATA"] else ""
+    points = _points(raw[offset:], encoding, record, width * height, path)
     return points.reshape(height, width)
 
 
@@ -217,7 +218,8 @@ def _ply_header(raw: bytes, path: Path) -> tuple[str, dict[str, int], list, int]
     end = raw.find(b"end_header", 0, _MAX_HEADER_BYTES)
     if not raw.startswith(b"ply") or end < 0:
         raise InputError(f"{path}: not a PLY file (no 'ply' ... 'end_header' header)")
-    offset = raw.index(b"\n", end) + 1
+    newline = raw.find(b"\n", end)
+    offset = len(raw) if newline < 0 else newline + 1
     form, info, elements = "", {}, []
     for line in raw[:end].decode("ascii", "replace").splitlines()[1:]:
         words = line.split()
