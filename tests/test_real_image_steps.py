@@ -240,9 +240,15 @@ def test_support_is_the_table_even_under_a_larger_top_face(support):
 
 def test_support_plane_failures_are_reasons(support):
     assert int(support(jnp.zeros((240, 320)), WORK).reason) == SupportReason.NO_DEPTH
-    wall, _, _ = _table(tilt_deg=60.0)  # only a plane tilted 60 degrees from the optical axis
+    # Only a plane tilted 60 degrees from the optical axis: past the 45-degree limit, not taken,
+    # and said so with its tilt; at 40 degrees the same table is the support.
+    wall, _, _ = _table(tilt_deg=60.0)
     steep = support(jnp.asarray(wall), WORK)
-    assert int(steep.reason) == SupportReason.NO_PLANE and not bool(steep.found)
+    assert int(steep.reason) == SupportReason.TOO_TILTED and not bool(steep.found)
+    assert np.rad2deg(float(steep.tilt)) == pytest.approx(60.0, abs=0.5)
+    assert np.isnan(np.asarray(steep.normal)).all()
+    table, _, _ = _table(tilt_deg=40.0)
+    assert int(support(jnp.asarray(table), WORK).reason) == SupportReason.FOUND
     noise = np.random.default_rng(0).uniform(0.5, 1.0, (240, 320)).astype(np.float32)
     scattered = support(jnp.asarray(noise), WORK)
     assert int(scattered.reason) == SupportReason.TOO_FEW_INLIERS

@@ -237,8 +237,11 @@ def _support_panel(fig, ax, result, view_name: str) -> None:
     else:
         im = ax.imshow(_shown(views.depth), cmap="viridis", interpolation="nearest")
         fig.colorbar(im, ax=ax, fraction=0.035, label="depth (m)")
+        tilted = int(support.reason) == SupportReason.TOO_TILTED
         ax.set_title(f"{view_name}: no support plane "
-                     f"({SupportReason(int(support.reason)).name})", fontsize=9)
+                     f"({SupportReason(int(support.reason)).name}"
+                     + (f", {np.rad2deg(support.tilt):.0f} deg" if tilted else "") + ")",
+                     fontsize=9)
     if result.target_reason == TargetReason.FOUND:
         ax.plot(*result.target, "c+", ms=14, mew=2)
 

@@ -166,4 +166,7 @@ def line(rec: dict) -> str:
     support = rec["support_plane"]
     if support["found"]:
         text += f"; {rec['view']} view, support tilt {support['tilt_deg']:.1f} deg"
+    elif support["reason"] == "TOO_TILTED":
+        text += (f"; no support plane: the table is {support['tilt_deg']:.0f} deg off the optical "
+                 "axis, past image.max_plane_tilt_deg")
     return text

@@ -15,7 +15,9 @@ minus the pixels *behind* it (farther from the camera by more than the
 threshold). Objects stand on their support, so nothing lies behind it,
 while the top face of a large object has the whole table behind it.
 Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis
-(walls) are not candidates. The best plane is refit by least squares to the
+(walls) are not candidates; when none is found, and the best of every hypothesis is such a
+plane holding `min_plane_fraction` of the pixels, the reason says so (`TOO_TILTED`, with its
+tilt): a camera looking down more steeply than the limit. The best plane is refit by least squares to the
 pixels within half the threshold of it, `plane_refits` times (the half keeps
 out the feet of walls and objects, which pull on a plane). Everything works on a regular grid of about
 `plane_pixels` pixels of the image (every n-th row and column).
@@ -43,7 +45,8 @@ class SupportPlane:
     reason: jax.Array  # () int32 SupportReason
     normal: jax.Array  # (3,) unit normal in the camera frame, pointing toward the camera
     distance: jax.Array  # () distance from the camera centre to the plane (m)
-    tilt: jax.Array  # () angle between the normal and the optical axis (rad)
+    tilt: jax.Array  # () angle between the normal and the optical axis (rad); TOO_TILTED: the
+    # tilted plane's, that was not taken
     inliers: jax.Array  # () int32 grid pixels within `plane_threshold` of the best plane (found or not)
     fraction: jax.Array  # () inliers / valid grid pixels
 
@@ -120,7 +123,8 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
     normals = jnp.where(jnp.sum(normals * corners[:, 0], -1, keepdims=True) < 0, normals, -normals)
     distances = -jnp.sum(normals * corners[:, 0], -1)
     cos_max = jnp.cos(jnp.deg2rad(config.max_plane_tilt_deg))
-    usable = (area > 1e-6) & (-normals[:, 2] >= cos_max) & (n_valid >= 3)
+    shaped = (area > 1e-6) & (n_valid >= 3)
+    usable = shaped & (-normals[:, 2] >= cos_max)
 
     # Scores: inliers minus pixels behind the plane (K, N).
     signed = normals @ points.T + distances[:, None]
@@ -137,17 +141,29 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
     inliers = jnp.where(any_usable, inliers, 0)
     fraction = inliers / jnp.maximum(n_valid, 1)
 
+    # Where none is found: would a plane tilted past the limit have held enough? (Said, never
+    # used: the camera then looks down more steeply than `max_plane_tilt_deg` allows.)
+    steep = jnp.argmax(jnp.where(shaped, score, jnp.iinfo(jnp.int32).min))
+    steep_fraction = jnp.sum(ok & (jnp.abs(signed[steep]) < thr)) / jnp.maximum(n_valid, 1)
+    steep_tilt = jnp.arccos(jnp.clip(-normals[steep, 2], -1.0, 1.0))
+    too_tilted = ((steep_fraction >= config.min_plane_fraction) & (-normals[steep, 2] < cos_max)
+                  & jnp.any(shaped))
+
+    failed = ~any_usable | (fraction < config.min_plane_fraction)
     reason = jnp.select(
-        [n_valid < 3, ~any_usable, fraction < config.min_plane_fraction],
-        [SupportReason.NO_DEPTH, SupportReason.NO_PLANE, SupportReason.TOO_FEW_INLIERS],
+        [n_valid < 3, failed & too_tilted, ~any_usable, fraction < config.min_plane_fraction],
+        [SupportReason.NO_DEPTH, SupportReason.TOO_TILTED, SupportReason.NO_PLANE,
+         SupportReason.TOO_FEW_INLIERS],
         SupportReason.FOUND).astype(jnp.int32)
     found = reason == SupportReason.FOUND
+    tilted = reason == SupportReason.TOO_TILTED
     return SupportPlane(
         found=found,
         reason=reason,
         normal=jnp.where(found, normal, jnp.nan),
         distance=jnp.where(found, distance, jnp.nan),
-        tilt=jnp.where(found, jnp.arccos(jnp.clip(-normal[2], -1.0, 1.0)), jnp.nan),
+        tilt=jnp.where(found, jnp.arccos(jnp.clip(-normal[2], -1.0, 1.0)),
+                       jnp.where(tilted, steep_tilt, jnp.nan)),
         inliers=inliers.astype(jnp.int32),
         fraction=fraction.astype(jnp.float32),
     )
