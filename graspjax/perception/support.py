@@ -14,12 +14,12 @@ toward the camera and scored as its inliers (closer than `plane_threshold`)
 minus the pixels *behind* it (farther from the camera by more than the
 threshold). Objects stand on their support, so nothing lies behind it,
 while the top face of a large object has the whole table behind it.
-Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis
-(walls) are not candidates; when none is found, and the best of every hypothesis is such a
-plane holding `min_plane_fraction` of the pixels, the reason says so (`TOO_TILTED`, with its
-tilt): a camera looking down more steeply than the limit. The best plane is refit by least squares to the
-pixels within half the threshold of it, `plane_refits` times (the half keeps
-out the feet of walls and objects, which pull on a plane). Everything works on a regular grid of about
+Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis (walls) are not
+candidates; when none is found, and the best of every hypothesis is such a plane holding
+`min_plane_fraction` of the pixels, the reason says so (`TOO_TILTED`, with its tilt): a camera
+looking down more steeply than the limit. The best plane is refit by least squares to the
+pixels within half the threshold of it, `plane_refits` times (the half keeps out the feet of
+walls and objects, which pull on a plane). Everything works on a regular grid of about
 `plane_pixels` pixels of the image (every n-th row and column).
 """
 
