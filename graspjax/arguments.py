@@ -161,9 +161,7 @@ def grid(items: list[str], base, fixed=()):
             raise UsageError(f"--grid {name}: every value needs {len(names)} parts joined by ':'")
         axes.append([dict(zip(names, v, strict=True)) for v in values])
     keys = [k for axis in axes for k in axis[0]]
-    if any(k.startswith("image.") for k in keys):
-        raise UsageError(f"--grid {next(k for k in keys if k.startswith('image.'))}: a setting of "
-                         "graspjax detect (real depth images); a simulated run does not read it")
+    _refuse_detect_settings(keys, "--grid {}: a")
     twice = sorted({k for k in keys if keys.count(k) > 1} | (set(keys) & set(fixed)))
     if twice:
         raise UsageError(f"{twice[0]} is given twice (in two --grid, or in --grid and --set or "
@@ -197,6 +195,15 @@ def part(text: str | None) -> tuple[int, int]:
     return part, parts
 
 
+def _refuse_detect_settings(keys, said: str) -> None:
+    """A simulated run's settings hold no `image.*` key (`Config.image`: graspjax detect's
+    alone); the first one found is refused, `said` the message's opening ({} the key)."""
+    for key in keys:
+        if key.startswith("image."):
+            raise UsageError(said.format(key) + " setting of graspjax detect (real depth images); "
+                             "a simulated run does not read it")
+
+
 def settings(args):
     """A run's, sweep's or plane study's configuration: its preset with the settings of
     `--config FILE`, `--method` and every `--set` applied, a key given by two of them an error.
@@ -211,10 +218,7 @@ def settings(args):
     twice = [key for key in given if key in from_file]
     if twice:
         raise UsageError(f"{twice[0]} is given twice (in --config {path} and on the command line)")
-    images_only = [key for key in (*given, *from_file) if key.startswith("image.")]
-    if images_only:
-        raise UsageError(f"{images_only[0]} is a setting of graspjax detect (real depth images); "
-                         "a simulated run does not read it")
+    _refuse_detect_settings([*given, *from_file], "{} is a")
     base = preset(args.preset)
     try:
         config = override(base, {**from_file, **given})
