@@ -83,8 +83,14 @@ def known_support(rotation: jax.Array, position: jax.Array, normal: jax.Array, o
     distance = jnp.dot(normal, position) - offset
     return SupportPlane(found=jnp.array(True), reason=jnp.int32(SupportReason.FOUND),
                         normal=normal_cam, distance=distance,
-                        tilt=jnp.arccos(jnp.clip(-normal_cam[2], -1.0, 1.0)),
+                        tilt=_tilt(normal_cam),
                         inliers=jnp.int32(0), fraction=jnp.float32(1.0))
+
+
+def _tilt(normal: jax.Array) -> jax.Array:
+    """Angle (rad) between a plane's unit normal (3,), pointing toward the camera, and the
+    optical axis."""
+    return jnp.arccos(jnp.clip(-normal[2], -1.0, 1.0))
 
 
 def _least_squares(points: jax.Array, weight: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -145,7 +151,7 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
     # used: the camera then looks down more steeply than `max_plane_tilt_deg` allows.)
     steep = jnp.argmax(jnp.where(shaped, score, jnp.iinfo(jnp.int32).min))
     steep_fraction = jnp.sum(ok & (jnp.abs(signed[steep]) < thr)) / jnp.maximum(n_valid, 1)
-    steep_tilt = jnp.arccos(jnp.clip(-normals[steep, 2], -1.0, 1.0))
+    steep_tilt = _tilt(normals[steep])
     too_tilted = ((steep_fraction >= config.min_plane_fraction) & (-normals[steep, 2] < cos_max)
                   & jnp.any(shaped))
 
@@ -162,7 +168,7 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
         reason=reason,
         normal=jnp.where(found, normal, jnp.nan),
         distance=jnp.where(found, distance, jnp.nan),
-        tilt=jnp.where(found, jnp.arccos(jnp.clip(-normal[2], -1.0, 1.0)),
+        tilt=jnp.where(found, _tilt(normal),
                        jnp.where(tilted, steep_tilt, jnp.nan)),
         inliers=inliers.astype(jnp.int32),
         fraction=fraction.astype(jnp.float32),
