@@ -300,6 +300,9 @@ def bench_request(args) -> dict:
     from graspjax.sim.objects import parse_letters
 
     check_writable(args.out, "--out")
+    if args.profile is not None and args.what != "pipeline":
+        raise UsageError("--profile is for bench pipeline")
+    check_writable(args.profile, "--profile", directory=True)
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")
     for name, value in (("--width", args.width), ("--height", args.height)):
@@ -331,7 +334,7 @@ def bench_request(args) -> dict:
     return dict(config=config, image=image, objects=letters,
                 setups=ints(str(args.setup), "--setup", (1, 2, 3)), trials=args.trials,
                 seconds=args.seconds, batch=args.batch, width=args.width, height=args.height,
-                repeats=args.repeats)
+                repeats=args.repeats, profile=args.profile)
 
 
 def plane_request(args):

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import statistics
 import time
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -338,12 +339,15 @@ def format_physics(r: dict) -> str:
 
 def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), trials: int = 100,
                        batch: int | None = None, config: Config = Config(),
-                       progress=print) -> dict:
+                       progress=print, profile: str | None = None) -> dict:
     """Grasp attempts/s end to end (layout, settle, overview, centre, detect, re-align, execute,
     judge, rows on the host), compile time apart.
 
     The job's programs compile first, then every chunk runs (no overlap of compiling and
-    running); the run is timed from its first chunk to its last rows.
+    running); the run is timed from its first chunk to its last rows. `profile`: a folder
+    where the first round plays under JAX's profiler (`bench_profile.FirstRound`): its trace,
+    and `kernels.csv`, the device time of each compiled operation with the source line it
+    came from (the run's attempts/s then include the profiler's overhead).
     """
     import os
 
@@ -359,12 +363,30 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
              f"batch {size} ...")
     t0 = time.perf_counter()
     trace_s, compile_s, frames, first = 0.0, 0.0, [], None
-    for result in run_chunks(groups, [config], size, log=progress, overlap=False):
+    window = None
+    if profile:
+        from graspjax.bench_profile import FirstRound
+
+        window = FirstRound(Path(profile) / "trace")
+    for result in run_chunks(groups, [config], size, log=progress, overlap=False,
+                             progress=window.attempted if window else lambda n: None,
+                             status=window.status if window else lambda s: None):
         trace_s += result.timings["trace_s"]
         compile_s += result.timings["compile_s"]
         first = first or t0 + trace_s + compile_s
         frames.append(attempt_rows(result, columns))
     wall_s = time.perf_counter() - first
+    profiled = {"profile": None, "profiled_s": None, "profile_summary": None}
+    if window is not None:
+        window.close()
+        from graspjax.batch.program import program
+        from graspjax.bench_profile import attributed, device_ops, summary
+
+        texts = [t for g in groups for t in program(g, size, keep_views=False).compiled_texts()]
+        kernels = attributed(device_ops(window.folder), texts)
+        kernels.to_csv(Path(profile) / "kernels.csv", index=False)
+        profiled = {"profile": str(profile), "profiled_s": window.seconds,
+                    "profile_summary": summary(kernels, window.seconds)}
     attempts = sum(int((f["attempt"] >= 0).sum()) for f in frames)
     success = float(np.mean(np.concatenate([f["success"].to_numpy() for f in frames])))
     return bench_record("pipeline", {
@@ -373,7 +395,7 @@ def pipeline_benchmark(objects: str = "abcdef", setups: tuple[int, ...] = (1,), 
         "compile_s": compile_s,
         "run_s": wall_s, "attempts_per_s": attempts / wall_s,
         "deterministic": "xla_gpu_deterministic_ops=true" in os.environ.get("XLA_FLAGS", ""),
-        **provenance(),
+        **profiled, **provenance(),
     })
 
 
@@ -383,12 +405,14 @@ def format_pipeline(r: dict) -> str:
             f": {r['attempts']} attempts ({100 * r['success_rate']:.0f}% success)\n"
             f"trace {r['trace_s']:.1f} s, compile {r['compile_s']:.1f} s, "
             f"run {r['run_s']:.1f} s = "
-            f"{r['attempts_per_s']:,.1f} attempts/s")
+            f"{r['attempts_per_s']:,.1f} attempts/s"
+            + (f"\n{r['profile_summary']}\n(kernels: {r['profile']}/kernels.csv)"
+               if r["profile"] else ""))
 
 
 def measure(what: str, *, config: Config, image: RealImageConfig, objects: str, setups: tuple[int, ...],
             trials: int, seconds: float, batch: int | None, width: int | None, height: int | None,
-            repeats: int, progress=print) -> tuple[dict, str]:
+            repeats: int, profile: str | None = None, progress=print) -> tuple[dict, str]:
     """One benchmark (`perception`, `detect`, `physics` or `pipeline`; `bench_finish` is
     the fifth) with the device-sized defaults: its record and its printed summary."""
     gpu = jax.default_backend() == "gpu"
@@ -402,7 +426,7 @@ def measure(what: str, *, config: Config, image: RealImageConfig, objects: str, 
                                   image=image, progress=progress)
         return result, format_detect(result)
     if what == "pipeline":
-        result = pipeline_benchmark(objects, setups, trials, batch, config, progress)
+        result = pipeline_benchmark(objects, setups, trials, batch, config, progress, profile)
         return result, format_pipeline(result)
     if what == "physics":
         result = physics_benchmark(objects, setups[0], batch or (4096 if gpu else 16), seconds,

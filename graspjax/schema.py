@@ -135,6 +135,18 @@ _PLANES_MEANING = {
     "view_tilt_deg": "the re-aligned view's tilt from straight down (deg)",
 }
 PLANES_COLUMNS = tuple(_PLANES_MEANING)
+_PROFILE_MEANING = {  # `graspjax bench pipeline --profile DIR`: DIR/kernels.csv
+    "module": "the compiled program (`jit_start_round`, `jit_attempt`)",
+    "op": "the compiled operation that launched the kernels (a fusion, a library call, a CUDA "
+          "graph's `command_buffer_N`)",
+    "kernel": "the name of its first kernel",
+    "calls": "kernels it launched in the profiled round",
+    "seconds": "their device time",
+    "file": "the source file its HLO metadata names (empty: none, e.g. a CUDA graph)",
+    "function": "the function, or in an exported program the name scope, the metadata names",
+    "line": "the source line (0: none)",
+}
+PROFILE_COLUMNS = tuple(_PROFILE_MEANING)
 PROVENANCE_FIELDS = (
     "versions",  # package -> version (graspjax's from graspjax/version.py, jax, mujoco, ...)
     "code",  # digest of graspjax's sources; git commit and changes when run from a checkout
@@ -181,6 +193,8 @@ BENCH_FIELDS = {
         "trace_s", "compile_s", "run_s",  # tracing, compiling, then running every chunk (s)
         "attempts_per_s",
         "deterministic",  # XLA's deterministic GPU ops were on
+        "profile", "profiled_s", "profile_summary",  # --profile: its folder, the seconds
+        # traced and the printed summary (`bench_profile`); None without it
     ),
     "finish": (  # `bench.finish_benchmark`: a run's end after its last chunk
         "source",  # the finished run whose rows are repeated

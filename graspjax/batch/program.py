@@ -150,6 +150,12 @@ class Program:
     def compiled(self) -> bool:
         return all(f is not None for f in self._attempt)
 
+    def compiled_texts(self, device: int = 0) -> list[str]:
+        """The compiled HLO text of `start_round` and `attempt` on `device` (profiles:
+        `bench_profile`), of those compiled so far."""
+        return [f.as_text() for f in (self._start[device], self._attempt[device])
+                if f is not None]
+
     def executable(self, device: int) -> str:
         """Where `device`'s copy came from (`runtime.executables.compile_on`): `compiled` here,
         `loaded` from the store of executables (compiled by an earlier run, another process or

@@ -46,6 +46,8 @@ class Portable:
     seconds: float  # what tracing and exporting, or reading, took
     name: str | None = None  # its file's name in the store (None: the store is off), which
     # keys its compiled executables (`runtime.executables`)
+    label: str = "call"  # what it is (its description's first item): its jitted function's
+    # name, so that its compiled module is `jit_<label>` in profiles
 
     def in_shapes(self, sharding: jax.sharding.Sharding | None = None) -> tuple:
         """The positional arguments' shapes (placed by `sharding`, if given)."""
@@ -65,6 +67,7 @@ class Portable:
             if tree != self.in_tree:
                 raise TypeError(f"arguments {tree} do not match the exported {self.in_tree}")
             return jax.tree.unflatten(self.out_tree, self.program.call(*leaves))
+        call.__name__ = call.__qualname__ = self.label
         return jax.jit(call, donate_argnums=donate_argnums)
 
     def lower(self, donate_argnums: tuple[int, ...] = ()) -> jax.stages.Lowered:
@@ -114,7 +117,7 @@ def export(fn: Callable, args: tuple, description: tuple, key: tuple | None = No
     if path is not None:
         stores.keep(path, pickle.dumps((FORMAT, in_tree, out_tree[0], program.serialize())))
     return Portable(program, in_tree, out_tree[0], False, time.perf_counter() - start,
-                    None if path is None else path.stem)
+                    None if path is None else path.stem, str(description[0]))
 
 
 def load(key: tuple, description: tuple) -> Portable | None:
@@ -132,7 +135,7 @@ def load(key: tuple, description: tuple) -> Portable | None:
         if fmt != FORMAT:
             return None
         return Portable(jax.export.deserialize(blob), in_tree, out_tree, True,
-                        time.perf_counter() - start, path.stem)
+                        time.perf_counter() - start, path.stem, str(description[0]))
     except Exception:  # unreadable or foreign
         return None
 
