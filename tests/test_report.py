@@ -125,6 +125,27 @@ def test_table_cells_put_ours_beside_the_paper():
     assert summary.loc[(1, "b"), "n_missed"] == 4 and summary.loc[(1, "b"), "paper_pct"] == 60
 
 
+def test_the_success_figure_names_the_run_and_keeps_its_legend_off_the_bars():
+    """One panel per table and setup, the run's preset, setups and trials in the title, and
+    one legend for every panel below them: no legend inside a panel, none over an axes."""
+    from graspjax.figures.report import success_figure
+
+    frame = _frame({(1, "a"): (9, 10), (1, "b"): (1, 10), (3, "a"): (5, 10), (1, "g"): (0, 4)})
+    meta = {"preset": "paper", "jobs": [{"trials": 10}]}
+    fig = success_figure(summarize(object_outcomes(parse_attempts(frame.to_csv(index=False)))), meta)
+    assert fig._suptitle.get_text() == ("grasp success per object: paper preset, Setups 1, 3, "
+                                        "10 trials per cell")
+    assert [ax.get_title() for ax in fig.axes] == ["Setup 1, objects a-b", "Setup 3, objects a-a",
+                                                   "Setup 1, objects g-g"]
+    assert all(ax.get_legend() is None for ax in fig.axes)
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["ours (95% CI)", "paper (10 trials)"]
+    fig.canvas.draw()
+    box = legend.get_window_extent()
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width and 0 <= box.y0
+    assert all(not box.overlaps(ax.get_window_extent()) for ax in fig.axes)
+
+
 def test_sweeps_group_by_the_varying_configuration():
     parts = []
     for window, k in ((5, 2), (15, 8), (25, 5)):

@@ -16,12 +16,15 @@ from graspjax.schema import outcome_label
 from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, wilson
 
 
-def success_figure(summary: pd.DataFrame) -> bytes:
+def success_figure(summary: pd.DataFrame, meta: dict | None = None):
     """Bars per object and setup: ours with 95% intervals (the share rescued by a re-alignment on
-    top), the paper's beside them."""
+    top), the paper's beside them; the run's preset, setups and trials in the title (`meta`:
+    its config.json, `run_description`), the legend below the panels, over no data. A
+    matplotlib figure (`figures.png(fig, laid_out=True)` makes it a PNG)."""
     panels = [(t, s) for t in (1, 2) for s in sorted(summary["setup"].unique())
               if ((summary["setup"] == s) & (summary["table"] == t)).any()]
-    fig = new_figure(4.2 * max(1, len(panels)), 3.6)
+    width = 4.2 * max(1, len(panels))
+    fig = new_figure(width, 4.0)
     axes = fig.subplots(1, max(1, len(panels)), squeeze=False)[0]
     for ax, (table, setup) in zip(axes, panels, strict=False):
         part = summary[(summary["setup"] == setup) & (summary["table"] == table)]
@@ -33,16 +36,25 @@ def success_figure(summary: pd.DataFrame) -> bytes:
                label="ours (95% CI)")
         if "rate_rescued" in part.columns:  # the top of each bar: rescued by a re-alignment
             ax.bar(x - 0.2, 100 * part["rate_rescued"], 0.4, bottom=100 * part["rate_first_view"],
-                   color="tab:purple", label="of which rescued")
+                   color="tab:purple", label="of which rescued by a re-alignment")
         if part["paper_pct"].notna().any():
             ax.bar(x + 0.2, part["paper_pct"], 0.4, color="none", edgecolor="tab:orange",
-                   hatch="//", label="paper")
+                   hatch="//", label="paper (10 trials)")
         ax.set_xticks(x, [f"{c})" for c in part["object"]])
         ax.set_ylim(0, 105)
         ax.set_title(f"Setup {setup}, objects {part['object'].iloc[0]}-{part['object'].iloc[-1]}")
         ax.set_ylabel("grasp success (%)")
-        ax.legend(loc="lower left", fontsize=7)
-    return png(fig)
+    legend = {}  # every panel's entries once, in the order first drawn
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    setups = sorted(summary["setup"].unique())
+    title = "grasp success per object" + (f": {run_description(meta, setups)}" if meta else "")
+    fig.suptitle(textwrap.fill(title, int(13 * width)), fontsize=10)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    fig.legend(list(legend.values()), list(legend), loc="lower center", ncol=len(legend),
+               fontsize=8, frameon=False)
+    return fig
 
 
 def outcome_colours(labels) -> dict[str, object]:

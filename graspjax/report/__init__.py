@@ -23,6 +23,7 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.config import Config, override
+from graspjax.figures import png
 from graspjax.figures.report import comparison_figure, outcomes_figure, success_figure, sweep_outputs
 from graspjax.report.density import consistency_lines, target_clutter_lines
 from graspjax.report.files import (
@@ -79,7 +80,7 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
                     text += "".join(f"{line}\n" for line in lines)
                 files[f"table{table}.md"] = text.encode()
                 files[f"table{table}.tex"] = table_latex(summary, table, state).encode()
-        files["success_by_object.png"] = success_figure(summary)
+        files["success_by_object.png"] = png(success_figure(summary, meta), laid_out=True)
     files["outcomes.png"] = outcomes_figure(frame)  # every attempt
     files.update(sweep_outputs(objects, meta))
     if varying_config(frame):
@@ -127,7 +128,6 @@ def write_report(folder: str | Path, debug: int = 0,
 def plane_outputs(rows: pd.DataFrame, meta: dict) -> dict[str, bytes]:
     """A plane study's tables and figure from its rows (planes.csv) and config.json:
     planes_summary.csv (`planes.summarize`) and planes.png (`figures.planes_figure`)."""
-    from graspjax.figures import png
     from graspjax.figures.report import planes_figure, planes_title
     from graspjax.planes import summarize
 
