@@ -62,10 +62,11 @@ class FirstRound:
 
 def device_ops(trace_dir: str | Path) -> pd.DataFrame:
     """The device time of every compiled operation in a profiler trace (`jax.profiler.trace`'s
-    folder): columns module, op, kernel (the first kernel's name), calls, seconds. GPU planes'
-    stream lines where there are any (not the derived "XLA Ops" lines, which repeat them),
-    else every line's events that name an HLO operation; events that contain another event
-    of their line (a CPU while loop around its body) are left out, so nothing counts twice."""
+    folder): columns module, op, kernel (the first kernel's name), calls, seconds. On a GPU
+    the device planes' stream lines (not the derived "XLA Ops" lines, which repeat them),
+    elsewhere every line's events that name an HLO operation; events that contain another
+    event of their line (a CPU while loop around its body) are left out, so nothing counts
+    twice."""
     from jax.profiler import ProfileData
 
     files = sorted(Path(trace_dir).rglob("*.xplane.pb"))
@@ -99,7 +100,7 @@ def _leaf_ops(line) -> list[tuple[str, str, str, float]]:
                            stats["hlo_op"], event.name))
     if not events:
         return []
-    events.sort(key=lambda e: e[0])
+    events.sort(key=lambda e: (e[0], -e[1]))  # a parent before a child that starts with it
     start = np.array([e[0] for e in events], float)
     end = start + np.array([e[1] for e in events], float)
     parent = np.zeros(len(events), bool)

@@ -115,6 +115,25 @@ def test_the_first_round_is_traced_from_the_last_compile_to_the_first_attempt(tm
     assert set(device_ops(tmp_path / "trace")["module"]) == {"jit_inside"}
 
 
+def test_an_operation_around_others_counts_only_through_them():
+    """A CPU while loop's event holds its body's events on the same line: only the innermost
+    count, also where the first child starts with its parent; an event naming no HLO
+    operation (a thread pool's) counts nothing."""
+    from types import SimpleNamespace
+
+    from graspjax.bench_profile import _leaf_ops
+
+    def event(start, duration, op):
+        stats = [("hlo_module", "jit_f"), ("hlo_op", op)] if op else [("other", 1)]
+        return SimpleNamespace(start_ns=start, duration_ns=duration, stats=stats, name=op or "pool")
+
+    line = SimpleNamespace(events=[event(100, 30, "body.2"), event(100, 100, "while"),
+                                   event(140, 50, "body.3"), event(0, 500, None),
+                                   event(300, 10, "after")])
+    got = {op: seconds for _, op, _, seconds in _leaf_ops(line)}
+    assert got == pytest.approx({"body.2": 30e-9, "body.3": 50e-9, "after": 10e-9})
+
+
 def test_a_folder_without_a_trace_is_refused(tmp_path):
     with pytest.raises(FileNotFoundError, match="no \\*.xplane.pb"):
         device_ops(tmp_path)
