@@ -84,33 +84,39 @@ def _binned(ax, x, success, edges, labels, title):
     ax.grid(axis="y", alpha=0.3)
 
 
-def _points(ax, table: pd.DataFrame):
+def _points(ax, table: pd.DataFrame, reference: int):
     """Each grid point's success and first view (95 % Wilson), in grid order, each labelled by
-    its settings and its settled clutter."""
+    its settings and its settled clutter; the reference point marked (in
+    `references.sh density`'s sweep, point 0: the paper preset's reading). Points, not a
+    line: the grid points are settings, not a continuous axis."""
     pos = np.arange(len(table))
-    for column, label, color in (("success", "success", "C0"), ("first_view", "first view", "C1")):
+    for shift, (column, label, color) in zip((-0.08, 0.08), (
+            ("success", "success", "C0"), ("first_view", "first view", "C1")), strict=True):
         rate = table[column].to_numpy()
         low, high = np.transpose([wilson(round(r * n), n) for r, n in zip(rate, table.objects,
                                                                             strict=True)])
-        ax.errorbar(pos, 100 * rate, yerr=100 * np.stack([rate - low, high - rate]), fmt="o-",
-                    capsize=3, color=color, label=label)
+        ax.errorbar(pos + shift, 100 * rate, yerr=100 * np.stack([rate - low, high - rate]),
+                    fmt="o", capsize=3, color=color, label=label)
     settings = list(table.columns[:list(table.columns).index("rounds")])
     labels = ["\n".join([*(f"{key.split('.')[-1]}={row[key]:g}" for key in settings),
                           f"{100 * row.touching:.0f} % touch"]) for _, row in table.iterrows()]
-    ax.set_xticks(pos, labels, fontsize=7)
+    ax.set_xticks(pos, labels, fontsize=6)
+    ax.get_xticklabels()[reference].set_fontweight("bold")
+    ax.axvspan(reference - 0.4, reference + 0.4, color="tab:orange", alpha=0.2, lw=0, zorder=0,
+               label="the reference point (density.md's changes are against it)")
     ax.set_title("each grid point (its settings; settled contact)", fontsize=9)
     ax.set_ylabel("success (%)")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.32), ncol=3, frameon=False)
     ax.grid(axis="y", alpha=0.3)
 
 
 def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
-           table: pd.DataFrame, path: Path):
+           table: pd.DataFrame, reference: int, path: Path):
     tried = attempts[(attempts.attempt >= 0) & (attempts.object.fillna("") != "")]
     success = tried.success.astype(bool).to_numpy()
     fig, axes = plt.subplots(1, 5, figsize=(21, 4.2), dpi=130,
                              gridspec_kw={"width_ratios": [1.8, 1, 1, 1, 1.2]})
-    _points(axes[0], table)
+    _points(axes[0], table, reference)
     axes = axes[1:]
     per_round = outcomes.merge(rounds[["point", "round", "near_fraction"]].rename(
         columns={"round": "trial"}), on=["point", "trial"], how="left")
@@ -152,7 +158,7 @@ def main(folder: str, reference: int = 0) -> None:
             "within 50-70 %), from our rates; a consistency check, never a choice.", "",
             markdown(table.map(lambda v: f"{v:.3g}" if isinstance(v, float) else v), index=False)]
     (Path(folder) / "density.md").write_text("\n".join(text) + "\n")
-    figure(attempts, outcomes, rounds, table, Path(folder) / "density.png")
+    figure(attempts, outcomes, rounds, table, reference, Path(folder) / "density.png")
     print("\n".join(text))
 
 
