@@ -154,8 +154,12 @@ def _source(metadata: str, tables: dict[str, dict[int, str]]) -> tuple[str, str,
 
 
 def _short(path: str) -> str:
-    """A source file relative to the import path that holds it (`mujoco/mjx/_src/io.py`)."""
-    roots = sorted((p for p in sys.path if p and path.startswith(p.rstrip("/") + "/")),
+    """A source file relative to the import path that holds it (`mujoco/mjx/_src/io.py`), or
+    to the folder holding graspjax (an editable install is on no import path)."""
+    import graspjax
+
+    places = [*sys.path, str(Path(graspjax.__file__).parents[1])]
+    roots = sorted((p for p in places if p and path.startswith(p.rstrip("/") + "/")),
                    key=len, reverse=True)
     return path[len(roots[0].rstrip("/")) + 1:] if roots else path
 

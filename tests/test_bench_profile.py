@@ -1,9 +1,12 @@
 """`bench_profile`: device time per compiled operation, named by its source line."""
 
+import pathlib
+
 import jax
 import jax.numpy as jnp
 import pytest
 
+import graspjax
 from graspjax.bench_profile import FirstRound, attributed, device_ops, op_sources, summary
 from graspjax.schema import PROFILE_COLUMNS
 
@@ -47,6 +50,9 @@ def test_op_sources_reads_stack_frames_and_source_lines():
     assert sources["negate.4"] == ("/site/graspjax/perception/grasp.py", "detect_grasp", 77)
     assert sources["cosine.2"] == ("/elsewhere/old.py", "", 9)
     assert "copy.1" not in sources  # no metadata
+    package = str(pathlib.Path(graspjax.__file__).parent)  # wherever it is installed
+    mine = op_sources(HLO.replace("/site/graspjax", package))
+    assert mine["negate.4"] == ("graspjax/perception/grasp.py", "detect_grasp", 77)
 
 
 def _heavy(x):
