@@ -8,6 +8,7 @@ line it was traced from: the compiled programs' HLO metadata, one line per opera
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
 import threading
@@ -153,9 +154,11 @@ def _source(metadata: str, tables: dict[str, dict[int, str]]) -> tuple[str, str,
     return "", "", 0
 
 
+@functools.cache
 def _short(path: str) -> str:
     """A source file relative to the import path that holds it (`mujoco/mjx/_src/io.py`), or
-    to the folder holding graspjax (an editable install is on no import path)."""
+    to the folder holding graspjax (an editable install is on no import path). Cached: a
+    program's thousands of instructions name a few dozen files."""
     import graspjax
 
     places = [*sys.path, str(Path(graspjax.__file__).parents[1])]
