@@ -10,7 +10,8 @@
 #   tables-PRESET  Tables 1+2 (results/PRESET_DEVICE_N)
 #   eq2            the paper preset with Eq. 2 as printed (align.pixel_scale=printed), the same
 #                  worlds as tables-paper (same seed, trials and batch): results/eq2_printed_DEVICE_N
-#   density        Setup 3's pile from the paper's reading to Setup 2's gaps, paired
+#   density        Setup 3's pile from the paper's reading (and outlines placed overlapping by up to
+#                  2 cm, denser) to Setup 2's gaps, paired
 #                  (results/setup3/density_DEVICE_N; experiments/setup3_density.py)
 #   bin            Setup 3 in the bin at 14 / 18 / 24 cm, paired (results/setup3/bin_size_DEVICE_N)
 #   bin-small-hand the same bins and worlds with the small hand (6 cm opening, 1 cm x 6 mm fingers;
@@ -52,7 +53,7 @@ for name in "$@"; do
       --set align.pixel_scale=printed ;;
     density) step "setup3/density_${device}_$trials" sweep --setup 3 --trials "$trials" --paired \
       --grid "layout.pile_gap_min:layout.pile_gap_max:layout.pile_push=\
--0.02:0:0.7,-0.02:0:0,0:0.01:0,0.005:0.03:0,0.02:0.05:0" ;;
+0:0:0.7,-0.02:0:0.7,-0.02:0:0,0:0.01:0,0.005:0.03:0,0.02:0.05:0" ;;
     bin) step "setup3/bin_size_${device}_$trials" sweep --setup 3 --trials "$trials" --paired \
       --set layout.bin=true --grid layout.bin_size=0.14,0.18,0.24 ;;
     bin-small-hand) step "setup3/bin_small_hand_${device}_$trials" sweep --setup 3 \

@@ -388,14 +388,15 @@ class LayoutConfig:
     bin: bool = traced(False)  # Setup 3: the pile lies on the open table, as the paper's "dense
     # cluttered scenes with multiple overlapping objects" (Fig. 7); true: it is dropped into the
     # bin below instead (our named variant, `--set layout.bin=true`; the paper shows no bin)
-    pile_gap_min: float = traced(-0.02)  # Setup 3 on the table: the most an object's outline
-    # overlaps the member it is placed beside, negative (m; see pile_gap_max)
-    pile_gap_max: float = traced(0.0)  # Setup 3 on the table: the group of Setup 2 placed
-    # "within minimal distance and sometimes even [...]
-    # overlapping": each object's outline touches (0) or overlaps by up to 2 cm (half the
-    # hexagon d's 4.5 cm across flats; about half of any of a-f's narrowest side) the member it
-    # is placed beside, and overlaps no other member by more (m). An overlapping object is
-    # dropped onto what it overlaps (docs/simulation.md)
+    pile_gap_min: float = traced(0.0)  # Setup 3 on the table: the outline gap to the member an
+    # object is placed beside is U(pile_gap_min, pile_gap_max) (m; negative: the outlines overlap
+    # by that much, and the object is dropped onto what it overlaps)
+    pile_gap_max: float = traced(0.0)  # ... the group of Setup 2 "positioned close to each other
+    # within minimal distance and sometimes even have overlapping": each object's outline touches
+    # the member it is placed beside (0) and overlaps none; the overlapping comes as the push
+    # slides the parts together and some ride onto others (docs/simulation.md: the settled piles
+    # meet every bound stated from the paper's words; placed overlapping by up to 2 cm, a part
+    # dropped half on a neighbour tips off it and the pile widens in 21 % of rounds)
     pile_push: float = traced(0.7)  # Setup 3 on the table: once dropped, each object is pushed
     # toward the group's centre with this fraction of its weight until `sim.push_time`, then let
     # go: more than the table's friction (0.5), so it slides until another part stops it (the

@@ -43,16 +43,12 @@ def _settled_rounds(sim) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
-MET = ["near", "isolated", "gap", "overlap"]  # the bounds the 1,000 reference rounds meet; the
-# scatter bound fails there (21.2 % of the rounds' spread grows by more than 1 cm, 5 % allowed:
-# docs/simulation.md), so a small sample passing it would prove nothing
-
-
 def test_settled_setup3_meets_the_bounds_stated_from_the_papers_words(basic_sim):
+    """Every stated bound, as the 1,000 reference rounds meet them (`results/setup3/`)."""
     rounds = _settled_rounds(basic_sim)
     assert (rounds.objects == 6).all()  # every object dropped, none parked or lost
     verdicts = judge(rounds, allowance=True).set_index("bound")
-    assert verdicts.loc[MET, "holds"].all(), verdicts[["value", "limit", "holds"]].to_string()
+    assert verdicts["holds"].all(), verdicts[["value", "limit", "holds"]].to_string()
 
 
 def test_scattered_rounds_fail_them():

@@ -17,8 +17,8 @@ lets the physics finish the layout.
 - Setup 3: the paper's "dense cluttered scenes with multiple overlapping
   objects", "positioned close to each other within minimal distance and
   sometimes even have overlapping": Setup 2's group with gaps
-  U(pile_gap_min, pile_gap_max) <= 0, so each object touches or overlaps the
-  member placed beside; the objects are dropped one at a time in their
+  U(pile_gap_min, pile_gap_max) <= 0 (default 0: each object touches the
+  member placed beside); the objects are dropped one at a time in their
   placement order (`pile.Drops`), an overlapping one onto what it overlaps.
   With `layout.bin`: dropped one at a time from random orientations into the
   bin.
