@@ -114,8 +114,9 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
            table: pd.DataFrame, reference: int, path: Path):
     tried = attempts[(attempts.attempt >= 0) & (attempts.object.fillna("") != "")]
     success = tried.success.astype(bool).to_numpy()
-    fig, axes = plt.subplots(1, 5, figsize=(21, 4.2), dpi=130,
-                             gridspec_kw={"width_ratios": [1.8, 1, 1, 1, 1.2]})
+    points = max(1.8, 0.5 * len(table))  # the first panel's width: room for each point's label
+    fig, axes = plt.subplots(1, 5, figsize=(17.4 + 2 * points, 4.2), dpi=130,
+                             gridspec_kw={"width_ratios": [points, 1, 1, 1, 1.2]})
     _points(axes[0], table, reference)
     axes = axes[1:]
     per_round = outcomes.merge(rounds[["point", "round", "near_fraction"]].rename(
