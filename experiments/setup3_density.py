@@ -9,9 +9,10 @@ only the pile's density changing. Writes into the folder:
   view + rescued) with a 95 % Wilson interval, the paired change against the reference point
   (McNemar's z over the objects' outcomes), and how probable the paper's own run-level facts
   are at that density (`report.density.consistency`: a check, never a choice);
-- `density.png`: success against the measured clutter of each round (objects near another)
-  and of each attempt's target when the robot looked (touching, resting on another, covered,
-  its nearest outline gap) and against the free space around the open fingers at the grasp.
+- `density.png`: success against the measured clutter of each round (objects near another,
+  objects resting on another) and of each attempt's target when the robot looked (touching,
+  resting on another, covered, its nearest outline gap) and against the free space around the
+  open fingers at the grasp.
 """
 
 import sys
@@ -115,26 +116,29 @@ def figure(attempts: pd.DataFrame, outcomes: pd.DataFrame, rounds: pd.DataFrame,
     tried = attempts[(attempts.attempt >= 0) & (attempts.object.fillna("") != "")]
     success = tried.success.astype(bool).to_numpy()
     points = max(1.8, 0.5 * len(table))  # the first panel's width: room for each point's label
-    fig, axes = plt.subplots(1, 5, figsize=(17.4 + 2 * points, 4.2), dpi=130,
-                             gridspec_kw={"width_ratios": [points, 1, 1, 1, 1.2]})
+    fig, axes = plt.subplots(1, 6, figsize=(20.4 + 2 * points, 4.2), dpi=130,
+                             gridspec_kw={"width_ratios": [points, 1, 1, 1, 1, 1.2]})
     _points(axes[0], table, reference)
     axes = axes[1:]
-    per_round = outcomes.merge(rounds[["point", "round", "near_fraction"]].rename(
+    per_round = outcomes.merge(rounds[["point", "round", "near_fraction", "stacked"]].rename(
         columns={"round": "trial"}), on=["point", "trial"], how="left")
-    _binned(axes[0], per_round.near_fraction.to_numpy(), per_round.success.astype(bool).to_numpy(),
+    round_success = per_round.success.astype(bool).to_numpy()
+    _binned(axes[0], per_round.near_fraction.to_numpy(), round_success,
             [0.45, 0.75, 0.9], ["0-2 of 6", "3-4 of 6", "5 of 6", "all 6"],
             "objects of the round near another (settled)")
+    _binned(axes[1], per_round.stacked.to_numpy(), round_success, [0.5, 1.5, 2.5],
+            ["none", "1", "2", "3 or more"], "objects of the round resting on another (settled)")
     state = np.select([tried.target_covered == 1, tried.target_resting == 1,
                        tried.target_touching == 1], [0, 1, 2], 3)
-    _binned(axes[1], state, success, [0.5, 1.5, 2.5], ["covered", "on another", "touching",
+    _binned(axes[2], state, success, [0.5, 1.5, 2.5], ["covered", "on another", "touching",
                                                        "apart"], "the target when the robot looked")
     gap = 100 * tried.target_gap_m.to_numpy()
-    _binned(axes[2], gap, success, [-1.0, -0.01, 0.5, 2.0], ["< -1", "-1 to 0", "0-0.5", "0.5-2",
+    _binned(axes[3], gap, success, [-1.0, -0.01, 0.5, 2.0], ["< -1", "-1 to 0", "0-0.5", "0.5-2",
                                                              "> 2"],
             "the target's nearest outline gap (cm; below 0: overlapping)")
     room = 100 * tried.finger_clearance_m.to_numpy()
     executed = np.isfinite(room)
-    _binned(axes[3], room[executed], success[executed], [0.0, 0.5, 1.0, 2.0],
+    _binned(axes[4], room[executed], success[executed], [0.0, 0.5, 1.0, 2.0],
             ["touch", "0-0.5", "0.5-1", "1-2", "> 2"], "free space at the fingers (cm, executed)")
     axes[0].set_ylabel("success (%)")
     fig.suptitle("Setup 3: success against clutter, each density point (left) and every point's "
