@@ -233,7 +233,8 @@ def test_every_image_of_a_folder_needs_a_plausible_median_depth(tmp_path):
 
     np.save(tmp_path / "a.npy", np.full((480, 640), 0.6, np.float32))
     np.save(tmp_path / "b.npy", np.full((480, 640), 0.0006, np.float32))
-    assert prepare([tmp_path / "a.npy"]).reduction == 1
+    with pytest.warns(UserWarning, match="no intrinsics given and none in the files"):
+        assert prepare([tmp_path / "a.npy"]).reduction == 1
     with pytest.raises(InputError, match=rf"{tmp_path / 'b.npy'}: median depth 0.0006 m \(in "
                                          r"the depth range 0-10 m\) is implausible for a depth "
                                          r"camera \(0.05-20 m\): its depth must be in metres"):
