@@ -272,5 +272,5 @@ class TargetSearch:
                                tried)._replace(reason=jnp.full(n, -1, jnp.int32)))
         best = Best(jnp.float32(-jnp.inf), jnp.int32(0),
                     *jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), (grasp, window)))
-        first = self.step(Loop(jnp.int32(0), nothing, empty, best))
-        return lax.while_loop(self.more, self.step, first)
+        return lax.while_loop(lambda loop: (loop.k == 0) | self.more(loop), self.step,
+                              Loop(jnp.int32(0), nothing, empty, best))
