@@ -294,6 +294,19 @@ def test_only_the_graspable_part_of_a_workspace_is_returned():
     assert bool(r.ranked.valid[0]) and np.isfinite(r.ranked.score[0])
 
 
+def test_an_empty_table_gives_no_object_and_tries_no_target():
+    """Nothing on the table: no target (NO_OBJECT), none tried, no grasp ranked, the grasp's
+    numbers nan: the failure is data, whatever the search's loop ran."""
+    from graspjax.codes import TargetReason
+
+    depth, camera, workspace, _, _ = table_with([])
+    r = detect_one(depth, workspace, camera, Config(), RealImageConfig())
+    assert not bool(r.found)
+    assert int(r.target_reason) == TargetReason.NO_OBJECT and r.reason_name == "NO_OBJECT"
+    assert int(r.targets_tried) == 0 and np.all(r.tried_reasons == -1)
+    assert not np.any(r.ranked.valid) and np.all(np.isnan(r.position))
+
+
 def _wedge_and_box():
     """A 12 x 12 cm wedge sloping from 6.4 to 2 cm high and a 3 x 4 x 1.5 cm box."""
     profile = [(-0.06, 0.0), (0.06, 0.0), (0.06, 0.064), (-0.06, 0.02)]
