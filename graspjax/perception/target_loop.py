@@ -254,10 +254,12 @@ class TargetSearch:
                              self.image.duplicate_distance)
 
     def more(self, loop: Loop) -> jax.Array:
-        """Another target is tried: fewer than `max_targets` so far, candidates left and fewer
-        than `top_k` distinct grasps passed."""
-        return ((loop.k < self.image.max_targets) & jnp.any(self.candidate & ~loop.covered)
-                & (jnp.sum(self.distinct(loop.pool)[1]) < self.image.top_k))
+        """Another target is tried: the first always (its window is the one reported when no
+        target is found), then while fewer than `max_targets` so far, candidates left and
+        fewer than `top_k` distinct grasps passed."""
+        return (loop.k == 0) | (
+            (loop.k < self.image.max_targets) & jnp.any(self.candidate & ~loop.covered)
+            & (jnp.sum(self.distinct(loop.pool)[1]) < self.image.top_k))
 
     def run(self) -> Loop:
         """Every target tried (at least the first, at most `max_targets`)."""
@@ -272,5 +274,4 @@ class TargetSearch:
                                tried)._replace(reason=jnp.full(n, -1, jnp.int32)))
         best = Best(jnp.float32(-jnp.inf), jnp.int32(0),
                     *jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), (grasp, window)))
-        return lax.while_loop(lambda loop: (loop.k == 0) | self.more(loop), self.step,
-                              Loop(jnp.int32(0), nothing, empty, best))
+        return lax.while_loop(self.more, self.step, Loop(jnp.int32(0), nothing, empty, best))
