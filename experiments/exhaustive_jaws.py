@@ -12,15 +12,12 @@ the workspace box (and `--margin` rows below it: parts pushed past its edge) sta
 `--min-height` above the support, for every closing direction `--angle-step` apart across the
 support plane (0 deg: approach x the camera's x, about the image's columns; 90: about its
 rows). Its band is close to the T-beam's rule: the stretch along the closing axis within
-`detect.surface_tolerance` of the centre pixel's height, sampled every millimetre at that
-level as the jaws' checks sample; samples without depth between two of the band's, no wider
-than `image.fill_gap_px` detection pixels and with heights on both sides within the tolerance
-of each other, are bridged, about as the detector's working views bridge holes
-(`workspace.fill_holes`: along an image row or column, inside the workspace box, by depth).
-The grasp is centred on that band,
-across and in depth (the band's mean level, as the detector's centre stands at its band's
-mean depth), and checked at full resolution with the preset's settings (`check_jaws`, the
-same call the detector makes).
+`detect.surface_tolerance` of the centre's height, sampled every millimetre on the jaws'
+height map (`perception.jaws.height_map`, built as the detector builds it, on a grid of the
+full image's size; its rule fills the cells no point falls in). The grasp is centred on that
+band, across and in depth (the band's mean level, as the detector's centre stands at its
+band's mean depth), and checked with the preset's settings (`check_jaws`, the same call the
+detector makes).
 Every grasp that passes is judged by `judge_real_depth.py`. The bands are the depth band's
 only (not the followed surface's, which the contour search also pairs on), so the grid is not
 a superset of the detector's proposals; its grasps at other heights and directions are.
@@ -49,8 +46,10 @@ from graspjax.errors import InputError
 from graspjax.imagefiles.batches import detect_files
 from graspjax.imagefiles.inputs import IntrinsicsRequest, prepare
 from graspjax.perception.cluster import valid_mask
-from graspjax.perception.jaws import check_jaws, path_heights
+from graspjax.perception.jaws import check_jaws, height_map
 from graspjax.perception.support import plane_height
+from graspjax.perception.virtual import view_camera
+from graspjax.perception.window import in_view
 
 BAND_REACH = 0.045  # how far each side of the centre a band may run (m): past half the opening
 SAMPLE = 0.001  # between a band's samples (m)
@@ -132,37 +131,31 @@ def main() -> int:
         np.arange(len(points)), np.arange(len(axes)), indexing="ij"))
 
     across = jnp.arange(0.0, BAND_REACH + 1e-6, SAMPLE, dtype=jnp.float32)
+    side = jnp.array([1.0, -1.0], jnp.float32)
     tolerance = config.detect.surface_tolerance
-
-    detection_pixel = 1.0 / float(result.view.fx)  # a detection pixel's size per metre of depth
+    # The jaws' height map as the detector builds it (`real_image.detect_real_image`), here on
+    # a grid of the full image's size (the detector's has its detection view's).
+    rotation = jnp.asarray(result.rotation, jnp.float32)
+    view_depth = np.asarray(result.views.depth)
+    reference = np.median(view_depth[view_depth > 0])
+    heights = height_map(full, camera, rotation, view_camera(camera, rotation),
+                         jnp.float32(reference), in_view(result.support, rotation),
+                         image.sweep_fill_px)
 
     def one(centre, axis):
-        """The band through `centre` along `axis` (the T-beam's rule), and its jaws checked."""
-        rise, _, seen = path_heights(full, camera, centre, axis, approach, across,
-                                      jnp.zeros(1, jnp.float32), jnp.float32(0.0))
-        rise, seen = rise[..., 0], seen[..., 0]  # (2, A) along each side; no depth: inf
-        inside = jnp.abs(rise) <= tolerance
-        count = across.shape[0]
-        index = jnp.arange(count)
-        before = jax.lax.cummax(jnp.where(seen, index, -1), axis=1)  # the last seen sample
-        after = jax.lax.cummin(jnp.where(seen, index, count), axis=1, reverse=True)  # the next
-
-        def at(values, where):
-            return jnp.take_along_axis(values, jnp.clip(where, 0, count - 1), 1)
-
-        gap = image.fill_gap_px * centre[2] * detection_pixel  # the widest hole bridged (m)
-        bridged = (~seen & (before >= 0) & (after < count) & at(inside, before) & at(inside, after)
-                   & (jnp.abs(at(rise, before) - at(rise, after)) <= tolerance)
-                   & ((after - before - 1) * SAMPLE <= gap))
-        ends = jnp.argmin(jnp.concatenate([inside | bridged, jnp.zeros((2, 1), bool)], 1), 1)
+        """The band through `centre` along `axis` (the T-beam's rule) on the height map, and its
+        jaws checked (camera frame in and out; the check in the view frame)."""
+        c, a = rotation.T @ centre, rotation.T @ axis
+        rise = heights.lookup(c[:2] + side[:, None, None] * across[None, :, None] * a[:2])[0] - c[2]
+        inside = jnp.abs(rise) <= tolerance  # (2, A) along each side
+        ends = jnp.argmin(jnp.concatenate([inside, jnp.zeros((2, 1), bool)], 1), 1)
         extent = jnp.where(ends > 0, across[jnp.maximum(ends - 1, 0)] + SAMPLE / 2, 0.0)  # (2,)
         width = extent[0] + extent[1]
-        band = inside & (index < ends[:, None])
+        band = inside & (jnp.arange(across.shape[0]) < ends[:, None])
         level = jnp.sum(jnp.where(band, rise, 0.0)) / jnp.maximum(jnp.sum(band), 1)
-        centred = centre + (extent[0] - extent[1]) / 2 * axis + level * approach
-        check = check_jaws(full, camera, centred, axis, approach, width, config.detect,
-                           config.gripper, image)
-        return check, width, centred
+        centred = c + (extent[0] - extent[1]) / 2 * a + level * jnp.array([0.0, 0.0, 1.0])
+        check = check_jaws(heights, centred, a, width, config.detect, config.gripper, image)
+        return check, width, rotation @ centred
 
     checked = jax.jit(jax.vmap(one))
     parts, total = [], len(centre_index)

@@ -729,8 +729,10 @@ class RealImageConfig:
     # closing direction the T-beam lacks; a top sloping past the band: the part's outline)
     top_k: int = 1  # grasps returned, best first (`--top K`); targets are tried until this many pass
     min_width: float = 0.01  # narrower gripped parts are refused, TOO_NARROW (m)
-    jaw_samples: int = 32  # samples along each jaw's path, band edge to outer jaw face
-    jaw_lanes: int = 5  # samples across the finger's width
+    jaw_samples: int = 32  # samples along each jaw's path, grasp centre to outer jaw face
+    jaw_lanes: int = 9  # samples across the finger's width
+    sweep_fill_px: int = 3  # the jaws' height map: a cell no point falls in lies at the deepest
+    # level seen within this many cells of it (else on the support plane; `perception.jaws`)
     duplicate_distance: float = 0.01  # grasps closer than this (m) with axes within 20 deg are one
 
     def __post_init__(self):
@@ -759,6 +761,7 @@ class RealImageConfig:
         _in_range(self, "top_k", 1, 64)
         _in_range(self, "jaw_samples", 8, 256)
         _in_range(self, "jaw_lanes", 2, 32)
+        _in_range(self, "sweep_fill_px", 0, 32)
         _require(self.min_width >= 0, f"RealImageConfig.min_width must be >= 0, got {self.min_width!r}")
         _require(self.duplicate_distance >= 0,
                  f"RealImageConfig.duplicate_distance must be >= 0, got {self.duplicate_distance!r}")

@@ -22,8 +22,9 @@
    found from its 3-D point as the simulated robot finds its target in each
    new view, and `tbeam_positions` T-beams per edge. Its
    `candidates_per_target` most central placements are checked on the
-   full-resolution image (`jaws.py`: width, the jaws' paths, the wall
-   where the jaws touch), scored (`jaws.grasp_score`) and pooled. The next target is
+   jaws' height map of the whole image, built once from its full-resolution
+   points (`jaws.py`: width, each finger swept down, the jaws closing on
+   the part alone, the wall where they touch), scored (`jaws.grasp_score`) and pooled. The next target is
    the highest candidate outside the surfaces already tried, until `top_k`
    distinct grasps passed or `max_targets` were tried (the paper tries one:
    its nearest object). When none of a target's T-beam placements passes, with
@@ -53,6 +54,7 @@ from graspjax.codes import GraspReason, TargetReason, names
 from graspjax.config import Config, RealImageConfig, replace_unchecked
 from graspjax.perception.align import Alignment, align_tool
 from graspjax.perception.cluster import valid_mask
+from graspjax.perception.jaws import height_map
 from graspjax.perception.placements import Grasp
 from graspjax.perception.support import SupportPlane, no_support, support_plane
 from graspjax.perception.target import standing_candidates, surface_slope
@@ -211,15 +213,19 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     prep = _targets(depth, workspace, camera, config, image)
     rotation = prep.rotation
     in_range = valid_mask(depth) & (depth >= image.min_depth) & (depth <= image.max_depth)
+    fine_view = view_camera(prep.fine_camera, rotation)
+    support = in_view(prep.support, rotation)
+    valid = valid_mask(prep.depth)
+    heights = height_map(jnp.where(in_range, jnp.asarray(depth, jnp.float32), 0.0), camera,
+                         rotation, fine_view, jnp.nanmedian(jnp.where(valid, prep.depth, jnp.nan)),
+                         support, image.sweep_fill_px)  # the jaws see outside the workspace
     search = TargetSearch(
-        config=config, image=image, camera=camera,
-        full=jnp.where(in_range, jnp.asarray(depth, jnp.float32), 0.0),  # workspace or not
+        config=config, image=image, heights=heights,
         fine=prep.fine, fine_slope=prep.fine_slope, fine_camera=prep.fine_camera,
-        fine_view=view_camera(prep.fine_camera, rotation), rotation=rotation,
-        support=in_view(prep.support, rotation), depth=prep.depth,
-        valid=valid_mask(prep.depth), points=prep.points, candidate=prep.candidate,
+        fine_view=fine_view, rotation=rotation, support=support, depth=prep.depth,
+        valid=valid, points=prep.points, candidate=prep.candidate,
         score=prep.score,
-        # The window's own checks; the wall is judged at full resolution where the jaws touch.
+        # The window's own checks; the wall is judged on the jaws' height map where they touch.
         window_config=replace_unchecked(config, detect=replace_unchecked(
             config.detect, tbeam_positions=image.tbeam_positions,
             wall_check=jnp.zeros((), bool))))

@@ -3,7 +3,7 @@ height, each in its own detection window, until `top_k` distinct grasps passed.
 
 Target k is the best candidate outside the surfaces already tried. The grasp method runs in
 its window at the detection resolution; its `candidates_per_target` most central placements
-are checked on the full-resolution image (`jaws.check_jaws_where`) and scored
+are checked on the image's height map (`jaws.check_jaws_where`) and scored
 (`jaws.grasp_score`); with `image.contour_search`, a target none of whose placements passed
 gets antipodal pairs along its band's and its followed surface's contours, checked the same
 way. A target given up gives up its followed surface, not only its band. Everything checked
@@ -25,7 +25,7 @@ from graspjax.codes import GraspReason
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_method
 from graspjax.perception.cluster import target_surface
-from graspjax.perception.jaws import JawCheck, check_jaws_where, grasp_score
+from graspjax.perception.jaws import HeightMap, JawCheck, check_jaws_where, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.ranking import distinct_best
 from graspjax.perception.reasons import further_reason, furthest_reason
@@ -36,10 +36,10 @@ from graspjax.tree import concat_trees, where_tree
 
 
 class Placements(NamedTuple):
-    """Placements checked at full resolution, leading axis P (`per` of one target; the pool's
+    """Placements checked on the jaws' height map, leading axis P (`per` of one target; the pool's
     `max_targets * per`); `placed` is None once pooled."""
 
-    passed: jax.Array  # (P,) bool: placed and every full-resolution check passed
+    passed: jax.Array  # (P,) bool: placed and every jaws' check passed
     score: jax.Array  # (P,) `grasp_score` where passed, -inf elsewhere
     target: jax.Array  # (P,) int32 the target it stands on (k)
     index: jax.Array  # (P,) int32 its placement in that target's `Grasp.candidates`
@@ -100,8 +100,7 @@ class TargetSearch:
 
     config: Config
     image: RealImageConfig
-    camera: Camera  # the full image's intrinsics
-    full: jax.Array  # (H, W) depth in the range, workspace or not (0 = invalid): the jaws' checks
+    heights: HeightMap  # the scene along the view's approach, workspace or not: the jaws' checks
     fine: jax.Array  # (H', W') detection-resolution depth
     fine_slope: jax.Array  # (H', W') its surfaces' slope against the view
     fine_camera: Camera  # its intrinsics
@@ -113,14 +112,14 @@ class TargetSearch:
     points: jax.Array  # (h, w, 3) its points, view frame
     candidate: jax.Array  # (h, w) bool target candidates
     score: jax.Array  # (h, w) their order of preference
-    window_config: Config  # the window's own checks (the wall is judged at full resolution)
+    window_config: Config  # the window's own checks (the wall is judged on the height map)
 
     @property
     def per(self) -> int:
         return self.image.candidates_per_target
 
     def checked(self, cands, found, centre, k, first, by_contour) -> Placements:
-        """`per` valid placements of `cands` (a `TBeams`) checked at full resolution (the
+        """`per` valid placements of `cands` (a `TBeams`) checked on the jaws' height map (the
         method's nearest the part's `centre` (3,), the contour search's spread along the
         contour): target k's, indexed in its candidates from `first`."""
         per, rotation = self.per, self.rotation
@@ -134,9 +133,9 @@ class TargetSearch:
         placed = cands.valid[index] & found & real
         position = cands.center[index] @ rotation.T
         axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
-        jaws = check_jaws_where(placed, self.full, self.camera, position, axis, rotation[:, 2],
-                                cands.width[index], self.config.detect, self.config.gripper,
-                                self.image)
+        jaws = check_jaws_where(placed, self.heights, cands.center[index],
+                                jnp.pad(cands.axis[index], ((0, 0), (0, 1))), cands.width[index],
+                                self.config.detect, self.config.gripper, self.image)
         passed = placed & (jaws.reason == GraspReason.FOUND)
         rank = jnp.where(passed, grasp_score(jaws, cands.width[index], offset[index],
                                              self.config.detect, self.config.gripper, self.image),
@@ -150,7 +149,7 @@ class TargetSearch:
     @staticmethod
     def outcome(placements: Placements, window_reason) -> jax.Array:
         """A target's `GraspReason` from its checked placements: FOUND if one passed, else the
-        furthest stage the placed ones reached at full resolution, else the window's reason."""
+        furthest stage the placed ones reached in the jaws' checks, else the window's reason."""
         placed = placements.placed
         failed = jnp.where(jnp.any(placed), furthest_reason(placements.jaws.reason, placed),
                            window_reason)
@@ -207,7 +206,7 @@ class TargetSearch:
         centre = (jnp.sum(self.points * surface[..., None], (0, 1))
                   / jnp.maximum(jnp.sum(surface), 1))
 
-        # Its most central valid placements checked at full resolution; if none passes, with
+        # Its most central valid placements checked on the jaws' height map; if none passes, with
         # `image.contour_search` its contour's antipodal pairs too (the further reason wins).
         placements = self.checked(grasp.candidates, grasp.found & found, centre, k, 0, False)
         reason = self.outcome(placements, grasp.reason)
