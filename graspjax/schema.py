@@ -239,8 +239,9 @@ DETECT_COLUMNS = {
     "width": "the band's width across the closing axis (m)",
     "contact_width": "the width the jaws close on at the finger tips' level (m)",
     "grasp_depth": "how far the jaws reach below G along the approach (m)",
-    "clearance": "free height below the finger tips along the jaws' paths (m; inf: all free)",
-    "landing_fall": "the worst lane's fall of the surface where a jaw lands (m; inf: unseen)",
+    "clearance": "free height below the finger tips under the fingers' footprints (m)",
+    "landing_fall": "how far below G the highest surface under either finger lies, where the "
+                    "fingers land (m; -inf: nothing known there)",
     "u": "G's pixel column in the file", "v": "its row",
     "target_u": "the target's nearest point, pixel column", "target_v": "its row",
     "target_height": "the target's height above the support plane (m; empty: no plane)",
