@@ -50,6 +50,7 @@ from graspjax.camera import Camera
 from graspjax.codes import GraspReason
 from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
+from graspjax.perception.placements import sample_nearest
 from graspjax.perception.support import SupportPlane
 from graspjax.tree import map_where, pytree_dataclass
 
@@ -81,11 +82,10 @@ class HeightMap:
     def lookup(self, xy: jax.Array) -> tuple[jax.Array, jax.Array]:
         """The depth and whether it was seen at view-frame positions `(..., 2)`: `(...)` each; a
         position off the grid reads as unseen, on the support plane."""
-        rows, cols = self.depth.shape
-        ij = jnp.round(self.cells(xy)).astype(jnp.int32)
-        inside = (ij[..., 0] >= 0) & (ij[..., 0] < cols) & (ij[..., 1] >= 0) & (ij[..., 1] < rows)
-        c, r = jnp.clip(ij[..., 0], 0, cols - 1), jnp.clip(ij[..., 1], 0, rows - 1)
-        return (jnp.where(inside, self.depth[r, c], self.floor(xy)), inside & self.seen[r, c])
+        cells = self.cells(xy)
+        depth, _ = sample_nearest(self.depth, cells, self.floor(xy))
+        seen, _ = sample_nearest(self.seen, cells, False)
+        return depth, seen
 
 
 def height_map(depth: jax.Array, camera: Camera, rotation: jax.Array, view: Camera,

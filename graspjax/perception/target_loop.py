@@ -131,11 +131,11 @@ class TargetSearch:
             _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
             index, real = jnp.pad(index, (0, per - count)), jnp.arange(per) < count
         placed = cands.valid[index] & found & real
-        position = cands.center[index] @ rotation.T
-        axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
-        jaws = check_jaws_where(placed, self.heights, cands.center[index],
-                                jnp.pad(cands.axis[index], ((0, 0), (0, 1))), cands.width[index],
-                                self.config.detect, self.config.gripper, self.image)
+        axis_view = jnp.pad(cands.axis[index], ((0, 0), (0, 1)))  # (per, 3) view frame
+        position, axis = cands.center[index] @ rotation.T, axis_view @ rotation.T
+        jaws = check_jaws_where(placed, self.heights, cands.center[index], axis_view,
+                                cands.width[index], self.config.detect, self.config.gripper,
+                                self.image)
         passed = placed & (jaws.reason == GraspReason.FOUND)
         rank = jnp.where(passed, grasp_score(jaws, cands.width[index], offset[index],
                                              self.config.detect, self.config.gripper, self.image),
