@@ -153,6 +153,11 @@ class DetectorConfig:
     wall_check: bool = traced(False)  # ours: gripped sides must fall steeper than 90 deg - atan(friction)
     tbeam_positions: int = 1  # T-beams per edge: 1 at its centre (the paper); more spread along
     # it (the paper's Discussion proposes it, Fig. 8)
+    jaw_sweep: bool = False  # ours, in the simulation (`graspjax detect` always does it): the
+    # method's grasp also passes the real-image detector's jaws check, each finger swept down a
+    # height map of the view (`perception.jaws.admit_by_jaws`); where it does not, the nearest
+    # placement the method admits that does. Off in both presets: the tables read the method
+    # without it (results/jaw_sweep/ measures it paired)
     checks_in_chunks: bool = True  # check only the admissible placements (and a real image's
     # placed grasps), a few per loop step: on a CPU the work skipped is time saved. A program
     # built for another device checks all at once whatever this says (`for_device`): each loop

@@ -414,3 +414,74 @@ def test_only_the_placed_grasps_are_checked_each_as_alone():
         assert np.all(np.isnan(getattr(got, field)[~placed]))
     assert np.all(got.reason[~placed] == -1)
     assert {GraspReason.FOUND, GraspReason.JAWS_BLOCKED} <= set(got.reason[placed].tolist())
+
+
+# --- the simulated procedure's sweep (`admit_by_jaws`, `detect.jaw_sweep`) ------------------
+SWEEP_HEIGHT = 0.5  # the top-down camera's height above the table (m), as in the simulation
+
+
+@jax.jit
+def _swept(depth, camera, config):
+    """The method's grasp on a top-down view and the same after `admit_by_jaws`."""
+    from graspjax.perception.baselines import grasp_method
+    from graspjax.perception.jaws import admit_by_jaws
+    from graspjax.perception.support import known_support
+    from graspjax.synthetic import top_down_pose
+
+    rotation, eye = (jnp.asarray(x, jnp.float32) for x in top_down_pose(SWEEP_HEIGHT))
+    grasp = grasp_method(config.method)(depth, camera, config, None)
+    table = known_support(rotation, eye, jnp.array([0.0, 0.0, 1.0]), 0.0)
+    return grasp, admit_by_jaws(grasp, depth, camera, table, config)[0]
+
+
+def _sweep_scene(solids, camera):
+    from graspjax.synthetic import analytic_depth, top_down_pose
+
+    rotation, eye = top_down_pose(SWEEP_HEIGHT)
+    depth = analytic_depth(camera, rotation, eye, solids).astype(np.float32)
+    return jax.tree.map(np.asarray, _swept(depth, camera, Config()))
+
+
+def _closing(grasp, index):
+    """Whether placement `index` closes along the camera's x (the world's x) rather than y."""
+    return abs(grasp.candidates.axis[index][0]) > 0.9
+
+
+def test_the_sweep_keeps_a_free_grasp_at_the_depth_asked(camera):
+    """A box alone (5 x 3 x 4 cm): the method's grasp passes, unchanged, 2 cm deep."""
+    method, swept = _sweep_scene([box((0.05, 0.03, 0.04))], camera)
+    assert method.found and swept.found and swept.reason == GraspReason.FOUND
+    assert swept.index == method.index
+    np.testing.assert_allclose(swept.position, method.position)
+    assert swept.depth == pytest.approx(Config().detect.grasp_depth)
+
+
+def test_a_part_between_the_jaws_turns_the_grasp_to_the_free_axis(camera):
+    """A 1 cm thick, 3 cm tall slab 1 cm beside the box's long side, inside the open jaws'
+    reach across the box (4 cm from its axis) but clear of the fingers' footprints (past 4 cm):
+    the depth-only checks admit closing across the box's 3 cm, the jaws would close on the
+    slab too. The sweep takes the grasp across the box's 5 cm (closing along x), whose
+    lanes (the 2 cm finger) pass the slab by."""
+    slab = box((0.05, 0.01, 0.03), (0.0, 0.03, 0.0))
+    method, swept = _sweep_scene([box((0.05, 0.03, 0.04)), slab], camera)
+    admitted = np.flatnonzero(method.candidates.valid)
+    across = [i for i in admitted if not _closing(method, i)]
+    assert across, "the method admits closing across the 3 cm (the slab is no finger's floor)"
+    assert swept.found and _closing(swept, swept.index)
+    assert all(swept.candidates.reason[i] == GraspReason.JAWS_BLOCKED for i in across)
+
+
+def test_blocked_on_every_axis_is_no_grasp_and_says_why(camera):
+    """Slabs beside all four sides: every admitted placement's jaws close on a slab."""
+    solids = [box((0.05, 0.03, 0.04)), box((0.05, 0.01, 0.03), (0.0, 0.03, 0.0)),
+              box((0.05, 0.01, 0.03), (0.0, -0.03, 0.0)), box((0.01, 0.07, 0.03), (0.04, 0.0, 0.0)),
+              box((0.01, 0.07, 0.03), (-0.04, 0.0, 0.0))]
+    method, swept = _sweep_scene(solids, camera)
+    assert method.found
+    assert not swept.found and swept.reason == GraspReason.JAWS_BLOCKED and swept.index == -1
+    assert np.isnan(swept.position).all()
+
+
+def test_a_view_without_a_grasp_keeps_its_reason(camera):
+    method, swept = _sweep_scene([], camera)
+    assert not method.found and swept.reason == method.reason

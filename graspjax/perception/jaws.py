@@ -48,9 +48,10 @@ import numpy as np
 
 from graspjax.camera import Camera
 from graspjax.codes import GraspReason
-from graspjax.config import DetectorConfig, GripperConfig, RealImageConfig
+from graspjax.config import Config, DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
-from graspjax.perception.placements import sample_nearest
+from graspjax.perception.placements import Grasp, sample_nearest
+from graspjax.perception.reasons import furthest_reason
 from graspjax.perception.support import SupportPlane
 from graspjax.tree import map_where, pytree_dataclass
 
@@ -225,3 +226,53 @@ def grasp_score(check: JawCheck, width, centre_distance, detect, gripper, image)
                          gripper.opening - 2 * detect.clearance - check.contact_width)
     quarter = gripper.opening / 4
     return clear + jnp.clip(margin, 0.0, quarter) / quarter - centre_distance / (gripper.opening / 2)
+
+
+def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: SupportPlane,
+                  config: Config) -> tuple[Grasp, JawCheck]:
+    """The simulated procedure's use of the jaws' check (`detect.jaw_sweep`): a method's grasp
+    on one view, its placements swept down the view's height map as `graspjax detect` sweeps
+    them.
+
+    depth: the view's metric depth (H, W) of `camera`, which looks along the approach (the
+    view frame is the camera frame); support: the table in that frame (`known_support`). The
+    map's cells are the camera's pixels at the target's surface depth. Of the method's
+    admitted placements, the `image.candidates_per_target` nearest its own choice are checked
+    (the choice first); the nearest that passes is the grasp, at the depth its jaws reach.
+    None passing: not found, the furthest check reached (`JAWS_BLOCKED` or `NO_WALL`). The
+    sweep only refuses: a view without a grasp keeps its own reason. Returns the grasp and
+    the chosen placement's `JawCheck` (reason -1 when none was checked).
+    """
+    cands = grasp.candidates
+    image = dataclasses.replace(config.image, min_width=0.0)  # widths: the method's own check
+    heights = height_map(depth, camera, jnp.eye(3, dtype=jnp.float32), camera,
+                         grasp.surface_depth, support, image.sweep_fill_px)
+    chosen = cands.center[jnp.maximum(grasp.index, 0), :2]
+    offset = jnp.where(cands.valid, jnp.linalg.norm(cands.center[:, :2] - chosen, axis=-1),
+                       jnp.inf)
+    count = min(image.candidates_per_target, offset.shape[0])
+    _, index = jax.lax.top_k(-offset, count)  # nearest first: the method's choice leads
+    placed = cands.valid[index] & grasp.found
+    jaws = check_jaws_where(placed, heights, cands.center[index],
+                            jnp.pad(cands.axis[index], ((0, 0), (0, 1))), cands.width[index],
+                            config.detect, config.gripper, image)
+    passed = placed & (jaws.reason == GraspReason.FOUND)
+    first = jnp.argmax(passed)
+    found = passed[first]
+    pick = index[first]
+    reason = jnp.where(found, GraspReason.FOUND,
+                       jnp.where(jnp.any(placed), furthest_reason(jaws.reason, placed),
+                                 grasp.reason)).astype(jnp.int32)
+    nan3 = jnp.full(3, jnp.nan, jnp.float32)
+    swept = dataclasses.replace(
+        grasp, found=found, reason=reason,
+        position=jnp.where(found, cands.center[pick], nan3),
+        closing_axis=jnp.where(found, jnp.append(cands.axis[pick], 0.0), nan3),
+        width=jnp.where(found, cands.width[pick], jnp.nan),
+        depth=jnp.where(found, jaws.depth[first], jnp.nan),
+        pixel=jnp.where(found, cands.pixel[pick], jnp.nan),
+        index=jnp.where(found, pick, -1).astype(jnp.int32),
+        candidates=dataclasses.replace(
+            cands, valid=cands.valid.at[index].set(passed),
+            reason=cands.reason.at[index].set(jnp.where(placed, jaws.reason, cands.reason[index]))))
+    return swept, jax.tree.map(lambda x: x[first], jaws)

@@ -23,6 +23,7 @@ from graspjax.perception import (
 )
 from graspjax.perception.baselines import grasp_method
 from graspjax.perception.cluster import nearest_pixel
+from graspjax.perception.jaws import admit_by_jaws
 from graspjax.perception.support import known_support
 from graspjax.perception.target import best_candidate, follow_target, standing_candidates
 from graspjax.perception.workspace import box_workspace
@@ -97,12 +98,18 @@ def overview_pose(config: Config):
     return look_down(jnp.array([0.0, 0.0, 1.0]) * config.procedure.camera_height)
 
 
+def _table(rotation, position):
+    """The table (z = 0) in the frame of a camera at a pose (rotation (3, 3), position (3,)),
+    known by calibration."""
+    return known_support(rotation, position, jnp.array([0.0, 0.0, 1.0]), 0.0)
+
+
 def _candidates(depth: jax.Array, rotation, position, in_bin, camera: Camera, config: Config
                 ) -> jax.Array:
     """Pixels (H, W) bool of a view that may be a target, from its depth (H, W) and what a
     calibrated robot knows: the camera's pose (rotation (3, 3), position (3,)), the table
     (z = 0) and the workspace (the bin's interior when `in_bin`, () bool; else the table)."""
-    table = known_support(rotation, position, jnp.array([0.0, 0.0, 1.0]), 0.0)
+    table = _table(rotation, position)
     inner = config.layout.bin_size / 2 - config.perception.wall_margin
     half = jnp.where(in_bin, inner, jnp.inf)
     workspace = box_workspace(depth, camera, rotation, position,
@@ -175,6 +182,8 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.A
                                    config.perception.follow_distance)
     mask = with_oracle(config, followed, lambda: target_pixels(surface))
     grasp = grasp_method(config.method)(depth, camera, config, mask)
+    if config.detect.jaw_sweep:
+        grasp, _ = admit_by_jaws(grasp, depth, camera, _table(rotation, position), config)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
     approach = rotation[:, 2]
