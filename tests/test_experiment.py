@@ -688,20 +688,18 @@ def test_every_method_traces_into_the_attempt_program(monkeypatch):
     assert len(searches) == 1 and not densities
 
 
-def test_the_jaw_sweep_traces_into_the_attempt_program(monkeypatch):
+@pytest.mark.parametrize("sweep, calls", [("true", 1), ("false", 0)])
+def test_the_jaw_sweep_traces_into_the_attempt_program(monkeypatch, sweep, calls):
     """`detect.jaw_sweep` sends every view's grasp through `admit_by_jaws` in the batch program
     (traced and exported, not compiled; its kernel is tested in test_jaws); off, no view does."""
     monkeypatch.setattr(exported, "store", lambda: None)
-    for sweep, calls in (("true", 1), ("false", 0)):
-        swept = []
-        admit = steps.admit_by_jaws
-        monkeypatch.setattr(steps, "admit_by_jaws", lambda *a: swept.append(1) or admit(*a))
-        config = override(Config(), [f"detect.jaw_sweep={sweep}"])
-        group, = plan.plan([plan.Job(("a", "c"), (1,), 3)], [config], 3)
-        _, attempt = program.Program(group, 3, False).portable
-        assert jax.tree.leaves(attempt.out_shapes())
-        assert len(swept) == calls
-        monkeypatch.setattr(steps, "admit_by_jaws", admit)
+    swept, admit = [], steps.admit_by_jaws
+    monkeypatch.setattr(steps, "admit_by_jaws", lambda *a: swept.append(1) or admit(*a))
+    config = override(Config(), [f"detect.jaw_sweep={sweep}"])
+    group, = plan.plan([plan.Job(("a", "c"), (1,), 3)], [config], 3)
+    _, attempt = program.Program(group, 3, False).portable
+    assert jax.tree.leaves(attempt.out_shapes())
+    assert len(swept) == calls
 
 
 def test_two_methods_of_a_paired_sweep_play_the_same_settled_worlds(rounds_runs, tmp_path):
