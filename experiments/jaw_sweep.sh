@@ -2,7 +2,7 @@
 # results/jaw_sweep/: the simulated procedure with and without the real-image detector's jaws
 # check (`detect.jaw_sweep`: each view's grasp swept down a height map of the view,
 # perception.jaws.admit_by_jaws), paired on the same settled worlds, Tables 1+2, both presets,
-# TRIALS per cell (default 300). DEVICE=gpu (one GPU; MuJoCo as wheels, ../shared/gpu/README.md)
+# TRIALS per cell (default 300), PRESETS (default "paper realistic"). DEVICE=gpu (one GPU; MuJoCo as wheels, ../shared/gpu/README.md)
 # packs each folder into $OUT/NAME.tgz; DEVICE=cpu writes results/jaw_sweep.
 set -uo pipefail
 device=${DEVICE:-cpu}
@@ -13,7 +13,7 @@ case "$device" in
   *) echo "DEVICE must be cpu or gpu" >&2; exit 2 ;;
 esac
 mkdir -p "$out"
-for preset in paper realistic; do
+for preset in ${PRESETS:-paper realistic}; do
   name=${preset}_${device}_$trials start=$SECONDS
   python3 -m graspjax.cli sweep --table 1,2 --trials "$trials" --paired --preset "$preset" \
     --grid detect.jaw_sweep=false,true --seed 0 --quiet --overwrite --out "$out/$name" \
