@@ -13,7 +13,7 @@ from real_scenes import table_centre, table_with
 from graspjax.config import Config, RealImageConfig, preset
 from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
-from graspjax.perception.jaws import check_jaws, height_map
+from graspjax.perception.jaws import JawRule, check_jaws, height_map
 from graspjax.perception.support import SupportPlane
 from graspjax.perception.virtual import view_camera, view_rotation
 from graspjax.perception.window import in_view
@@ -100,7 +100,7 @@ def test_a_box_alone_is_grasped_with_both_fingers_free_to_the_grasp_depth():
     for config in (Config(), preset("realistic")):
         for axis, width in ((X, 0.04), (Y, 0.06)):
             result = _jaws([BOX], _at(z=0.04), axis, width, config)
-            assert result.reason == GraspReason.FOUND
+            assert result.reason == GraspReason.FOUND and result.failed == 0
             assert abs(float(result.depth) - WANTED) < 1e-4
             assert abs(float(result.landing) - 0.04) < 0.002  # the table under the fingers
             assert abs(float(result.clearance) - (0.04 - WANTED)) < 0.002
@@ -131,6 +131,7 @@ def test_a_tote_wall_beside_the_box_blocks_the_jaws_across_it_not_along_it():
     wall = box((0.01, 0.3, 0.12), _at(x=0.035))
     across = _jaws([BOX, wall], _at(z=0.04), X, 0.04)
     assert across.reason == GraspReason.JAWS_BLOCKED
+    assert across.failed & JawRule.REACH  # the finger lands on the wall's top, above the box
     assert float(across.landing) < 0.0  # the wall stands above the box's top
     along = _jaws([BOX, wall], _at(z=0.04), Y, 0.06)
     assert along.reason == GraspReason.FOUND
@@ -144,7 +145,9 @@ def test_a_second_part_between_the_jaws_is_what_they_close_on():
     bar of the box (against its face) is the part's own width: the jaws close on both, 5 cm."""
     apart = box((0.01, 0.06, 0.03), _at(x=0.032))
     against = box((0.01, 0.06, 0.03), _at(x=0.025))
-    assert _jaws([BOX, apart], _at(z=0.04), X, 0.04).reason == GraspReason.JAWS_BLOCKED
+    blocked = _jaws([BOX, apart], _at(z=0.04), X, 0.04)
+    assert blocked.reason == GraspReason.JAWS_BLOCKED
+    assert blocked.failed & JawRule.GAP and not blocked.failed & JawRule.REACH
     joined = _jaws([BOX, against], _at(z=0.04), X, 0.04)
     assert joined.reason == GraspReason.FOUND
     assert 0.05 - 0.0035 < float(joined.contact_width) < 0.05 + 0.006

@@ -41,6 +41,7 @@ Written for one image's map and one grasp; `jax.vmap` over grasps.
 from __future__ import annotations
 
 import dataclasses
+import enum
 
 import jax
 import jax.numpy as jnp
@@ -125,6 +126,16 @@ def height_map(depth: jax.Array, camera: Camera, rotation: jax.Array, view: Came
     return dataclasses.replace(grid, depth=filled, seen=seen)
 
 
+class JawRule(enum.IntFlag):
+    """The rules of `check_jaws` a grasp fails (`JawCheck.failed`, a bitmask)."""
+
+    REACH = 1  # a finger lands shallower than `detect.min_grasp_depth`
+    GAP = 2  # a fall below the tips, then a rise: something else between the jaws
+    WIDE = 4  # the touches do not fit the opening less the clearance
+    SIDES = 8  # a jaw touches beyond friction x reach of the band's edge (a slope, a shoulder)
+    WALL = 16  # with `detect.wall_check`: the side where a jaw touches is not steep enough
+
+
 @pytree_dataclass
 class JawCheck:
     """`check_jaws`'s verdict on one grasp (metres)."""
@@ -138,6 +149,7 @@ class JawCheck:
     # footprint, where the fingers land (-inf: nothing known there)
     contact_width: jax.Array  # () distance between the jaws where they touch the part
     unknown: jax.Array  # () share of the samples in unseen cells
+    failed: jax.Array  # () int32 `JawRule` bitmask of the rules failed (0: none; -1: not checked)
 
 
 def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: jax.Array,
@@ -187,14 +199,17 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
     upper = jnp.take_along_axis(profile, inside[:, None], -1)[:, 0]
     steep = jnp.isinf(lower) | ((lower - upper) >= (out - inside) * step / gripper.friction)
 
-    blocked = (reach < detect.min_grasp_depth) | gap | ~fits | ~sides
-    no_wall = detect.wall_check & ~jnp.all(steep)
+    rules = jnp.stack([reach < detect.min_grasp_depth, gap, ~fits, ~sides,
+                       detect.wall_check & ~jnp.all(steep)])
+    failed = jnp.sum(rules * jnp.array([int(r) for r in JawRule], jnp.int32))
+    blocked, no_wall = jnp.any(rules[:4]), rules[4]
     reason = jnp.select([width < image.min_width, blocked, no_wall],
                         [GraspReason.TOO_NARROW, GraspReason.JAWS_BLOCKED, GraspReason.NO_WALL],
                         GraspReason.FOUND).astype(jnp.int32)
     return JawCheck(reason=reason, depth=reach,
                     clearance=jnp.where(jnp.isfinite(reach), fall - reach, fall), landing=fall,
-                    contact_width=contact_width, unknown=jnp.mean(~seen))
+                    contact_width=contact_width, unknown=jnp.mean(~seen),
+                    failed=failed.astype(jnp.int32))
 
 
 _JAW_CHUNK = 8  # grasps checked per loop step on a CPU (`check_jaws_where`)
@@ -213,7 +228,7 @@ def check_jaws_where(placed: jax.Array, heights: HeightMap, center: jax.Array, a
         jax.vmap(lambda c, a, w: check_jaws(heights, c, a, w, detect, gripper, image)),
         placed, _JAW_CHUNK if detect.checks_in_chunks else None,
         JawCheck(reason=jnp.full(n, -1, jnp.int32), depth=nan, clearance=nan, landing=nan,
-                 contact_width=nan, unknown=nan),
+                 contact_width=nan, unknown=nan, failed=jnp.full(n, -1, jnp.int32)),
         center, axis, width)
 
 
