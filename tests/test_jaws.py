@@ -153,6 +153,21 @@ def test_a_second_part_between_the_jaws_is_what_they_close_on():
     assert 0.05 - 0.0035 < float(joined.contact_width) < 0.05 + 0.006
 
 
+def test_a_groove_of_the_part_itself_is_not_a_second_part():
+    """A 4 x 6 x 4 cm part with a 7 mm slot 5 mm inside its +x face, open to +y and closed at -y:
+    the lanes from y = -5 mm up cross the slot (a fall to the table) and rise on the part's far
+    wall, which is joined to the part through the lanes below y = -5 mm: one piece, the jaws
+    close on the wall (4 cm). Cut the slot through (the wall a bar of its own): refused."""
+    body = box((0.025, 0.06, 0.04), _at(x=-0.0075))
+    wall = box((0.008, 0.06, 0.04), _at(x=0.016))
+    bridge = box((0.007, 0.025, 0.04), _at(x=0.0085, y=-0.0175))
+    one_piece = _jaws([body, bridge, wall], _at(z=0.04), X, 0.04)
+    assert one_piece.reason == GraspReason.FOUND and one_piece.failed == 0
+    assert 0.04 - 0.0035 < float(one_piece.contact_width) < 0.04 + 0.006
+    apart = _jaws([body, wall], _at(z=0.04), X, 0.04)
+    assert apart.reason == GraspReason.JAWS_BLOCKED and apart.failed & JawRule.GAP
+
+
 def test_a_hole_without_depth_under_a_finger_reads_as_the_floor_around_it():
     """The table beside the box's +x face without depth from 1 to 6 cm out (a shadow, as a
     projector's sensor loses it): the finger's cells are unseen, and read as the support (the

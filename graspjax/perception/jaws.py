@@ -26,7 +26,8 @@ not go.
   the inner face, what stands above the finger tips must be one piece with the grasped band: a
   fall below the tips (two samples seen in a row) and then a rise (a groove and something
   beyond it, a second part between the jaws) means the jaw closes on something else:
-  `JAWS_BLOCKED`. Each jaw touches where
+  `JAWS_BLOCKED`; unless what rises is joined to the band above the tips through the other
+  lanes (a groove of the part itself, a gear's teeth). Each jaw touches where
   its lanes last stand above the tips, and there it closes on a side: within friction x the
   depth reached of the band's edge (the part falls to the tips no more gently, on average,
   than the pads' friction cone), else it comes down on a slope or a shoulder of the part. The
@@ -182,7 +183,11 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
     last = jnp.max(jnp.where(above & ~foot, index, 0), axis=1)  # (2, L) the touch, per lane
     fallen = seen & ~above  # seen below the tips; a fall is two such samples in a row
     fall_run = fallen & jnp.concatenate([fallen[:, 1:], jnp.zeros_like(fallen[:, :1])], axis=1)
-    gap = jnp.any(fall_run & (index < last[:, None, :] - 1))
+    # ... unless what the lane meets there is one piece with the band, joined to it above the
+    # tips through the other lanes (a groove of the part, a gear's teeth)
+    joined = _joined(above & ~foot)
+    touch_joined = jnp.take_along_axis(joined, last[:, None, :], axis=1)[:, 0, :]  # (2, L)
+    gap = jnp.any(jnp.any(fall_run & (index < last[:, None, :] - 1), axis=1) & ~touch_joined)
     touch = jnp.max(last, axis=1)  # (2,) each jaw touches at its outermost lane
     contact_width = jnp.sum(touch.astype(jnp.float32)) * step
     fits = contact_width <= gripper.opening - 2 * detect.clearance
@@ -210,6 +215,22 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
                     clearance=jnp.where(jnp.isfinite(reach), fall - reach, fall), landing=fall,
                     contact_width=contact_width, unknown=jnp.mean(~seen),
                     failed=failed.astype(jnp.int32))
+
+
+def _joined(region: jax.Array) -> jax.Array:
+    """The samples of `region` (2, A, L) (side, out from the centre, lane) joined to the
+    centre's (index 0) through 4-neighbours in `region`, each side apart."""
+    def grow(state):
+        _, joined = state
+        out = jnp.pad(joined[:, :-1], ((0, 0), (1, 0), (0, 0)))
+        back = jnp.pad(joined[:, 1:], ((0, 0), (0, 1), (0, 0)))
+        left = jnp.pad(joined[:, :, :-1], ((0, 0), (0, 0), (1, 0)))
+        right = jnp.pad(joined[:, :, 1:], ((0, 0), (0, 0), (0, 1)))
+        return joined, (joined | out | back | left | right) & region
+
+    seeds = region & (jnp.arange(region.shape[1]) == 0)[None, :, None]
+    return jax.lax.while_loop(lambda state: jnp.any(state[0] != state[1]), grow,
+                              (jnp.zeros_like(region), seeds))[1]
 
 
 _JAW_CHUNK = 8  # grasps checked per loop step on a CPU (`check_jaws_where`)
