@@ -209,6 +209,12 @@ def _reference_folders():
     return folders
 
 
+# Settings added after the reference tables were made, each a switch off in both presets whose
+# off is the code before it (an `if` around what it adds): a record without them ran as they
+# are now. A setting that changes what the presets run is not listed here: its tables are remade.
+ADDED_OFF = {"detect.jaw_sweep": False}
+
+
 def test_the_reference_results_are_the_presets():
     """Every committed reference table ran with its preset as the code defines it now and
     nothing else: no override, no grid (so the paper preset's numbers are the paper's method)."""
@@ -219,6 +225,10 @@ def test_the_reference_results_are_the_presets():
         meta = json.loads((folder / "config.json").read_text())
         assert meta["grid"] == {}, folder
         expected = json.loads(json.dumps(run_settings(preset(meta["preset"]))))
+        for key, off in ADDED_OFF.items():
+            assert expected[key] == off, key  # still off in the preset
+            if key not in meta["config"]:
+                del expected[key]
         assert meta["config"] == expected, (folder, differences_of(meta["config"], expected))
 
 
