@@ -449,7 +449,7 @@ def _swept(depth, camera, config):
     rotation, eye = (jnp.asarray(x, jnp.float32) for x in top_down_pose(SWEEP_HEIGHT))
     grasp = grasp_method(config.method)(depth, camera, config, None)
     table = known_support(rotation, eye, jnp.array([0.0, 0.0, 1.0]), 0.0)
-    return grasp, admit_by_jaws(grasp, depth, camera, table, config)[0]
+    return grasp, admit_by_jaws(grasp, depth, camera, table, config)
 
 
 def _sweep_scene(solids, camera):

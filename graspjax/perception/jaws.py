@@ -265,7 +265,7 @@ def grasp_score(check: JawCheck, width, centre_distance, detect, gripper, image)
 
 
 def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: SupportPlane,
-                  config: Config) -> tuple[Grasp, JawCheck]:
+                  config: Config) -> Grasp:
     """The simulated procedure's use of the jaws' check (`detect.jaw_sweep`): a method's grasp
     on one view, its placements swept down the view's height map as `graspjax detect` sweeps
     them.
@@ -276,8 +276,8 @@ def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: Suppo
     admitted placements, the `image.candidates_per_target` nearest its own choice are checked
     (the choice first); the nearest that passes is the grasp, at the depth its jaws reach.
     None passing: not found, the furthest check reached (`JAWS_BLOCKED` or `NO_WALL`). The
-    sweep only refuses: a view without a grasp keeps its own reason. Returns the grasp and
-    the chosen placement's `JawCheck` (reason -1 when none was checked).
+    sweep only refuses: a view without a grasp keeps its own reason; its candidates' reasons
+    and validity say what the sweep made of the placements it checked.
     """
     cands = grasp.candidates
     image = dataclasses.replace(config.image, min_width=0.0)  # widths: the method's own check
@@ -300,7 +300,7 @@ def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: Suppo
                        jnp.where(jnp.any(placed), furthest_reason(jaws.reason, placed),
                                  grasp.reason)).astype(jnp.int32)
     nan3 = jnp.full(3, jnp.nan, jnp.float32)
-    swept = dataclasses.replace(
+    return dataclasses.replace(
         grasp, found=found, reason=reason,
         position=jnp.where(found, cands.center[pick], nan3),
         closing_axis=jnp.where(found, jnp.append(cands.axis[pick], 0.0), nan3),
@@ -311,4 +311,3 @@ def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: Suppo
         candidates=dataclasses.replace(
             cands, valid=cands.valid.at[index].set(passed),
             reason=cands.reason.at[index].set(jnp.where(placed, jaws.reason, cands.reason[index]))))
-    return swept, jax.tree.map(lambda x: x[first], jaws)

@@ -183,7 +183,7 @@ def view(scene: Scene, data, rotation, position, target: jax.Array, point: jax.A
     mask = with_oracle(config, followed, lambda: target_pixels(surface))
     grasp = grasp_method(config.method)(depth, camera, config, mask)
     if config.detect.jaw_sweep:
-        grasp, _ = admit_by_jaws(grasp, depth, camera, _table(rotation, position), config)
+        grasp = admit_by_jaws(grasp, depth, camera, _table(rotation, position), config)
     alignment = align_tool(depth, camera, config.align, k_align, seed_mask=mask)
 
     approach = rotation[:, 2]
