@@ -3,9 +3,9 @@
     python3 experiments/jaw_sweep_refusals.py RUN [--preset NAME]
 
 RUN: a `graspjax run --save-views all` folder made without the sweep (`detect.jaw_sweep`
-false). For each saved attempt whose grasp was executed, the jaws' check
-(`perception.jaws.check_jaws`) is made on the view that found it, as `detect.jaw_sweep` would
-make it, and the rules it fails (`JawRule`) are counted per object apart for the attempts that
+false). For each saved attempt whose grasp was executed, the jaws' check is made on the view
+that found it, as `detect.jaw_sweep` would make it (`perception.jaws.sweep_placements`), and
+the rules it fails (`JawRule`) are counted per object apart for the attempts that
 succeeded (a refusal there refuses a grasp that held) and those that failed. The outcome is the
 simulator's: it judges the check, never steers it.
 """
@@ -13,7 +13,6 @@ simulator's: it judges the check, never steers it.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from collections import Counter
 from pathlib import Path
 
@@ -24,19 +23,16 @@ import pandas as pd
 
 from graspjax.camera import Camera
 from graspjax.config import preset
-from graspjax.perception.jaws import JawRule, check_jaws, height_map
+from graspjax.perception.jaws import JawRule, sweep_placements
 from graspjax.perception.support import known_support
 from graspjax.saved_views import attempt_name, load
 
 
 @jax.jit
-def _check(depth, camera, rotation, position, grasp_position, axis, width, surface_depth,
-           config):
+def _failed(grasp, depth, camera, rotation, position, config):
+    """The rules the method's chosen grasp (the first swept) fails on its view."""
     table = known_support(rotation, position, jnp.array([0.0, 0.0, 1.0]), 0.0)
-    heights = height_map(depth, camera, jnp.eye(3, dtype=jnp.float32), camera, surface_depth,
-                         table, config.image.sweep_fill_px)
-    return check_jaws(heights, grasp_position, axis, width, config.detect, config.gripper,
-                      dataclasses.replace(config.image, min_width=0.0))  # as `admit_by_jaws`
+    return sweep_placements(grasp, depth, camera, table, config)[2].failed[0]
 
 
 def _rules(failed: int) -> str:
@@ -66,9 +62,8 @@ def main() -> None:
         h, w = saved.depth.shape[1:]
         camera = Camera(int(w), int(h), float(fx), float(fy), float(cx), float(cy))
         grasp, _, _ = saved.view(v)
-        result = _check(saved.depth[1 + v], camera, rotation, position, grasp.position,
-                        grasp.closing_axis, grasp.width, grasp.surface_depth, config)
-        tally.setdefault((row.object, bool(row.success)), Counter())[_rules(int(result.failed))] += 1
+        failed = int(_failed(grasp, saved.depth[1 + v], camera, rotation, position, config))
+        tally.setdefault((row.object, bool(row.success)), Counter())[_rules(failed)] += 1
     for (name, success), counts in sorted(tally.items()):
         total = sum(counts.values())
         print(f"{name}, {'succeeded' if success else 'failed'} ({total} executed grasps): "

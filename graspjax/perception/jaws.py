@@ -52,7 +52,7 @@ from graspjax.camera import Camera
 from graspjax.codes import GraspReason
 from graspjax.config import Config, DetectorConfig, GripperConfig, RealImageConfig
 from graspjax.perception.cluster import valid_mask
-from graspjax.perception.placements import Grasp, sample_nearest
+from graspjax.perception.placements import Grasp, TBeams, sample_nearest
 from graspjax.perception.reasons import furthest_reason
 from graspjax.perception.support import SupportPlane
 from graspjax.tree import map_where, pytree_dataclass
@@ -253,6 +253,16 @@ def check_jaws_where(placed: jax.Array, heights: HeightMap, center: jax.Array, a
         center, axis, width)
 
 
+def check_placements_at(placed: jax.Array, heights: HeightMap, cands: TBeams, index: jax.Array,
+                        detect: DetectorConfig, gripper: GripperConfig,
+                        image: RealImageConfig) -> JawCheck:
+    """`check_jaws_where` on a method's placements `cands` (view frame) at `index` (N,), where
+    `placed` (N,) bool."""
+    return check_jaws_where(placed, heights, cands.center[index],
+                            jnp.pad(cands.axis[index], ((0, 0), (0, 1))), cands.width[index],
+                            detect, gripper, image)
+
+
 def grasp_score(check: JawCheck, width, centre_distance, detect, gripper, image) -> jax.Array:
     """A passing grasp's rank, each term in [0, 1]: free height below the tips (capped at 1 cm),
     width margin to the narrowest and widest allowed (capped at a quarter of the opening), less
@@ -262,6 +272,26 @@ def grasp_score(check: JawCheck, width, centre_distance, detect, gripper, image)
                          gripper.opening - 2 * detect.clearance - check.contact_width)
     quarter = gripper.opening / 4
     return clear + jnp.clip(margin, 0.0, quarter) / quarter - centre_distance / (gripper.opening / 2)
+
+
+def sweep_placements(grasp: Grasp, depth: jax.Array, camera: Camera, support: SupportPlane,
+                     config: Config) -> tuple[jax.Array, jax.Array, JawCheck]:
+    """A method's placements on one simulated view swept down the view's height map
+    (`admit_by_jaws`, whose arguments these are): the `image.candidates_per_target` valid ones
+    nearest the method's choice, the choice first. Returns their indices in
+    `grasp.candidates` (N,), whether each was checked (N,) and their `JawCheck` (N,)."""
+    cands = grasp.candidates
+    image = dataclasses.replace(config.image, min_width=0.0)  # widths: the method's own check
+    heights = height_map(depth, camera, jnp.eye(3, dtype=jnp.float32), camera,
+                         grasp.surface_depth, support, image.sweep_fill_px)
+    chosen = cands.center[jnp.maximum(grasp.index, 0), :2]
+    offset = jnp.where(cands.valid, jnp.linalg.norm(cands.center[:, :2] - chosen, axis=-1),
+                       jnp.inf)
+    count = min(image.candidates_per_target, offset.shape[0])
+    _, index = jax.lax.top_k(-offset, count)  # nearest first: the method's choice leads
+    placed = cands.valid[index] & grasp.found
+    return index, placed, check_placements_at(placed, heights, cands, index, config.detect,
+                                              config.gripper, image)
 
 
 def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: SupportPlane,
@@ -280,18 +310,7 @@ def admit_by_jaws(grasp: Grasp, depth: jax.Array, camera: Camera, support: Suppo
     and validity say what the sweep made of the placements it checked.
     """
     cands = grasp.candidates
-    image = dataclasses.replace(config.image, min_width=0.0)  # widths: the method's own check
-    heights = height_map(depth, camera, jnp.eye(3, dtype=jnp.float32), camera,
-                         grasp.surface_depth, support, image.sweep_fill_px)
-    chosen = cands.center[jnp.maximum(grasp.index, 0), :2]
-    offset = jnp.where(cands.valid, jnp.linalg.norm(cands.center[:, :2] - chosen, axis=-1),
-                       jnp.inf)
-    count = min(image.candidates_per_target, offset.shape[0])
-    _, index = jax.lax.top_k(-offset, count)  # nearest first: the method's choice leads
-    placed = cands.valid[index] & grasp.found
-    jaws = check_jaws_where(placed, heights, cands.center[index],
-                            jnp.pad(cands.axis[index], ((0, 0), (0, 1))), cands.width[index],
-                            config.detect, config.gripper, image)
+    index, placed, jaws = sweep_placements(grasp, depth, camera, support, config)
     passed = placed & (jaws.reason == GraspReason.FOUND)
     first = jnp.argmax(passed)
     found = passed[first]

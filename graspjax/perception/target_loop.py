@@ -25,7 +25,7 @@ from graspjax.codes import GraspReason
 from graspjax.config import Config, RealImageConfig
 from graspjax.perception.baselines import antipodal_grasp, evenly_spread, grasp_method
 from graspjax.perception.cluster import target_surface
-from graspjax.perception.jaws import HeightMap, JawCheck, check_jaws_where, grasp_score
+from graspjax.perception.jaws import HeightMap, JawCheck, check_placements_at, grasp_score
 from graspjax.perception.placements import Grasp
 from graspjax.perception.ranking import distinct_best
 from graspjax.perception.reasons import further_reason, furthest_reason
@@ -131,11 +131,10 @@ class TargetSearch:
             _, index = lax.top_k(-jnp.where(cands.valid, offset, jnp.inf), count)
             index, real = jnp.pad(index, (0, per - count)), jnp.arange(per) < count
         placed = cands.valid[index] & found & real
-        axis_view = jnp.pad(cands.axis[index], ((0, 0), (0, 1)))  # (per, 3) view frame
-        position, axis = cands.center[index] @ rotation.T, axis_view @ rotation.T
-        jaws = check_jaws_where(placed, self.heights, cands.center[index], axis_view,
-                                cands.width[index], self.config.detect, self.config.gripper,
-                                self.image)
+        position = cands.center[index] @ rotation.T
+        axis = jnp.pad(cands.axis[index], ((0, 0), (0, 1))) @ rotation.T
+        jaws = check_placements_at(placed, self.heights, cands, index, self.config.detect,
+                                   self.config.gripper, self.image)
         passed = placed & (jaws.reason == GraspReason.FOUND)
         rank = jnp.where(passed, grasp_score(jaws, cands.width[index], offset[index],
                                              self.config.detect, self.config.gripper, self.image),
