@@ -300,8 +300,8 @@ def bench_request(args) -> dict:
     from graspjax.sim.objects import parse_letters
 
     check_writable(args.out, "--out")
-    if args.profile is not None and args.what != "pipeline":
-        raise UsageError("--profile is for bench pipeline")
+    if args.profile is not None and args.what not in ("pipeline", "detect"):
+        raise UsageError("--profile is for bench pipeline and bench detect")
     check_writable(args.profile, "--profile", directory=True)
     if args.batch is not None and args.batch < 1 or args.repeats < 1:
         raise UsageError("--batch and --repeats must be >= 1")

@@ -147,13 +147,16 @@ def detect_workload(width: int = 640, height: int = 480, unique: int = 64, seed:
 
 def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, repeats: int = 10,
                      unique: int = 64, seed: int = 0, config: Config = Config(),
-                     image: RealImageConfig = RealImageConfig(), progress=print) -> dict:
+                     image: RealImageConfig = RealImageConfig(), progress=print,
+                     profile: str | None = None) -> dict:
     """`graspjax detect` end to end on real-looking images (workspace, support plane, virtual
     view, detect, align): single-image latency and batched images/s, compile time apart.
 
     Images: `detect_workload` (`synthetic.random_real_scene` at `width` x `height`). The
     single image goes in as a NumPy array (the transfer is timed); the batch is on the
-    device already.
+    device already. `profile`: a folder where one more batch call plays under JAX's profiler
+    (`bench_profile`): its trace, `kernels.csv` (device time per compiled operation and the
+    line it was traced from) and a printed summary in the record.
     """
     from graspjax.imagefiles.batches import detect_batch, detect_single, stack_cameras
 
@@ -192,6 +195,22 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     found = detect_batch(jnp.asarray(scenes), workspace, stack_cameras([camera] * unique),
                           config, image).found
     results["grasp_found_fraction"] = float(jnp.mean(found))
+    results.update(profile=None, profiled_s=None, profile_summary=None)
+    if profile:
+        from graspjax.bench_profile import attributed, device_ops, summary
+
+        progress("one batch under the profiler ...")
+        args = (depth, workspace, cameras, config, image)
+        folder = Path(profile)
+        start = time.perf_counter()
+        with jax.profiler.trace(str(folder / "trace")):
+            jax.block_until_ready(detect_batch(*args))
+        traced = time.perf_counter() - start
+        text = detect_batch.lower(*args).compile().as_text()  # the same operations, from the cache
+        kernels = attributed(device_ops(folder / "trace"), [text])
+        kernels.to_csv(folder / "kernels.csv", index=False)
+        results.update(profile=str(profile), profiled_s=traced,
+                       profile_summary=summary(kernels, traced))
     return bench_record("detect", results)
 
 
@@ -205,7 +224,9 @@ def format_detect(r: dict) -> str:
             f"single image: {r['single_latency_ms']:.1f} ms median, "
             f"{r['single_latency_p90_ms']:.1f} ms p90, after a {r['single_compile_s']:.1f} s compile\n"
             f"batch of {r['batch']}: {r['images_per_s']:,.0f} images/s "
-            f"({1e3 * r['batch_s']:.1f} ms per call) after a {r['batch_compile_s']:.1f} s compile")
+            f"({1e3 * r['batch_s']:.1f} ms per call) after a {r['batch_compile_s']:.1f} s compile"
+            + (f"\n{r['profile_summary']}\n(kernels: {r['profile']}/kernels.csv)"
+               if r["profile"] else ""))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -423,7 +444,7 @@ def measure(what: str, *, config: Config, image: RealImageConfig, objects: str, 
     if what == "detect":
         result = detect_benchmark(batch=batch or (1024 if gpu else 32), width=width or 640,
                                   height=height or 480, repeats=repeats, config=config,
-                                  image=image, progress=progress)
+                                  image=image, progress=progress, profile=profile)
         return result, format_detect(result)
     if what == "pipeline":
         result = pipeline_benchmark(objects, setups, trials, batch, config, progress, profile)

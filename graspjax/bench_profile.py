@@ -157,14 +157,22 @@ def _source(metadata: str, tables: dict[str, dict[int, str]]) -> tuple[str, str,
 @functools.cache
 def _short(path: str) -> str:
     """A source file relative to the import path that holds it (`mujoco/mjx/_src/io.py`), or
-    to the folder holding graspjax (an editable install is on no import path). Cached: a
-    program's thousands of instructions name a few dozen files."""
+    to the folder holding graspjax (an editable install is on no import path). A program
+    loaded from the compilation cache names the files where the process that compiled it
+    found them: there, the path after its last `site-packages/` or from its last `graspjax/`.
+    Cached: a program's thousands of instructions name a few dozen files."""
     import graspjax
 
     places = [*sys.path, str(Path(graspjax.__file__).parents[1])]
     roots = sorted((p for p in places if p and path.startswith(p.rstrip("/") + "/")),
                    key=len, reverse=True)
-    return path[len(roots[0].rstrip("/")) + 1:] if roots else path
+    if roots:
+        return path[len(roots[0].rstrip("/")) + 1:]
+    for marker in ("/site-packages/", "/dist-packages/"):
+        if marker in path:
+            return path.rsplit(marker, 1)[1]
+    _, found, rest = path.rpartition("/graspjax/")
+    return "graspjax/" + rest if found else path
 
 
 def attributed(ops: pd.DataFrame, texts: list[str]) -> pd.DataFrame:

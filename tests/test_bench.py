@@ -28,15 +28,22 @@ def test_a_tiny_perception_benchmark_writes_its_record():
     assert "single image (detect+align)" in bench.format_perception(record)
 
 
-def test_a_tiny_detect_benchmark_writes_its_record():
+def test_a_tiny_detect_benchmark_writes_its_record_and_its_profile(tmp_path):
     """Three real-looking 640 x 480 images, in a batch of three and one at a time, with the
     default settings: the programs `test_image_batches` runs (`detect_batch` of three images,
-    `detect_single`), so the suite compiles them once."""
+    `detect_single`), so the suite compiles them once. Profiled, the batch's device time goes
+    to the lines of graspjax's perception that traced it."""
+    import pandas as pd
+
     record = bench.detect_benchmark(batch=3, width=640, height=480, repeats=1, unique=3,
-                                    progress=lambda m: None)
+                                    progress=lambda m: None, profile=str(tmp_path))
     assert tuple(record) == (*BENCH_FIELDS["detect"], *PROVENANCE_FIELDS)
     assert record["images_per_s"] > 0 and 0 <= record["grasp_found_fraction"] <= 1
     assert "images/s" in bench.format_detect(record)
+    kernels = pd.read_csv(tmp_path / "kernels.csv")
+    by_file = kernels.groupby(kernels["file"].fillna(""))["seconds"].sum()
+    assert by_file[by_file.index.str.startswith("graspjax/perception/")].sum() > 0.5 * by_file.sum()
+    assert record["profile_summary"] in bench.format_detect(record)
 
 
 def test_a_small_finish_benchmark_times_the_rows_it_asked_for():

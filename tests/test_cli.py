@@ -265,7 +265,7 @@ def test_bad_arguments_get_one_line_and_exit_2(kinect_scene, tmp_path, capsys, a
     (["physics", "--seconds", "-1"], "--seconds must be a positive number, got -1"),
     (["physics", "--seconds", "nan"], "--seconds must be a positive number, got nan"),
     (["finish"], "bench finish needs --rows-from FOLDER"),
-    (["detect", "--profile", "prof"], "--profile is for bench pipeline"),
+    (["physics", "--profile", "prof"], "--profile is for bench pipeline and bench detect"),
     (["pipeline", "--profile", "/nonexistent/x/prof"], "cannot write /nonexistent/x/prof"),
     (["finish", "--rows-from", "/nonexistent"], "--rows-from: no attempts.csv in /nonexistent"),
     (["finish", "--rows-from", "results/paper_cpu_10", "--rows", "0"], "--rows must be >= 1"),
