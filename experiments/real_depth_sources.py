@@ -19,9 +19,10 @@ box) into RESULTS/<source>/<group>/results.json. `judge` prints, per source and 
 RESULTS folder, the best grasps found and how many straddle an object: by the geometry of the
 raw depth (`judge_real_depth.judge`, its support plane within `JUDGE_TILT_DEG` of the optical
 axis) and, where the source has object labels, by them: the grasp centre's pixel on an
-object's label, and each finger place's pixel off that object or at least the grasp depth
-below the centre; and whether the answer is right by the labels (a grasp that straddles, or
-none where no object is narrower than the open jaws). Wilson 95 % intervals; `--csv` also
+object's label, and each finger, brought down along the approach at its place, meeting none of
+that object's seen points above the grasp depth (`label_verdict`); and whether the answer is
+right by the labels (a grasp that straddles, or none where no object is narrower than the open
+jaws). Wilson 95 % intervals; `--csv` also
 writes every capture's verdicts. `results/real_depth/sources/README.md` gives the commands.
 """
 
@@ -184,30 +185,36 @@ def detect(dev: Path, results: Path, extra: list[str]) -> int:
     return 0
 
 
-def label_verdict(rec: dict, candidate: dict, labels: np.ndarray) -> bool:
+#: The labels judge's finger column: a finger place stands on the object when one of the
+#: object's seen points lies within this of the line along the approach through the place (m;
+#: the depth image's pixel spacing at 0.5-1 m is 1-2 mm)
+LABEL_COLUMN = 0.002
+
+
+def label_verdict(rec: dict, candidate: dict, depth: np.ndarray, labels: np.ndarray,
+                  column: float = LABEL_COLUMN) -> bool:
     """The best grasp straddles an object by its labels: its centre's pixel is on an object,
-    and each finger place's pixel is off that object or seen at least the grasp depth farther
-    from the camera than the centre (along the optical axis)."""
+    and each finger, brought down along the grasp's approach at its place (`FINGER_OFFSET`
+    beyond the band's half width), meets none of that object's seen points (within `column`
+    of its line) less than the grasp depth below the centre. Read in 3D, not at the place's
+    pixel: seen obliquely, a place in front of the object's near face projects onto that
+    face, though the finger comes down beside it."""
     cam = rec["camera"]
     centre, axis = np.asarray(candidate["position"]), np.asarray(candidate["closing_axis"])
-
-    def pixel(point):
-        u = int(round(cam["fx"] * point[0] / point[2] + cam["cx"]))
-        v = int(round(cam["fy"] * point[1] / point[2] + cam["cy"]))
-        inside = 0 <= v < labels.shape[0] and 0 <= u < labels.shape[1]
-        return (v, u) if inside else None
-
-    at = pixel(centre)
-    if at is None or labels[at] < 2:
+    approach = np.asarray(candidate["pose"])[:3, 2]  # the grasp frame's z, camera frame
+    u = int(round(cam["fx"] * centre[0] / centre[2] + cam["cx"]))
+    v = int(round(cam["fy"] * centre[1] / centre[2] + cam["cy"]))
+    if not (0 <= v < labels.shape[0] and 0 <= u < labels.shape[1]) or labels[v, u] < 2:
         return False
-    target = labels[at]
-    depth = np.load(rec["image"])["depth"]
+    rows, cols = np.nonzero((labels == labels[v, u]) & (depth > 0) & np.isfinite(depth))
+    z = depth[rows, cols].astype(np.float64)
+    points = np.stack([(cols - cam["cx"]) * z / cam["fx"], (rows - cam["cy"]) * z / cam["fy"], z],
+                      -1)
     for side in (1, -1):
-        place = centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET)
-        spot = pixel(place)
-        if spot is None or labels[spot] != target:
-            continue
-        if depth[spot] - centre[2] < candidate["depth"]:
+        relative = points - (centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET))
+        below = relative @ approach  # how far below the centre's level, along the approach
+        near = np.einsum("ij,ij->i", relative, relative) - below ** 2 <= column ** 2
+        if np.any(below[near] < candidate["depth"]):
             return False
     return True
 
@@ -263,8 +270,8 @@ def verdicts(dev: Path, folders: list[Path]) -> list[dict]:
                        "narrow_part": narrow.get(image), "labels": None, "right": None}
                 if image in narrow:
                     with np.load(image) as data:
-                        row["labels"] = best is not None and label_verdict(rec, best,
-                                                                           data["labels"])
+                        row["labels"] = best is not None and label_verdict(
+                            rec, best, data["depth"], data["labels"])
                     row["right"] = row["labels"] or (best is None and not narrow[image])
                 rows.append(row)
     return rows
