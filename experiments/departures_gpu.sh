@@ -6,10 +6,7 @@
 # and its log. Steps (several per call):
 #   tolerance      the T-beam's antipodal-edge tolerance and the antipodal sampler's cone, 15 / 25 /
 #                  35 deg each (results/studies/tolerance)
-#   ours           the paper's reading against each of our changes to the alignment, one at a time
-#                  and all together: A at the centre of z_min's band, each plane's window around its
-#                  own triangle, the turn by the metric normal (results/studies/ours)
-#   triangles      the triangles' radius (3 / 5 / 8 px) and the plane's minimum inliers (3 / 10 / 20)
+# (The alignment's readings and the triangles' size are studies of experiments/studies.sh.)
 set -uo pipefail
 out=${OUT:?set OUT to the folder that collects the results}
 trials=${TRIALS:-300}
@@ -31,10 +28,6 @@ for name in "$@"; do
   case "$name" in
     tolerance) paired tolerance --grid "method:detect.antipodal_tolerance_deg:baseline.antipodal_cone_deg=\
 paper:15:35,paper:25:35,paper:35:35,antipodal:15:15,antipodal:15:25,antipodal:15:35" ;;
-    ours) paired ours --grid "align.anchor:align.window_centre:align.turn_normal=\
-nearest:anchor:pixel,centre:anchor:pixel,nearest:triangle:pixel,nearest:anchor:metric,\
-centre:triangle:metric" ;;
-    triangles) paired triangles --grid "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
     *) echo "unknown step $name" >&2; exit 2 ;;
   esac
 done

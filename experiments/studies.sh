@@ -10,6 +10,8 @@
 #   realign          procedure.max_reorientations 0-3 (the paper: 1)
 #   readings         the triangles' anchor and the turn: the paper's reading and ours, one at a
 #                    time and together (static: one program per point)
+#   triangles        our readings where the paper gives no number: the triangles' corners B, C
+#                    3 / 5 / 8 px from A, a plane's minimum inliers 3 / 10 / 20
 #   sloped-NAME      NAME with every view tilted 30 deg off vertical (procedure.view_tilt_deg=30),
 #                    where the re-alignment is needed
 #   planes           `graspjax planes`: the winning plane's normal error and view tilt over
@@ -54,6 +56,7 @@ grid() {  # the --grid argument of one study
     readings) echo "align.anchor:align.window_centre:align.turn_normal=\
 nearest:anchor:pixel,centre:anchor:pixel,nearest:triangle:pixel,nearest:anchor:metric,\
 centre:triangle:metric" ;;
+    triangles) echo "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
     *) echo "unknown study $1" >&2; return 2 ;;
   esac
 }
