@@ -197,20 +197,12 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     results["grasp_found_fraction"] = float(jnp.mean(found))
     results.update(profile=None, profiled_s=None, profile_summary=None)
     if profile:
-        from graspjax.bench_profile import attributed, device_ops, summary
+        from graspjax.bench_profile import profile_call, summary
 
         progress("one batch under the profiler ...")
-        args = (depth, workspace, cameras, config, image)
-        folder = Path(profile)
-        start = time.perf_counter()
-        with jax.profiler.trace(str(folder / "trace")):
-            jax.block_until_ready(detect_batch(*args))
-        traced = time.perf_counter() - start
-        text = detect_batch.lower(*args).compile().as_text()  # the same operations, from the cache
-        kernels = attributed(device_ops(folder / "trace"), [text])
-        kernels.to_csv(folder / "kernels.csv", index=False)
-        results.update(profile=str(profile), profiled_s=traced,
-                       profile_summary=summary(kernels, traced))
+        traced, kernels = profile_call(detect_batch, (depth, workspace, cameras, config, image),
+                                       Path(profile))
+        results.update(profile=profile, profiled_s=traced, profile_summary=summary(kernels, traced))
     return bench_record("detect", results)
 
 

@@ -1,6 +1,7 @@
-"""`graspjax bench pipeline --profile DIR`: where a run's device time goes, by source line.
+"""`graspjax bench pipeline --profile DIR` (and `bench detect`'s): where a run's device time
+goes, by source line.
 
-The run plays under JAX's profiler. Every kernel a GPU ran (every XLA thunk, on the CPU) is
+The run (`bench detect`: one batch call) plays under JAX's profiler. Every kernel a GPU ran (every XLA thunk, on the CPU) is
 summed by the compiled operation that launched it, and that operation is named by the Python
 line it was traced from: the compiled programs' HLO metadata, one line per operation
 (`runtime.exported`). Nothing here steers a run; it reads the profiler's files afterwards.
@@ -59,6 +60,22 @@ class FirstRound:
                 self.seconds = time.perf_counter() - self._started
 
     close = attempted  # after the run: a trace still running stops
+
+
+def profile_call(fn, args: tuple, folder: Path) -> tuple[float, pd.DataFrame]:
+    """One call of the jitted `fn` on `args` under JAX's profiler (`folder`/trace): the
+    seconds it took and `attributed`'s rows, also written to `folder`/kernels.csv. The
+    compiled text that names the lines is `fn`'s for these arguments (the same operations,
+    from the compilation cache or compiled again)."""
+    import jax
+
+    start = time.perf_counter()
+    with jax.profiler.trace(str(folder / "trace")):
+        jax.block_until_ready(fn(*args))
+    seconds = time.perf_counter() - start
+    kernels = attributed(device_ops(folder / "trace"), [fn.lower(*args).compile().as_text()])
+    kernels.to_csv(folder / "kernels.csv", index=False)
+    return seconds, kernels
 
 
 def device_ops(trace_dir: str | Path) -> pd.DataFrame:
