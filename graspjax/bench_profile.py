@@ -1,10 +1,11 @@
 """`graspjax bench pipeline --profile DIR` (and `bench detect`'s): where a run's device time
 goes, by source line.
 
-The run (`bench detect`: one batch call) plays under JAX's profiler. Every kernel a GPU ran (every XLA thunk, on the CPU) is
-summed by the compiled operation that launched it, and that operation is named by the Python
-line it was traced from: the compiled programs' HLO metadata, one line per operation
-(`runtime.exported`). Nothing here steers a run; it reads the profiler's files afterwards.
+The run (`bench detect`: one batch call) plays under JAX's profiler. Every kernel a GPU ran
+(every XLA thunk, on the CPU) is summed by the compiled operation that launched it, and that
+operation is named by the Python line it was traced from: the compiled programs' HLO
+metadata, one line per operation (`runtime.exported`). Nothing here steers a run; it reads the
+profiler's files afterwards.
 """
 
 from __future__ import annotations
