@@ -31,7 +31,7 @@ MIN_DROP = 0.008  # each finger place below the centre (m)
 FINGER_OFFSET = 0.006  # finger places beyond the band's half width (m)
 
 
-def _unproject(u, v, z, cam):
+def unproject(u, v, z, cam):
     return np.stack([(u - cam["cx"]) * z / cam["fx"], (v - cam["cy"]) * z / cam["fy"], z], -1)
 
 
@@ -40,7 +40,7 @@ def support_plane(depth: np.ndarray, workspace: np.ndarray, cam: dict, seed: int
     """(unit normal toward the camera, offset d: n . p + d = height) of the largest plane
     within `tilt_deg` of facing the camera."""
     v, u = np.nonzero(workspace & (depth > 0) & np.isfinite(depth))
-    points = _unproject(u, v, depth[v, u], cam)[:: max(1, len(u) // 20000)]
+    points = unproject(u, v, depth[v, u], cam)[:: max(1, len(u) // 20000)]
     rng = np.random.default_rng(seed)
     best, best_count = None, -1
     for _ in range(500):
@@ -78,8 +78,8 @@ def judge(rec: dict, candidate: dict, column: float | None = None,
     drops = at_pixel
     if column is not None:
         v, u = np.nonzero((depth > 0) & np.isfinite(depth))
-        points = _unproject(u, v, depth[v, u], cam)
-        drops = [_drop(h_centre, _column_top(points, place, normal, offset, column))
+        points = unproject(u, v, depth[v, u], cam)
+        drops = [_drop(h_centre, column_top(points, place, normal, offset, column))
                  for place in places]
     ok = h_centre >= MIN_HEIGHT and all(d is None or d >= MIN_DROP for d in drops)
     text = f"centre {1000 * h_centre:.0f} mm up, fingers drop {_mm(drops)}"
@@ -111,10 +111,10 @@ def _seen_at_pixel(depth, cam, place, normal, offset):
     z = depth[v, u] if (0 <= u < width and 0 <= v < height) else 0.0
     if not (z > 0 and np.isfinite(z)):
         return None
-    return _unproject(u, v, z, cam) @ normal + offset
+    return unproject(u, v, z, cam) @ normal + offset
 
 
-def _column_top(points, place, normal, offset, radius):
+def column_top(points, place, normal, offset, radius):
     """The height above the plane of the highest of `points` (N, 3) within `radius` of the
     plane's normal through `place` (None: none)."""
     relative = points - place

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from judge_real_depth import FINGER_OFFSET, judge  # noqa: E402
+from judge_real_depth import FINGER_OFFSET, column_top, judge, unproject  # noqa: E402
 
 from graspjax.errors import InputError  # noqa: E402
 from graspjax.imagefiles.clouds import read_pcd_points  # noqa: E402
@@ -207,14 +207,13 @@ def label_verdict(rec: dict, candidate: dict, depth: np.ndarray, labels: np.ndar
     if not (0 <= v < labels.shape[0] and 0 <= u < labels.shape[1]) or labels[v, u] < 2:
         return False
     rows, cols = np.nonzero((labels == labels[v, u]) & (depth > 0) & np.isfinite(depth))
-    z = depth[rows, cols].astype(np.float64)
-    points = np.stack([(cols - cam["cx"]) * z / cam["fx"], (rows - cam["cy"]) * z / cam["fy"], z],
-                      -1)
+    points = unproject(cols, rows, depth[rows, cols].astype(np.float64), cam)
     for side in (1, -1):
-        relative = points - (centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET))
-        below = relative @ approach  # how far below the centre's level, along the approach
-        near = np.einsum("ij,ij->i", relative, relative) - below ** 2 <= column ** 2
-        if np.any(below[near] < candidate["depth"]):
+        place = centre + side * axis * (candidate["width"] / 2 + FINGER_OFFSET)
+        # the object's highest seen point in the finger's column, above the centre's level
+        # (a plane through the place facing against the approach)
+        top = column_top(points, place, -approach, approach @ place, column)
+        if top is not None and -top < candidate["depth"]:
             return False
     return True
 
