@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from conftest import detect_one
 from real_scenes import table_centre, table_with
+from scipy import ndimage
 
 from graspjax.config import Config, RealImageConfig, preset
 from graspjax.imagefiles.batches import detect_batch, stack_cameras
 from graspjax.perception import GraspReason
-from graspjax.perception.jaws import JawRule, check_jaws, height_map
+from graspjax.perception.jaws import JawRule, _joined, check_jaws, height_map
 from graspjax.perception.support import SupportPlane
 from graspjax.perception.virtual import view_camera, view_rotation
 from graspjax.perception.window import in_view
@@ -166,6 +167,27 @@ def test_a_groove_of_the_part_itself_is_not_a_second_part():
     assert 0.04 - 0.0035 < float(one_piece.contact_width) < 0.04 + 0.006
     apart = _jaws([body, wall], _at(z=0.04), X, 0.04)
     assert apart.reason == GraspReason.JAWS_BLOCKED and apart.failed & JawRule.GAP
+
+
+@pytest.mark.parametrize("fraction", [0.45, 0.6, 0.75])
+def test_the_samples_joined_to_the_centre_are_its_four_connected_component(fraction):
+    """`_joined` on random regions and on a snake that changes lanes at every turn: each side's
+    samples in the components of `scipy.ndimage.label` (4-neighbours) that meet the centre."""
+    rng = np.random.default_rng(int(fraction * 100))
+    regions = rng.random((40, 2, 32, 9)) < fraction  # (grasps, side, out, lane)
+    snake = np.zeros((2, 32, 9), bool)  # lane 0 from the centre, then lanes 2, 4, 6, 8 from
+    snake[:, :, 0] = True  # sample 1 (not seeds), joined at alternate ends by lanes 1, 3, 5, 7
+    snake[:, 1:, 2::2] = True
+    snake[:, 31, 1::4] = True
+    snake[:, 1, 3::4] = True
+    regions = np.concatenate([regions, snake[None]])
+    got = np.asarray(jax.jit(jax.vmap(_joined))(jnp.asarray(regions)))
+    for region, joined in zip(regions, got, strict=True):
+        for side in range(2):
+            labels, _ = ndimage.label(region[side])  # 4-connectivity
+            centre = set(labels[0][labels[0] > 0])
+            np.testing.assert_array_equal(joined[side], np.isin(labels, list(centre)))
+    np.testing.assert_array_equal(got[-1], snake)  # one piece, reached through every lane
 
 
 def test_a_hole_without_depth_under_a_finger_reads_as_the_floor_around_it():

@@ -132,8 +132,9 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
     shaped = (area > 1e-6) & (n_valid >= 3)
     usable = shaped & (-normals[:, 2] >= cos_max)
 
-    # Scores: inliers minus pixels behind the plane (K, N).
-    signed = normals @ points.T + distances[:, None]
+    # Scores: inliers minus pixels behind the plane (K, N), summed as they are made (one fused
+    # reduction: a matrix product of depth 3 would write all K x N heights first).
+    signed = plane_height(points[None], normals.T[:, :, None], distances[:, None])
     thr = config.plane_threshold
     votes = (jnp.abs(signed) < thr).astype(jnp.int32) - (signed < -thr).astype(jnp.int32)
     score = jnp.sum(jnp.where(ok, votes, 0), -1)
@@ -150,7 +151,8 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
     # Where none is found: would a plane tilted past the limit have held enough? (Said, never
     # used: the camera then looks down more steeply than `max_plane_tilt_deg` allows.)
     steep = jnp.argmax(jnp.where(shaped, score, jnp.iinfo(jnp.int32).min))
-    steep_fraction = jnp.sum(ok & (jnp.abs(signed[steep]) < thr)) / jnp.maximum(n_valid, 1)
+    steep_fraction = (jnp.sum(ok & (jnp.abs(plane_height(points, normals[steep], distances[steep]))
+                                     < thr)) / jnp.maximum(n_valid, 1))
     steep_tilt = _tilt(normals[steep])
     too_tilted = ((steep_fraction >= config.min_plane_fraction) & (-normals[steep, 2] < cos_max)
                   & jnp.any(shaped))
