@@ -13,6 +13,9 @@
 #   triangles        our readings where the paper gives no number: the triangles' corners B, C
 #                    3 / 5 / 8 px from A, a plane's minimum inliers 3 / 10 / 20
 #   tolerance        the T-beam's antipodal-edge tolerance 15 / 25 / 35 deg (the paper gives none)
+#   cone             the T-beam against the antipodal sampler at equal angles: the T-beam's edge
+#                    tolerance and the sampler's cone 15 and 35 deg each (a method is its own
+#                    program: one per point)
 #   sloped-NAME      NAME with every view tilted 30 deg off vertical (procedure.view_tilt_deg=30),
 #                    where the re-alignment is needed
 #   planes           `graspjax planes`: the winning plane's normal error and view tilt over
@@ -59,6 +62,8 @@ nearest:anchor:pixel,centre:anchor:pixel,nearest:triangle:pixel,nearest:anchor:m
 centre:triangle:metric" ;;
     triangles) echo "align.triangle_radius_px:align.min_inliers=5:10,3:10,8:10,5:3,5:20" ;;
     tolerance) echo "detect.antipodal_tolerance_deg=15,25,35" ;;
+    cone) echo "method:detect.antipodal_tolerance_deg:baseline.antipodal_cone_deg=\
+paper:15:35,paper:35:35,antipodal:35:15,antipodal:35:35" ;;
     *) echo "unknown study $1" >&2; return 2 ;;
   esac
 }
