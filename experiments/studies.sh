@@ -14,8 +14,8 @@
 #                    3 / 5 / 8 px from A, a plane's minimum inliers 3 / 10 / 20
 #   tolerance        the T-beam's antipodal-edge tolerance 15 / 25 / 35 deg (the paper gives none)
 #   cone             the T-beam against the antipodal sampler at equal angles: the T-beam's edge
-#                    tolerance and the sampler's cone 15 and 35 deg each (a method is its own
-#                    program: one per point)
+#                    tolerance and the sampler's cone 15 and 35 deg each (each method its own
+#                    programs)
 #   sloped-NAME      NAME with every view tilted 30 deg off vertical (procedure.view_tilt_deg=30),
 #                    where the re-alignment is needed
 #   planes           `graspjax planes`: the winning plane's normal error and view tilt over
