@@ -219,41 +219,18 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
 
 def _joined(region: jax.Array) -> jax.Array:
     """The samples of `region` (2, A, L) (side, out from the centre, lane) joined to the
-    centre's (index 0) through 4-neighbours in `region`, each side apart. Each step fills every
-    lane's runs that hold a joined sample (hops of 1, 2, 4, ... samples over runs at least that
-    long), then passes to the neighbouring lanes: the loop runs once per change of lane along a
-    path, not once per sample."""
-    hops = [2 ** n for n in range(max(1, (region.shape[1] - 1).bit_length()))]
-    runs = [region]  # runs[n][:, i]: region at the 2 ** n samples up to i
-    for hop in hops[:-1]:
-        runs.append(runs[-1] & _shifted(runs[-1], hop, 1))
-    # ... and at the 2 ** n samples from i on
-    runs_back = [_shifted(run, 1 - hop, 1) for run, hop in zip(runs, hops, strict=True)]
-
-    def fill(joined):  # every run along a lane that holds a joined sample
-        for hop, run in zip(hops, runs, strict=True):
-            joined = joined | (_shifted(joined, hop, 1) & run)
-        for hop, run in zip(hops, runs_back, strict=True):
-            joined = joined | (_shifted(joined, -hop, 1) & run)
-        return joined
-
+    centre's (index 0) through 4-neighbours in `region`, each side apart."""
     def grow(state):
         _, joined = state
-        lanes = _shifted(joined, 1, 2) | _shifted(joined, -1, 2)
-        return joined, fill(joined | (lanes & region))
+        out = jnp.pad(joined[:, :-1], ((0, 0), (1, 0), (0, 0)))
+        back = jnp.pad(joined[:, 1:], ((0, 0), (0, 1), (0, 0)))
+        left = jnp.pad(joined[:, :, :-1], ((0, 0), (0, 0), (1, 0)))
+        right = jnp.pad(joined[:, :, 1:], ((0, 0), (0, 0), (0, 1)))
+        return joined, (joined | out | back | left | right) & region
 
-    seeds = fill(region & (jnp.arange(region.shape[1]) == 0)[None, :, None])
+    seeds = region & (jnp.arange(region.shape[1]) == 0)[None, :, None]
     return jax.lax.while_loop(lambda state: jnp.any(state[0] != state[1]), grow,
                               (jnp.zeros_like(region), seeds))[1]
-
-
-def _shifted(x: jax.Array, by: int, axis: int) -> jax.Array:
-    """`x` moved `by` samples up `axis` (down where negative), False where nothing came."""
-    size = x.shape[axis]
-    kept = jax.lax.slice_in_dim(x, max(0, -by), size - max(0, by), axis=axis)
-    pad = [(0, 0)] * x.ndim
-    pad[axis] = (max(0, by), max(0, -by))
-    return jnp.pad(kept, pad)
 
 
 _JAW_CHUNK = 8  # grasps checked per loop step on a CPU (`check_jaws_where`)
