@@ -258,6 +258,24 @@ def main(argv: list[str] | None = None) -> int:
         print(f"graspjax: error: {exc.strerror or exc}{where} (a run keeps every chunk it "
               "finished: --resume continues it)", file=sys.stderr)
         return 1
+    except RuntimeError as exc:  # JAX's XlaRuntimeError: a batch larger than the device holds
+        shortage = out_of_memory(exc)
+        if shortage is None:
+            raise
+        print(f"graspjax: error: the device ran out of memory ({shortage}); a smaller --batch "
+              "needs less (a run keeps every chunk it finished: --resume continues it)",
+              file=sys.stderr)
+        return 1
+
+
+def out_of_memory(exc: RuntimeError) -> str | None:
+    """The first sentence of XLA's message when `exc` is its RESOURCE_EXHAUSTED (an allocation
+    the device could not make), else None."""
+    text = str(exc)
+    if "RESOURCE_EXHAUSTED:" not in text:
+        return None
+    detail = text.split("RESOURCE_EXHAUSTED:", 1)[1].split("[", 1)[0].strip()
+    return (detail.splitlines() or ["out of memory"])[0].rstrip(".")
 
 
 def entry() -> None:

@@ -6,13 +6,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 import pytest
 from PIL import Image
 from real_scenes import table_scene, with_holes_and_specks
 
-from graspjax import Camera
+from graspjax import Camera, cli
 from graspjax.cli import main
 from graspjax.synthetic import analytic_depth, box, top_down_pose
 
@@ -418,3 +419,27 @@ def test_a_camera_pose_that_is_no_rigid_transform_is_refused_in_one_line(kinect_
     err = capsys.readouterr().err.strip()
     assert err == (f"graspjax: error: {bad}: the camera pose's upper-left 3x3 is not a rotation "
                    "(or its last row is not 0 0 0 1)")
+
+
+def test_a_device_out_of_memory_is_one_line_and_exit_1(monkeypatch, capsys):
+    """A batch beyond the device's memory (XLA's RESOURCE_EXHAUSTED, here a real allocation of
+    4 EiB on the CPU) ends in one line that names the shortage and the way out, no traceback."""
+    def allocate_too_much(args):
+        return int(jnp.zeros((1 << 62,), jnp.uint8).sum())
+
+    monkeypatch.setitem(cli.COMMANDS, "config", allocate_too_much)
+    assert main(["config"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("graspjax: error: the device ran out of memory (")
+    assert "); a smaller --batch needs less" in err
+
+
+def test_other_runtime_errors_are_not_taken_for_a_shortage(monkeypatch):
+    """A bug's RuntimeError keeps its traceback."""
+    def fail(args):
+        raise RuntimeError("something else")
+
+    monkeypatch.setitem(cli.COMMANDS, "config", fail)
+    with pytest.raises(RuntimeError, match="something else"):
+        main(["config"])
