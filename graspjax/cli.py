@@ -255,17 +255,22 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except OSError as exc:  # a write failed: a full disk, a read-only folder, a file size limit
         where = f": {exc.filename}" if exc.filename else ""
-        print(f"graspjax: error: {exc.strerror or exc}{where} (a run keeps every chunk it "
-              "finished: --resume continues it)", file=sys.stderr)
+        print(f"graspjax: error: {exc.strerror or exc}{where}{resumable(args)}", file=sys.stderr)
         return 1
     except RuntimeError as exc:  # JAX's XlaRuntimeError: a batch larger than the device holds
         shortage = out_of_memory(exc)
         if shortage is None:
             raise
         print(f"graspjax: error: the device ran out of memory ({shortage}); a smaller --batch "
-              "needs less (a run keeps every chunk it finished: --resume continues it)",
-              file=sys.stderr)
+              f"needs less{resumable(args)}", file=sys.stderr)
         return 1
+
+
+def resumable(args) -> str:
+    """What a simulated run keeps when it stops on an error (its commands take --resume)."""
+    if not hasattr(args, "resume"):
+        return ""
+    return " (a run keeps every chunk it finished: --resume continues it)"
 
 
 def out_of_memory(exc: RuntimeError) -> str | None:

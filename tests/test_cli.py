@@ -433,6 +433,7 @@ def test_a_device_out_of_memory_is_one_line_and_exit_1(monkeypatch, capsys):
     assert err.count("\n") == 1 and "Traceback" not in err
     assert err.startswith("graspjax: error: the device ran out of memory (")
     assert "); a smaller --batch needs less" in err
+    assert "--resume" not in err  # `config` keeps no chunks (a run's message names --resume)
 
 
 def test_other_runtime_errors_are_not_taken_for_a_shortage(monkeypatch):
