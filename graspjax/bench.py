@@ -160,7 +160,7 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     """
     from graspjax.imagefiles.batches import detect_batch, detect_single, stack_cameras
 
-    config = for_device(config, jax.default_backend())  # the settings of the device it runs on
+    config = for_device(config, jax.default_backend(), images=True)  # the settings of the device it runs on
     progress(f"rendering {unique} real-looking scenes at {width}x{height} ...")
     camera, workspace, scenes = detect_workload(width, height, unique, seed)
     depth = jnp.asarray(scenes[np.arange(batch) % unique])

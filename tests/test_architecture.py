@@ -151,7 +151,8 @@ def test_no_kernel_reads_the_backend_it_is_traced_for():
 
 def test_a_program_s_device_chooses_how_placements_are_checked():
     """`for_device`: a CPU's programs check placements in chunks (as set), any other device's
-    all at once; a setting of False stays False everywhere."""
+    all at once; a setting of False stays False everywhere. Only `graspjax detect`'s programs
+    on a device other than a CPU unroll the searches' loops (a simulated run's do not)."""
     import dataclasses
 
     from graspjax.config import Config, for_device
@@ -160,6 +161,9 @@ def test_a_program_s_device_chooses_how_placements_are_checked():
     assert config.detect.checks_in_chunks and for_device(config, "cpu") is config
     assert not for_device(config, "gpu").detect.checks_in_chunks
     assert for_device(config, "gpu").align == config.align  # nothing else changes
+    assert not for_device(config, "gpu").detect.unrolled_loops
+    assert for_device(config, "gpu", images=True).detect.unrolled_loops
+    assert for_device(config, "cpu", images=True) is config
     off = dataclasses.replace(config, detect=dataclasses.replace(config.detect,
                                                                  checks_in_chunks=False))
     assert not for_device(off, "cpu").detect.checks_in_chunks

@@ -15,7 +15,7 @@ from graspjax.perception.cluster import (
     valid_mask,
 )
 
-_cluster = jax.jit(surface_cluster)
+_cluster = jax.jit(surface_cluster, static_argnames="unroll")
 
 
 def test_valid_mask_rejects_zero_nan_negative_and_inf():
@@ -83,9 +83,11 @@ def test_a_step_spreads_along_a_words_runs_of_links():
     np.testing.assert_array_equal(got_bits, expected)
 
 
-def test_flood_fill_follows_a_serpentine_across_word_boundaries():
+@pytest.mark.parametrize("unroll", [False, True])
+def test_flood_fill_follows_a_serpentine_across_word_boundaries(unroll):
     # A one-pixel path that snakes through every row, crossing the 32-pixel words both ways;
-    # a strip two columns away (not 4-connected to it) stays out.
+    # a strip two columns away (not 4-connected to it) stays out. Its steps unrolled into one
+    # loop iteration (`detect.unrolled_loops`) or not: the same fill.
     height, width = 21, 70
     path = np.zeros((height, width), bool)
     path[::2, 2:-2] = True  # full rows, joined alternately at the right and the left end
@@ -95,7 +97,7 @@ def test_flood_fill_follows_a_serpentine_across_word_boundaries():
     strip[:, 0] = True
     depth = np.where(path | strip, 0.5, 0.9).astype(np.float32)
     got = np.asarray(_cluster(jnp.asarray(depth), jnp.asarray(depth > 0), jnp.array([5, 0]),
-                              0.45, 0.55))
+                              0.45, 0.55, unroll=unroll))
     labels, _ = ndimage.label(path)
     assert labels[0, 5] == labels[height - 1, 5]  # one path from the first row to the last
     np.testing.assert_array_equal(got, labels == labels[0, 5])
@@ -122,9 +124,12 @@ def _surface_by_search(depth, allowed, seed, step):
     return out
 
 
-def test_connected_surface_matches_a_breadth_first_search():
+@pytest.mark.parametrize("unroll", [False, True])
+def test_connected_surface_matches_a_breadth_first_search(unroll):
+    """On random depths with steps and holes, the fill's steps unrolled into one loop
+    iteration (`detect.unrolled_loops`) or not."""
     rng = np.random.default_rng(3)
-    surface = jax.jit(connected_surface)
+    surface = jax.jit(lambda *args: connected_surface(*args, unroll=unroll))
     for height, width in [(40, 50), (33, 31), (25, 33), (17, 70), (12, 1), (1, 40)]:
         for _ in range(3):
             depth = (ndimage.gaussian_filter(rng.random((height, width)), 2) * 0.3).astype(np.float32)

@@ -74,6 +74,27 @@ def test_trace_visits_exactly_the_outer_4_boundary(seed):
     assert len(pts) == 1 or (steps == 1).all()  # consecutive points are 8-neighbours
 
 
+def test_the_steps_per_loop_iteration_change_nothing():
+    """The trace and the edge walk take 1, 8 or 32 steps per loop iteration
+    (`detect.unrolled_loops`: a GPU's launches): the same contour and edges, on blobs whose
+    lengths are no multiple of them."""
+    rng = np.random.default_rng(5)
+    lengths = []
+    for _ in range(3):
+        blob = ndimage.binary_fill_holes(ndimage.gaussian_filter(rng.random((30, 40)), 2.5) > 0.5)
+        traces = [jax.jit(trace_contour, static_argnums=(1, 2))(jnp.asarray(blob), 256, steps)
+                  for steps in (1, 8, 32)]
+        edges = [_fit(traces[0], walk_steps=steps) for steps in (1, 8, 32)]
+        for other in traces[1:]:
+            for a, b in zip(jax.tree.leaves(traces[0]), jax.tree.leaves(other), strict=True):
+                np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+        for other in edges[1:]:
+            for a, b in zip(jax.tree.leaves(edges[0]), jax.tree.leaves(other), strict=True):
+                np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+        lengths.append(int(traces[0].length))
+    assert any(n % 8 for n in lengths)  # a last iteration that runs past the stop
+
+
 def _polygon_mask(vertices, shape=(120, 160)):
     """Pixels whose centres lie inside a convex polygon given in pixel coordinates (u, v)."""
     v, u = np.mgrid[: shape[0], : shape[1]]

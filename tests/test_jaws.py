@@ -172,7 +172,8 @@ def test_a_groove_of_the_part_itself_is_not_a_second_part():
 @pytest.mark.parametrize("fraction", [0.45, 0.6, 0.75])
 def test_the_samples_joined_to_the_centre_are_its_four_connected_component(fraction):
     """`_joined` on random regions and on a snake that changes lanes at every turn: each side's
-    samples in the components of `scipy.ndimage.label` (4-neighbours) that meet the centre."""
+    samples in the components of `scipy.ndimage.label` (4-neighbours) that meet the centre,
+    grown one step per loop iteration or four (`detect.unrolled_loops`)."""
     rng = np.random.default_rng(int(fraction * 100))
     regions = rng.random((40, 2, 32, 9)) < fraction  # (grasps, side, out, lane)
     snake = np.zeros((2, 32, 9), bool)  # lane 0 from the centre, then lanes 2, 4, 6, 8 from
@@ -181,7 +182,9 @@ def test_the_samples_joined_to_the_centre_are_its_four_connected_component(fract
     snake[:, 31, 1::4] = True
     snake[:, 1, 3::4] = True
     regions = np.concatenate([regions, snake[None]])
-    got = np.asarray(jax.jit(jax.vmap(_joined))(jnp.asarray(regions)))
+    got, unrolled = (np.asarray(jax.jit(jax.vmap(lambda r, n=n: _joined(r, n)))(jnp.asarray(regions)))
+                     for n in (1, 4))
+    np.testing.assert_array_equal(unrolled, got)
     for region, joined in zip(regions, got, strict=True):
         for side in range(2):
             labels, _ = ndimage.label(region[side])  # 4-connectivity

@@ -71,7 +71,7 @@ def detect_files(inputs: Inputs, batch: int | None = None,
     """
     batch = max(1, min(batch or default_image_batch(), len(inputs.paths)))
     own = inputs.bins is not None
-    settings = (for_device(inputs.config, jax.default_backend()), inputs.image)  # this device's
+    settings = (for_device(inputs.config, jax.default_backend(), images=True), inputs.image)  # this device's
 
     def detect(depths, workspace, cameras):
         """depths (B, H, W), the workspace (H, W) or each image's (B, H, W), B `Camera`s: the

@@ -55,7 +55,7 @@ def _band(depth: jax.Array, config: DetectorConfig, seed_mask: jax.Array | None,
     seed, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
     if surface is None:
         cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
-                                      config.band_step)
+                                      config.band_step, config.unrolled_loops)
     else:
         cluster = valid & surface
         z_s = mean_depth(depth, cluster)

@@ -24,6 +24,7 @@ def nearest_pixel(depth: jax.Array, valid: jax.Array) -> tuple[jax.Array, jax.Ar
 
 
 _BITS = 32  # pixels per word of a packed row
+_FLOOD_STEPS = 8  # a flood fill's steps between its tests for a change
 
 
 def _pack_rows(mask: jax.Array) -> jax.Array:
@@ -82,19 +83,19 @@ def _along_runs(rows: jax.Array, east: jax.Array, west: jax.Array) -> jax.Array:
 
 
 def _flood(start: jax.Array, allowed_rows: jax.Array, grow, east: jax.Array, west: jax.Array,
-           width: int, steps_per_iteration: int) -> jax.Array:
+           width: int, unroll: bool) -> jax.Array:
     """The region `(H, W)` bool reached from the packed `start` by repeated `grow` steps inside
     the packed `allowed_rows`, each followed by a spread along the runs of `east` and `west`
     inside each word (`_along_runs`: up to 32 pixels along a row in one step, so that a step
-    is bound by rows and words, not pixels), until nothing changes (tested every `steps_per_iteration`
-    steps, each its own inner loop step: unrolled steps fuse into one kernel that recomputes
-    its inputs)."""
+    is bound by rows and words, not pixels), until nothing changes (tested every
+    `_FLOOD_STEPS` steps, each its own inner loop step, or with `unroll` all in one loop
+    step: fewer launches on a GPU, more code to compile)."""
     def one_step(rows):
         return _along_runs(grow(rows) & allowed_rows, east, west)
 
     def step(state):
         region, _ = state
-        new = lax.fori_loop(0, steps_per_iteration, lambda _, rows: one_step(rows), region)
+        new = lax.fori_loop(0, _FLOOD_STEPS, lambda _, rows: one_step(rows), region, unroll=unroll)
         return new, jnp.any(new != region)
 
     region, _ = lax.while_loop(lambda s: s[1], step, (start, jnp.array(True)))
@@ -108,7 +109,7 @@ def _seed_rows(allowed: jax.Array, seed: jax.Array) -> jax.Array:
 
 
 def surface_cluster(depth: jax.Array, valid: jax.Array, seed: jax.Array, low, high,
-                    steps_per_iteration: int = 8) -> jax.Array:
+                    unroll: bool = False) -> jax.Array:
     """Pixels 4-connected to `seed` whose depth lies in `[low, high]`.
 
     depth: metric depth (H, W); valid: (H, W) bool; seed: (u, v) int32 pixel.
@@ -119,11 +120,11 @@ def surface_cluster(depth: jax.Array, valid: jax.Array, seed: jax.Array, low, hi
     allowed = valid & (depth >= low) & (depth <= high)
     rows = _pack_rows(allowed)
     return _flood(_seed_rows(allowed, seed), rows, _grow4_packed, rows & (rows >> 1),
-                  rows & (rows << 1), depth.shape[1], steps_per_iteration)
+                  rows & (rows << 1), depth.shape[1], unroll)
 
 
 def connected_surface(depth: jax.Array, allowed: jax.Array, seed: jax.Array, max_step,
-                      steps_per_iteration: int = 8) -> jax.Array:
+                      unroll: bool = False) -> jax.Array:
     """The depth-connected surface around `seed`: allowed pixels reached from it through
     4-neighbours whose depths differ by at most `max_step` (m).
 
@@ -152,7 +153,7 @@ def connected_surface(depth: jax.Array, allowed: jax.Array, seed: jax.Array, max
         return rows | right | left | down | up
 
     return _flood(_seed_rows(allowed, seed), _pack_rows(allowed), grow, links[0], links[1],
-                  depth.shape[1], steps_per_iteration)
+                  depth.shape[1], unroll)
 
 
 def mean_depth(depth: jax.Array, mask: jax.Array) -> jax.Array:
@@ -161,7 +162,8 @@ def mean_depth(depth: jax.Array, mask: jax.Array) -> jax.Array:
 
 
 def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
-                   tolerance: float, max_step: float = 0.0) -> tuple[jax.Array, jax.Array]:
+                   tolerance: float, max_step: float = 0.0,
+                   unroll: bool = False) -> tuple[jax.Array, jax.Array]:
     """The surface cluster of the nearest object and its depth.
 
     A first pass takes the band `[z_min, z_min + tolerance]`; its mean depth
@@ -170,14 +172,15 @@ def target_surface(depth: jax.Array, valid: jax.Array, seed: jax.Array, z_min,
     is an outlier and the second pass recovers the whole face. With
     `max_step` > 0 (static; ours, 0 = the paper) the band is also parted
     where 4-neighbours' depths jump by more than `max_step` (m): a touching
-    neighbour whose top lies within the band, a step away, stays out.
+    neighbour whose top lies within the band, a step away, stays out. `unroll`:
+    the fills' steps in one loop iteration (`detect.unrolled_loops`).
     Returns the mask (H, W) bool and z_s (the mean depth of the final cluster).
     """
     def band(low, high):
         if max_step > 0:
             return connected_surface(depth, valid & (depth >= low) & (depth <= high), seed,
-                                     max_step)
-        return surface_cluster(depth, valid, seed, low, high)
+                                     max_step, unroll)
+        return surface_cluster(depth, valid, seed, low, high, unroll)
 
     first = band(z_min, z_min + tolerance)
     z_first = mean_depth(depth, first)

@@ -37,7 +37,6 @@ _DV = np.array([0, 1, 1, 1, 0, -1, -1, -1], np.int32)
 # Direction index of an offset (du, dv), indexed [dv + 1, du + 1] (centre unused).
 _DIRECTION_OF = np.array([[5, 6, 7], [4, 0, 0], [3, 2, 1]], np.int32)
 _WEST = 4
-_WALK_UNROLL = 8  # edge-walk steps per loop iteration: each iteration costs a launch on a GPU
 
 
 @pytree_dataclass
@@ -121,11 +120,13 @@ def _unit(v: jax.Array, eps: float = 1e-12) -> jax.Array:
     return v / jnp.maximum(jnp.linalg.norm(v, axis=-1, keepdims=True), eps)
 
 
-def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array) -> jax.Array:
+def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array,
+              steps_per_iteration: int) -> jax.Array:
     """Each walk point's edge (size,) int32: a new edge starts where the walk's tangent
     `walk_t` (size, 2) turns from its edge's mean direction by more than the split angle
     (`cos_split`); the walk is closed, so its last run continues the first when their
-    directions agree. Points past the contour's `length` get `size` (dropped by the fit)."""
+    directions agree. Points past the contour's `length` get `size` (dropped by the fit).
+    The walk takes `steps_per_iteration` points per loop iteration (a launch on a GPU)."""
     size = walk_t.shape[0]
     idx = jnp.arange(size)
     in_contour = idx < length
@@ -142,9 +143,9 @@ def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array) -> jax
 
     def walk_steps(state):
         i, carry = state
-        for step in range(_WALK_UNROLL):
+        for step in range(steps_per_iteration):
             carry = walk(i + step, carry)
-        return i + _WALK_UNROLL, carry
+        return i + steps_per_iteration, carry
 
     # Only the contour's own points: a batch walks as far as its longest contour.
     _, (last_edge, _, edge_id) = lax.while_loop(
@@ -161,7 +162,8 @@ def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array) -> jax
 
 
 def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window: int,
-              split_angle_deg: float, min_edge_pixels: int, max_edges: int) -> Edges:
+              split_angle_deg: float, min_edge_pixels: int, max_edges: int,
+              walk_steps: int = 8) -> Edges:
     """Group an ordered contour into straight edges on the plane at depth `z` (metric).
 
     Directions come from integer pixel differences and the fits are made in
@@ -193,7 +195,7 @@ def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window:
 
     cos_split = jnp.cos(jnp.deg2rad(split_angle_deg))
 
-    edge_id = _edge_ids(walk_t, contour.length, cos_split)
+    edge_id = _edge_ids(walk_t, contour.length, cos_split, walk_steps)
 
     count = jax.ops.segment_sum(in_contour.astype(jnp.float32), edge_id, num_segments=size)
     top_count, top = lax.top_k(count, max_edges)  # ties keep walk order

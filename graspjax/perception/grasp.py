@@ -37,6 +37,11 @@ from graspjax.perception.placements import (
 )
 
 
+def loop_steps(config: DetectorConfig) -> int:
+    """The contour trace's and the edge walk's steps per loop iteration (`detect.unrolled_loops`)."""
+    return 32 if config.unrolled_loops else 8
+
+
 def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
                     seed_mask: jax.Array | None = None
                     ) -> tuple[jax.Array, jax.Array, jax.Array, Contour]:
@@ -48,9 +53,9 @@ def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
     valid = valid_mask(depth)
     seed, z_min = nearest_pixel(depth, valid if seed_mask is None else valid & seed_mask)
     cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
-                                 config.band_step)
+                                 config.band_step, config.unrolled_loops)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
-    return seed, cluster, z_s, trace_contour(cluster, config.max_contour)
+    return seed, cluster, z_s, trace_contour(cluster, config.max_contour, loop_steps(config))
 
 
 def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
@@ -70,7 +75,8 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     n_surface = jnp.sum(cluster)
     edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
                       split_angle_deg=config.split_angle_deg,
-                      min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges)
+                      min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges,
+                      walk_steps=loop_steps(config))
 
     # --- antipodal pairs: a T-beam at P points along edge i, partner edge j ---------------
     # (P = `tbeam_positions`; the paper places one, at the edge's centre S.)

@@ -185,7 +185,7 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
     fall_run = fallen & jnp.concatenate([fallen[:, 1:], jnp.zeros_like(fallen[:, :1])], axis=1)
     # ... unless what the lane meets there is one piece with the band, joined to it above the
     # tips through the other lanes (a groove of the part, a gear's teeth)
-    joined = _joined(above & ~foot)
+    joined = _joined(above & ~foot, 4 if detect.unrolled_loops else 1)
     touch_joined = jnp.take_along_axis(joined, last[:, None, :], axis=1)[:, 0, :]  # (2, L)
     gap = jnp.any(jnp.any(fall_run & (index < last[:, None, :] - 1), axis=1) & ~touch_joined)
     touch = jnp.max(last, axis=1)  # (2,) each jaw touches at its outermost lane
@@ -217,9 +217,11 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
                     failed=failed.astype(jnp.int32))
 
 
-def _joined(region: jax.Array) -> jax.Array:
+def _joined(region: jax.Array, steps_per_iteration: int) -> jax.Array:
     """The samples of `region` (2, A, L) (side, out from the centre, lane) joined to the
-    centre's (index 0) through 4-neighbours in `region`, each side apart."""
+    centre's (index 0) through 4-neighbours in `region`, each side apart; grown
+    `steps_per_iteration` steps per loop iteration (steps after the last change change
+    nothing)."""
     def grow(state):
         _, joined = state
         out = jnp.pad(joined[:, :-1], ((0, 0), (1, 0), (0, 0)))
@@ -228,8 +230,13 @@ def _joined(region: jax.Array) -> jax.Array:
         right = jnp.pad(joined[:, :, 1:], ((0, 0), (0, 0), (0, 1)))
         return joined, (joined | out | back | left | right) & region
 
+    def steps(state):
+        for _ in range(steps_per_iteration):
+            state = grow(state)
+        return state
+
     seeds = region & (jnp.arange(region.shape[1]) == 0)[None, :, None]
-    return jax.lax.while_loop(lambda state: jnp.any(state[0] != state[1]), grow,
+    return jax.lax.while_loop(lambda state: jnp.any(state[0] != state[1]), steps,
                               (jnp.zeros_like(region), seeds))[1]
 
 

@@ -185,7 +185,7 @@ def best_candidate(candidate: jax.Array, score: jax.Array, tie: float = 5e-4
 
 
 def follow_target(depth: jax.Array, camera: Camera, candidate: jax.Array, point: jax.Array,
-                  max_step, reach) -> tuple[jax.Array, jax.Array, jax.Array]:
+                  max_step, reach, unroll: bool = False) -> tuple[jax.Array, jax.Array, jax.Array]:
     """A target chosen earlier, found again in a new view: (its surface (H, W) bool, the pixel
     it was found at (2,) int32 (u, v), found () bool).
 
@@ -196,7 +196,8 @@ def follow_target(depth: jax.Array, camera: Camera, candidate: jax.Array, point:
     surface is the depth-connected surface around that pixel
     (`connected_surface`, steps of at most `max_step` m), the pixels where
     the detector and the alignment take z_min. Empty when not found (the
-    point is hidden or left the view).
+    point is hidden or left the view). `unroll`: the fill's steps in one loop
+    iteration (`detect.unrolled_loops`).
     """
     points = camera.unproject(camera.pixel_grid(), jnp.where(candidate, depth, 0.0))
     gap = jnp.where(candidate, jnp.sum((points - point) ** 2, -1), jnp.inf)
@@ -204,5 +205,5 @@ def follow_target(depth: jax.Array, camera: Camera, candidate: jax.Array, point:
     v, u = jnp.divmod(flat, depth.shape[1])
     found = gap.reshape(-1)[flat] <= jnp.square(reach)
     pixel = jnp.stack([u, v]).astype(jnp.int32)
-    surface = connected_surface(depth, candidate & found, pixel, max_step)
+    surface = connected_surface(depth, candidate & found, pixel, max_step, unroll)
     return surface, pixel, found

@@ -201,7 +201,8 @@ class TargetSearch:
         grasp = grasp_method(config.method)(depth, camera, self.window_config, seed & found)
         surface, _ = target_surface(self.depth, self.valid & found, pixel,
                                     self.depth[pixel[1], pixel[0]],
-                                    config.detect.surface_tolerance)
+                                    config.detect.surface_tolerance,
+                                    unroll=config.detect.unrolled_loops)
         centre = (jnp.sum(self.points * surface[..., None], (0, 1))
                   / jnp.maximum(jnp.sum(surface), 1))
 

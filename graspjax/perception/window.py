@@ -53,7 +53,7 @@ def followed_surface(window: jax.Array, slope: jax.Array, camera: Camera, point:
                                           tolerance=config.detect.surface_tolerance,
                                           max_slope_deg=max_slope_deg, slope=slope)
     surface, _, _ = follow_target(window, camera, candidate, point, perception.surface_step,
-                                  perception.follow_distance)
+                                  perception.follow_distance, config.detect.unrolled_loops)
     return surface
 
 
