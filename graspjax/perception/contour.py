@@ -37,6 +37,13 @@ _DV = np.array([0, 1, 1, 1, 0, -1, -1, -1], np.int32)
 # Direction index of an offset (du, dv), indexed [dv + 1, du + 1] (centre unused).
 _DIRECTION_OF = np.array([[5, 6, 7], [4, 0, 0], [3, 2, 1]], np.int32)
 _WEST = 4
+_STEPS, _UNROLLED_STEPS = 8, 32  # trace and walk steps per loop iteration (`loop_steps`)
+
+
+def loop_steps(unrolled: bool) -> int:
+    """The contour trace's and the edge walk's steps per loop iteration (`detect.unrolled_loops`):
+    each iteration costs a GPU a launch, each step more code to compile."""
+    return _UNROLLED_STEPS if unrolled else _STEPS
 
 
 @pytree_dataclass
@@ -60,7 +67,7 @@ class Edges:
     valid: jax.Array  # (K,) bool
 
 
-def trace_contour(mask: jax.Array, max_points: int, steps_per_iteration: int = 8) -> Contour:
+def trace_contour(mask: jax.Array, max_points: int, steps_per_iteration: int = _STEPS) -> Contour:
     """Outer boundary of the 8-connected region holding the first mask pixel in row-major order.
 
     mask: (H, W) bool. Returns a `Contour` of static length `max_points`. The loop takes
@@ -163,7 +170,7 @@ def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array,
 
 def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window: int,
               split_angle_deg: float, min_edge_pixels: int, max_edges: int,
-              walk_steps: int = 8) -> Edges:
+              walk_steps: int = _STEPS) -> Edges:
     """Group an ordered contour into straight edges on the plane at depth `z` (metric).
 
     Directions come from integer pixel differences and the fits are made in

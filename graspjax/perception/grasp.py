@@ -26,7 +26,7 @@ from graspjax.camera import Camera
 from graspjax.codes import GraspReason
 from graspjax.config import DetectorConfig, GripperConfig
 from graspjax.perception.cluster import nearest_pixel, target_surface, valid_mask
-from graspjax.perception.contour import Contour, Edges, fit_edges, trace_contour
+from graspjax.perception.contour import Contour, Edges, fit_edges, loop_steps, trace_contour
 from graspjax.perception.placements import (
     Grasp,
     assemble,
@@ -35,11 +35,6 @@ from graspjax.perception.placements import (
     overall_reason,
     surface_centroid,
 )
-
-
-def loop_steps(config: DetectorConfig) -> int:
-    """The contour trace's and the edge walk's steps per loop iteration (`detect.unrolled_loops`)."""
-    return 32 if config.unrolled_loops else 8
 
 
 def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
@@ -55,7 +50,8 @@ def surface_contour(depth: jax.Array, config: DetectorConfig = DetectorConfig(),
     cluster, z_s = target_surface(depth, valid, seed, z_min, config.surface_tolerance,
                                  config.band_step, config.unrolled_loops)
     z_s = jnp.where(jnp.any(cluster), z_s, 1.0)
-    return seed, cluster, z_s, trace_contour(cluster, config.max_contour, loop_steps(config))
+    return seed, cluster, z_s, trace_contour(cluster, config.max_contour,
+                                             loop_steps(config.unrolled_loops))
 
 
 def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = DetectorConfig(),
@@ -76,7 +72,7 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
                       split_angle_deg=config.split_angle_deg,
                       min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges,
-                      walk_steps=loop_steps(config))
+                      walk_steps=loop_steps(config.unrolled_loops))
 
     # --- antipodal pairs: a T-beam at P points along edge i, partner edge j ---------------
     # (P = `tbeam_positions`; the paper places one, at the edge's centre S.)

@@ -185,7 +185,7 @@ def check_jaws(heights: HeightMap, center: jax.Array, axis: jax.Array, width: ja
     fall_run = fallen & jnp.concatenate([fallen[:, 1:], jnp.zeros_like(fallen[:, :1])], axis=1)
     # ... unless what the lane meets there is one piece with the band, joined to it above the
     # tips through the other lanes (a groove of the part, a gear's teeth)
-    joined = _joined(above & ~foot, 4 if detect.unrolled_loops else 1)
+    joined = _joined(above & ~foot, _JOINED_UNROLLED_STEPS if detect.unrolled_loops else 1)
     touch_joined = jnp.take_along_axis(joined, last[:, None, :], axis=1)[:, 0, :]  # (2, L)
     gap = jnp.any(jnp.any(fall_run & (index < last[:, None, :] - 1), axis=1) & ~touch_joined)
     touch = jnp.max(last, axis=1)  # (2,) each jaw touches at its outermost lane
@@ -241,6 +241,7 @@ def _joined(region: jax.Array, steps_per_iteration: int) -> jax.Array:
 
 
 _JAW_CHUNK = 8  # grasps checked per loop step on a CPU (`check_jaws_where`)
+_JOINED_UNROLLED_STEPS = 4  # `_joined`'s steps per loop iteration with `detect.unrolled_loops`
 
 
 def check_jaws_where(placed: jax.Array, heights: HeightMap, center: jax.Array, axis: jax.Array,
