@@ -29,13 +29,14 @@ def test_a_tiny_perception_benchmark_writes_its_record():
 
 
 def test_a_tiny_detect_benchmark_writes_its_record_and_its_profile(tmp_path):
-    """Three real-looking 640 x 480 images, in a batch of three and one at a time, with the
-    default settings: the programs `test_image_batches` runs (`detect_batch` of three images,
-    `detect_single`), so the suite compiles them once. Profiled, the batch's device time goes
-    to the lines of graspjax's perception that traced it."""
+    """Two real-looking 640 x 480 images, in a batch of two and one at a time, with the default
+    settings: the programs test_image_batches, test_jaws and test_cli's folder run
+    (`detect_batch` of two images, `detect_single`), so the suite compiles them once.
+    Profiled, the batch's device time goes to the lines of graspjax's perception that traced
+    it."""
     import pandas as pd
 
-    record = bench.detect_benchmark(batch=3, width=640, height=480, repeats=1, unique=3,
+    record = bench.detect_benchmark(batch=2, width=640, height=480, repeats=1, unique=2,
                                     progress=lambda m: None, profile=str(tmp_path))
     assert tuple(record) == (*BENCH_FIELDS["detect"], *PROVENANCE_FIELDS)
     assert record["images_per_s"] > 0 and 0 <= record["grasp_found_fraction"] <= 1

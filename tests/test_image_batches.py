@@ -109,7 +109,7 @@ def test_a_batch_gives_the_grasps_of_single_images(table):
     """vmap at the edge: each image of a batch gets the grasp it gets alone. (Float reduction
     order differs in a batch and the virtual view samples the nearest pixel, so a pixel on a
     rounding boundary may flip: the grasp agrees within a working pixel, not to the bit.)"""
-    scenes = [table, with_holes_and_specks(table, seed=1), with_holes_and_specks(table, seed=2)]
+    scenes = [table, with_holes_and_specks(table, seed=1)]  # the program of test_bench's batch
     for got, alone in zip(detect(scenes), (detect([s])[0] for s in scenes), strict=True):
         assert_trees_close(got.support, alone.support, rtol=1e-4, atol=1e-5)
         assert bool(got.found) and bool(alone.found)

@@ -330,7 +330,7 @@ def test_a_target_given_up_gives_up_its_object():
     giving up a band at a time, spends three targets on them); once the first is given up, its
     whole followed surface (the wedge's top) is, so the second target is the box."""
     depth, camera, workspace, rotation, eye = table_with(_wedge_and_box())
-    r = detect_one(depth, workspace, camera, Config(), RealImageConfig(max_targets=3))
+    r = detect_one(depth, workspace, camera, Config(), RealImageConfig())
     assert bool(r.found)
     assert int(r.targets_tried) == 2
     assert r.tried_reasons[0] != GraspReason.FOUND and r.tried_reasons[1] == GraspReason.FOUND
@@ -344,12 +344,14 @@ def test_a_batch_gives_each_image_what_it_gets_alone():
     """vmap at the edge, where a batch runs both branches of the target loop's conds (a GPU's
     `graspjax detect` batches, a CPU's runs one image at a time): the wedge and box (its first
     target given up) and the bar between neighbours (rescued by the contour search), in one
-    batch, get the targets, reasons and ranked grasps they get alone."""
+    batch (of two, with the default settings: the program of test_bench's batch), get the
+    targets, reasons and ranked grasps they get alone."""
     scenes = [table_with(_wedge_and_box()), table_with(_bar_between_neighbours())]
     camera, workspace = scenes[0][1], scenes[0][2]  # the same table view
-    image = RealImageConfig(max_targets=3)
+    image = RealImageConfig()
     depths = np.stack([scene[0] for scene in scenes])
-    batch = jax.tree.map(np.asarray, detect_batch(depths, workspace, stack_cameras([camera] * 2),
+    batch = jax.tree.map(np.asarray, detect_batch(depths, workspace,
+                                                  stack_cameras([camera] * len(scenes)),
                                                   Config(), image))
     alone = [detect_one(depth, workspace, camera, Config(), image) for depth in depths]
     assert int(alone[0].targets_tried) == 2 and bool(alone[1].ranked.contour[0])  # both branches
@@ -400,7 +402,7 @@ def test_a_blocked_bar_is_grasped_where_its_contour_is_free():
     def detect(image):
         return detect_one(depth, workspace, camera, Config(), image)
 
-    tbeam_only = detect(RealImageConfig(contour_search=False))
+    tbeam_only = detect(RealImageConfig(contour_search=False, max_targets=1))  # as the ridged top
     assert tbeam_only.tried_reasons[0] == GraspReason.NO_ROOM  # the bar, highest, first
     r = detect(RealImageConfig())
     assert bool(r.found) and bool(r.ranked.contour[0])
