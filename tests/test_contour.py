@@ -79,12 +79,12 @@ def test_the_steps_per_loop_iteration_change_nothing():
     (`detect.unrolled_loops`: a GPU's launches): the same contour and edges, on blobs whose
     lengths are no multiple of them."""
     rng = np.random.default_rng(5)
+    trace = jax.jit(trace_contour, static_argnums=(1, 2))
     lengths = []
     for _ in range(3):
         blob = ndimage.binary_fill_holes(ndimage.gaussian_filter(rng.random((30, 40)), 2.5) > 0.5)
-        traces = [jax.jit(trace_contour, static_argnums=(1, 2))(jnp.asarray(blob), 256, steps)
-                  for steps in (1, 8, 32)]
-        edges = [_fit(traces[0], walk_steps=steps) for steps in (1, 8, 32)]
+        traces = [trace(jnp.asarray(blob), 256, steps) for steps in (1, 8, 32)]
+        edges = [_fit(traces[0], steps_per_iteration=steps) for steps in (1, 8, 32)]
         for other in traces[1:]:
             for a, b in zip(jax.tree.leaves(traces[0]), jax.tree.leaves(other), strict=True):
                 np.testing.assert_array_equal(np.asarray(a), np.asarray(b))

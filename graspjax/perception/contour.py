@@ -170,7 +170,7 @@ def _edge_ids(walk_t: jax.Array, length: jax.Array, cos_split: jax.Array,
 
 def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window: int,
               split_angle_deg: float, min_edge_pixels: int, max_edges: int,
-              walk_steps: int = _STEPS) -> Edges:
+              steps_per_iteration: int = _STEPS) -> Edges:
     """Group an ordered contour into straight edges on the plane at depth `z` (metric).
 
     Directions come from integer pixel differences and the fits are made in
@@ -202,7 +202,7 @@ def fit_edges(contour: Contour, camera: Camera, z: jax.Array, *, tangent_window:
 
     cos_split = jnp.cos(jnp.deg2rad(split_angle_deg))
 
-    edge_id = _edge_ids(walk_t, contour.length, cos_split, walk_steps)
+    edge_id = _edge_ids(walk_t, contour.length, cos_split, steps_per_iteration)
 
     count = jax.ops.segment_sum(in_contour.astype(jnp.float32), edge_id, num_segments=size)
     top_count, top = lax.top_k(count, max_edges)  # ties keep walk order

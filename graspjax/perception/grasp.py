@@ -72,7 +72,7 @@ def detect_grasp(depth: jax.Array, camera: Camera, config: DetectorConfig = Dete
     edges = fit_edges(contour, camera, z_s, tangent_window=config.tangent_window,
                       split_angle_deg=config.split_angle_deg,
                       min_edge_pixels=config.min_edge_pixels, max_edges=config.max_edges,
-                      walk_steps=loop_steps(config.unrolled_loops))
+                      steps_per_iteration=loop_steps(config.unrolled_loops))
 
     # --- antipodal pairs: a T-beam at P points along edge i, partner edge j ---------------
     # (P = `tbeam_positions`; the paper places one, at the edge's centre S.)
