@@ -728,7 +728,11 @@ class RealImageConfig:
     plane_pixels: int = 4800  # the support plane is found on a regular grid of about this many pixels
     plane_threshold: float = 0.005  # max distance of a support-plane inlier from the plane (m)
     plane_refits: int = 2  # least-squares refits of the best plane to pixels within half the threshold
-    max_plane_tilt_deg: float = 45.0  # the support plane faces the camera within this angle
+    max_plane_tilt_deg: float = 85.0  # the support plane faces the camera within this angle: a
+    # plane seen within 5 deg of edge-on is no support. No wall guard: walls stand at any tilt to
+    # a tilted camera, and the score (nothing behind the support) keeps them out; on the
+    # development captures every limit from 45 to 85 gives the same planes and grasps
+    # (results/real_depth/sources/)
     min_plane_fraction: float = 0.1  # the support plane holds at least this share of valid pixels
     max_tilt_deg: float = 3.0  # a support plane tilted more than this is seen in a virtual view
     max_targets: int = 8  # surfaces tried in order of height until top_k grasps pass (paper: 1)

@@ -238,17 +238,44 @@ def test_support_is_the_table_even_under_a_larger_top_face(support):
     assert _angle_deg(plane.normal, up) < 0.05
 
 
+def _tote_view(camera_height: float, tilt_deg: float):
+    """Depth of an empty 60 x 40 cm tote with 30 cm walls on a table, centred where the optical
+    axis of a camera `camera_height` above the table, tilted `tilt_deg`, meets the table; and
+    the table's normal toward the camera (camera frame)."""
+    rotation, eye = tilted_pose(camera_height, tilt_deg)
+    axis = rotation[:, 2]
+    x, y, _ = eye - eye[2] / axis[2] * axis
+    length, width, thick, tall = 0.60, 0.40, 0.01, 0.30
+    walls = [box((length + 2 * thick, thick, tall), (x, y + side * (width + thick) / 2, 0.0))
+             for side in (-1, 1)]
+    walls += [box((thick, width, tall), (x + side * (length + thick) / 2, y, 0.0)) for side in (-1, 1)]
+    return analytic_depth(WORK, rotation, eye, walls), rotation.T @ [0.0, 0.0, 1.0]
+
+
+@pytest.mark.parametrize("tilt_deg", [50.0, 60.0])
+def test_a_tote_seen_obliquely_stands_on_the_table_not_on_its_far_wall(support, tilt_deg):
+    """A camera 0.6 m above the table looking 50-60 degrees down into a tote: the table (floor
+    and the table beyond) is the support. A 45-degree limit would leave the table out and take
+    the far wall, which faces such a camera within 45 degrees: a tilt limit guards against no
+    wall; the score's penalty for pixels behind a plane does."""
+    depth, up = _tote_view(0.6, tilt_deg)
+    plane = support(jnp.asarray(depth), WORK)
+    assert bool(plane.found) and _angle_deg(plane.normal, up) < 0.5
+    assert float(plane.distance) == pytest.approx(0.6, abs=2e-3)
+    limited = support(jnp.asarray(depth), WORK, RealImageConfig(max_plane_tilt_deg=45.0))
+    assert bool(limited.found) and _angle_deg(limited.normal, up) > 80.0  # a wall
+
+
 def test_support_plane_failures_are_reasons(support):
     assert int(support(jnp.zeros((240, 320)), WORK).reason) == SupportReason.NO_DEPTH
-    # Only a plane tilted 60 degrees from the optical axis: past the 45-degree limit, not taken,
-    # and said so with its tilt; at 40 degrees the same table is the support.
-    wall, _, _ = _table(tilt_deg=60.0)
-    steep = support(jnp.asarray(wall), WORK)
+    # Only a plane tilted 60 degrees from the optical axis: the support under the default limit
+    # (85); past a 45-degree limit not taken, and said so with its tilt.
+    steep_table, _, _ = _table(tilt_deg=60.0)
+    assert int(support(jnp.asarray(steep_table), WORK).reason) == SupportReason.FOUND
+    steep = support(jnp.asarray(steep_table), WORK, RealImageConfig(max_plane_tilt_deg=45.0))
     assert int(steep.reason) == SupportReason.TOO_TILTED and not bool(steep.found)
     assert np.rad2deg(float(steep.tilt)) == pytest.approx(60.0, abs=0.5)
     assert np.isnan(np.asarray(steep.normal)).all()
-    table, _, _ = _table(tilt_deg=40.0)
-    assert int(support(jnp.asarray(table), WORK).reason) == SupportReason.FOUND
     noise = np.random.default_rng(0).uniform(0.5, 1.0, (240, 320)).astype(np.float32)
     scattered = support(jnp.asarray(noise), WORK)
     assert int(scattered.reason) == SupportReason.TOO_FEW_INLIERS

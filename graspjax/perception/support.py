@@ -14,10 +14,15 @@ toward the camera and scored as its inliers (closer than `plane_threshold`)
 minus the pixels *behind* it (farther from the camera by more than the
 threshold). Objects stand on their support, so nothing lies behind it,
 while the top face of a large object has the whole table behind it.
-Hypotheses tilted more than `max_plane_tilt_deg` from the optical axis (walls) are not
-candidates; when none is found, and the best of every hypothesis is such a plane holding
-`min_plane_fraction` of the pixels, the reason says so (`TOO_TILTED`, with its tilt): a camera
-looking down more steeply than the limit. The best plane is refit by least squares to the
+Hypotheses tilted more than `max_plane_tilt_deg` (85) from the optical axis, seen nearly
+edge-on, are not candidates; when none is found, and the best of every hypothesis is such a
+plane holding `min_plane_fraction` of the pixels, the reason says so (`TOO_TILTED`, with its
+tilt): a camera looking at its table more obliquely than the limit. The limit is no guard
+against walls: a wall can face a tilted camera at any angle (a tote's far wall is nearly
+head-on to a camera looking 50 degrees down), so a limit that keeps a tilted table out lets
+such a wall in. The score keeps walls out: the table beyond a wall lies behind it. A wall
+that holds more of the view than the floor, with nothing seen behind it, wins at any limit
+(`tests/test_real_image_steps.py`). The best plane is refit by least squares to the
 pixels within half the threshold of it, `plane_refits` times (the half keeps out the feet of
 walls and objects, which pull on a plane). Everything works on a regular grid of about
 `plane_pixels` pixels of the image (every n-th row and column).
@@ -149,7 +154,7 @@ def support_plane(depth: jax.Array, camera: Camera, config: RealImageConfig = Re
     fraction = inliers / jnp.maximum(n_valid, 1)
 
     # Where none is found: would a plane tilted past the limit have held enough? (Said, never
-    # used: the camera then looks down more steeply than `max_plane_tilt_deg` allows.)
+    # used: the camera then sees its table more obliquely than `max_plane_tilt_deg` allows.)
     steep = jnp.argmax(jnp.where(shaped, score, jnp.iinfo(jnp.int32).min))
     steep_fraction = (jnp.sum(ok & (jnp.abs(plane_height(points, normals[steep], distances[steep]))
                                      < thr)) / jnp.maximum(n_valid, 1))
