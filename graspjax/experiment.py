@@ -368,18 +368,20 @@ def detect_images(inputs, outputs: DetectOutputs, batch: int | None = None, quie
     names = figure_names(inputs.paths)
     if outputs.figures:
         Path(outputs.figures).mkdir(exist_ok=True)
-    records, first_figure = [], None
+    records, first_figure = {}, None
     bar, log = progress_bar(len(inputs.paths), quiet, unit="image", show_bar=many)
     with bar:
         for found in detect_files(inputs, batch, bar.update, log):
-            records.append(rec.record(found, inputs))
+            records[found.index] = rec.record(found, found.inputs)
             if outputs.figure or outputs.figures:
                 png = real_image_figure(found.depth, found.workspace, found.camera, found.result,
-                                        inputs.config, inputs.image, title=str(found.path))
+                                        found.inputs.config, found.inputs.image,
+                                        title=str(found.path))
                 if outputs.figures:
                     write_atomic(Path(outputs.figures) / names[found.index], png)
                 else:
                     first_figure = png
+    records = [records[i] for i in sorted(records)]  # the inputs' order (`detect_files`: by part)
     if outputs.json:
         write_atomic(outputs.json, rec.json_bytes(records, many))
     if outputs.figure:

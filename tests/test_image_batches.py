@@ -119,6 +119,42 @@ def test_a_batch_gives_the_grasps_of_single_images(table):
         assert _angle_deg(got.closing_axis, alone.closing_axis) < 2.0
 
 
+def test_images_given_together_are_each_detected_at_their_own_resolution(tmp_path):
+    """Three 640 x 480 captures of a box on a table, each with its own K: a long lens (fx 1100:
+    0.66 mm pixels, detected at block 2), a Kinect's (fx 525: 1.4 mm, block 1), the long lens
+    again. Given together, each is detected at the resolution it gets alone, in a program of its
+    own resolution, and comes back in the order given; before, the first image's block applied
+    to all. (The programs of test_cli's block-2 image and test_bench's single image.)"""
+    from real_scenes import tilted_pose
+
+    from graspjax import Camera
+    from graspjax.experiment import DetectOutputs, detect_images
+    from graspjax.imagefiles.inputs import prepare
+    from graspjax.synthetic import analytic_depth, box
+
+    rotation, eye = tilted_pose(0.73, 13.0)
+    axis = rotation @ np.array([0.0, 0.0, 1.0])
+    centre = (eye + axis * eye[2] / -axis[2])[:2]
+    target = box((0.04, 0.06, 0.04), (*centre, 0.0), 0.4)
+    paths = []
+    for name, focal in (("long_a", 1100.0), ("kinect", 525.0), ("long_b", 1100.0)):
+        camera = Camera(640, 480, focal, focal, 319.5, 239.5)
+        paths.append(tmp_path / f"{name}.npz")
+        np.savez(paths[-1], depth=analytic_depth(camera, rotation, eye, [target]),
+                 K=np.array([[focal, 0, 319.5], [0, focal, 239.5], [0, 0, 1]]))
+    inputs = prepare(paths)
+    assert inputs.resolutions == ((1, 2), (1, 1), (1, 2)) and inputs.image.downsample == 2
+    assert [indices for indices, _ in inputs.parts()] == [(0, 2), (1,)]
+    together = detect_images(inputs, DetectOutputs(), quiet=True)
+    alone = [detect_images(prepare([p]), DetectOutputs(), quiet=True)[0] for p in paths]
+    assert [r["image"] for r in together] == [str(p) for p in paths]
+    assert [r["downsample"] for r in together] == [2, 1, 2]
+    for got, own in zip(together, alone, strict=True):
+        assert got["found"] and got["downsample"] == own["downsample"]
+        np.testing.assert_allclose(got["grasp"]["position"], own["grasp"]["position"], atol=1e-6)
+        np.testing.assert_allclose(got["grasp"]["pixel"], own["grasp"]["pixel"], atol=1e-3)
+
+
 def test_a_large_fine_image_is_detected_at_the_resolution_it_needs(tmp_path):
     """A 2560 x 1920 capture with a long lens (0.24 mm pixels on the table) is block-medianed
     by 4 to 640 x 480 before anything is compiled, and the grasp comes back in the file's own

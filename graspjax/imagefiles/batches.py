@@ -2,8 +2,9 @@
 
 The images go through one compiled call per chunk of `batch` images (the last chunk padded
 to the same size; a chunk of one is not vmapped: `detect_single`), each with its own
-intrinsics; every image's result comes back with the views its steps worked on, so a figure
-never recomputes them.
+intrinsics; images at other resolutions than the first's (`Inputs.parts`) in chunks of their
+own. Every image's result comes back with the views its steps worked on, so a figure never
+recomputes them.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ class Detection:
 
     index: int  # position among the inputs
     path: Path
+    inputs: Inputs  # the images detected at its resolution (`Inputs.parts`): its settings
     depth: np.ndarray  # (H, W) metric depth at full resolution
     workspace: np.ndarray  # (H, W) bool: where the search looked (`Inputs.workspace_of`)
     camera: Camera  # its full-resolution intrinsics
@@ -64,11 +66,24 @@ class Detection:
 def detect_files(inputs: Inputs, batch: int | None = None,
                  progress: Callable[[int], None] = lambda n: None,
                  log: Callable[[str], None] = lambda m: None) -> Iterator[Detection]:
-    """Every image's `Detection`, in order, `batch` images per compiled call (None:
-    `default_image_batch`; 1: `detect_single`).
+    """Every image's `Detection`, `batch` images per compiled call (None:
+    `default_image_batch`; 1: `detect_single`): in order, part by part (`Inputs.parts`: the
+    images at the first image's resolution, then those at each other).
 
-    progress(n): n more images done; log: a line about the first call's compile.
+    progress(n): n more images done; log: a line about each part's first call's compile.
     """
+    parts = inputs.parts()
+    for indices, part in parts:
+        yield from _detect_part(part, indices, batch, progress,
+                                log if len(parts) == 1 else lambda m, p=part: log(
+                                    f"{m} (detection block {p.image.downsample}, input "
+                                    f"block {p.reduction})"))
+
+
+def _detect_part(inputs: Inputs, indices: tuple[int, ...], batch: int | None,
+                 progress: Callable[[int], None], log: Callable[[str], None]
+                 ) -> Iterator[Detection]:
+    """`detect_files` of the images of one resolution, at positions `indices` of the run."""
     batch = max(1, min(batch or default_image_batch(), len(inputs.paths)))
     own = inputs.bins is not None
     settings = (for_device(inputs.config, jax.default_backend(), images=True), inputs.image)  # this device's
@@ -108,7 +123,7 @@ def detect_files(inputs: Inputs, batch: int | None = None,
         result = detect(stacked, workspace, padded_cameras)
         per_image = (time.perf_counter() - t0) / batch
         for i, path in enumerate(chunk):
-            yield Detection(index=start + i, path=path, depth=depths[i],
+            yield Detection(index=indices[start + i], path=path, inputs=inputs, depth=depths[i],
                             workspace=workspaces[i], camera=cameras[i],
                             source=sources[i], result=jax.tree.map(lambda x, i=i: x[i], result),
                             load_s=loads[i], compute_s=per_image)

@@ -129,19 +129,28 @@ class IntrinsicsRequest:
 class Inputs:
     """Everything one detection run needs, checked. The detection works on the images
     block-medianed by `reduction` (`input_reduction`): its full resolution is `width` x
-    `height`; the records give pixels in the files' own."""
+    `height`; the records give pixels in the files' own.
+
+    Each image has its own resolutions, from its intrinsics and its median depth
+    (`resolutions`): images whose resolutions differ from the first's are detected apart, in
+    programs of their own (`parts`), so that no image's result depends on the others given
+    with it. `reduction`, `width`, `height`, `workspace` and `image.downsample` are the first
+    image's."""
 
     paths: tuple[Path, ...]  # the depth images, all of one size
     source_size: tuple[int, int]  # the files' columns and rows
     reduction: int  # block factor from the files to the detection's full resolution (1: none)
     width: int  # full-resolution columns (the files' // reduction)
     height: int  # full-resolution rows
+    resolutions: tuple[tuple[int, int], ...]  # per image: its `reduction` and its detection
+    # resolution's block factor (`resolution.detection_factor`)
     depth_scale: float  # metres per unit of a 16-bit PNG
     intrinsics: Intrinsics  # of the files
     workspace: np.ndarray  # (H, W) bool at full resolution, True where the search may look
     source_workspace: np.ndarray  # the same in the files' pixels (before the reduction)
-    bins: np.ndarray | None  # with --bin: every image's bin interior within `workspace`
-    # (`bins.bin_interior`), bits packed along rows (N, H, ceil(W / 8)) uint8; else None
+    bins: tuple[np.ndarray, ...] | None  # with --bin: every image's bin interior within its
+    # workspace (`bins.bin_interior`), bits packed along rows (H, ceil(W / 8)) uint8 at its
+    # resolution; else None
     roi: tuple[int, int, int, int] | None  # (x0, y0, x1, y1) in the files' pixels
     mask: str | None  # mask file
     camera_pose: np.ndarray | None  # (4, 4) camera to world (`readers.load_camera_pose`), or None
@@ -171,6 +180,19 @@ class Inputs:
         if self.bins is None:
             return self.workspace
         return np.unpackbits(self.bins[index], axis=-1, count=self.width).astype(bool)
+
+    def parts(self) -> list[tuple[tuple[int, ...], Inputs]]:
+        """The images by resolution, the first image's first: each part's positions among
+        `paths` and its `Inputs` (its images alone, at their resolution), one compiled program
+        each."""
+        positions: dict[tuple[int, int], list[int]] = {}
+        for i, resolution in enumerate(self.resolutions):
+            positions.setdefault(resolution, []).append(i)
+        return [(tuple(indices), dataclasses.replace(
+            _at_resolution(self, *resolution), paths=tuple(self.paths[i] for i in indices),
+            resolutions=(resolution,) * len(indices),
+            bins=None if self.bins is None else tuple(self.bins[i] for i in indices)))
+            for resolution, indices in positions.items()]
 
     def source_pixel(self, pixel) -> np.ndarray:
         """Full-resolution pixel coordinates (..., 2) (u, v) in the files' own pixels."""
@@ -327,29 +349,15 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
     first, first_k = read_depth(paths[0], depth_scale)
     height, width = first.shape
     source = intrinsics.resolve(width, height)
-    _check_range(first, paths[0], image, depth_scale)
-    camera = _plausible_camera(source, width, height, paths[0], first_k)
-    reduction = input_reduction(first, camera, image)
-    small_w, small_h = width // reduction, height // reduction
-    if min(small_w, small_h) < 8:  # before a `Camera` of that size is made (it refuses one)
-        raise InputError(f"reducing {width}x{height} by {reduction} (to pixels of "
-                         f"image.full_pixel {image.full_pixel:g} m at the median depth, at most "
-                         "image.max_full_pixels) leaves less than 8x8 pixels")
-    full = reduced(camera, reduction)
-    image = dataclasses.replace(image, downsample=detection_factor(first, full, image))
-    _, coarse = block_factors(small_w, image)
-    if min(small_w, small_h) // coarse < 8:
-        raise InputError(f"downsampling {width}x{height} by {reduction * coarse} leaves less "
-                         "than 8x8 pixels")
     source_workspace = _workspace(roi, mask, width, height)
-    workspace = _reduced_workspace(source_workspace, reduction)
-    inputs = Inputs(paths=paths, source_size=(width, height), reduction=reduction,
-                    width=small_w, height=small_h, depth_scale=depth_scale, intrinsics=source,
-                    workspace=workspace, source_workspace=source_workspace, bins=None, roi=roi,
-                    mask=mask, camera_pose=None if camera_pose is None else load_camera_pose(camera_pose),
+    inputs = Inputs(paths=paths, source_size=(width, height), reduction=1, width=width,
+                    height=height, resolutions=(), depth_scale=depth_scale, intrinsics=source,
+                    workspace=source_workspace, source_workspace=source_workspace, bins=None,
+                    roi=roi, mask=mask,
+                    camera_pose=None if camera_pose is None else load_camera_pose(camera_pose),
                     config=dataclasses.replace(config, image=dataclasses.replace(
                         image, bin=image.bin or bin)))
-    interiors = []
+    resolutions, interiors = [], []
     for i, path in enumerate(paths):
         depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
         if depth.shape != (height, width):
@@ -359,15 +367,48 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             with_k, without = (paths[0], path) if first_k is not None else (path, paths[0])
             raise InputError(f"{with_k} holds its intrinsics K but {without} does not; give "
                              "the intrinsics for all images")
-        if i and source.values is None and k is not None:  # each file's own K
-            _plausible_camera(source, width, height, path, k)
-        if i:  # the first was checked above
-            _check_range(depth, path, image, depth_scale)
+        _check_range(depth, path, image, depth_scale)
+        camera = _plausible_camera(source, width, height, path, k)
+        reduction = _checked_reduction(input_reduction(depth, camera, image), width, height,
+                                       image)
+        resolution = reduction, detection_factor(depth, reduced(camera, reduction), image)
+        part = _at_resolution(inputs, *resolution)  # refuses a resolution left too small
+        if i == 0:
+            inputs = part  # the first image's resolution is the run's
+        resolutions.append(resolution)
         if inputs.image.bin:
-            interiors.append(np.packbits(_bin_of(inputs, path, depth, k), axis=-1))
+            interiors.append(np.packbits(_bin_of(part, path, depth, k), axis=-1))
     if source.values is None and first_k is None:  # once all is checked: a mistake is one line
-        warn(assumed_camera(camera))
-    return dataclasses.replace(inputs, bins=np.stack(interiors)) if interiors else inputs
+        warn(assumed_camera(inputs.intrinsics.camera(width, height, None)))
+    return dataclasses.replace(inputs, resolutions=tuple(resolutions),
+                               bins=tuple(interiors) if interiors else None)
+
+
+def _checked_reduction(reduction: int, width: int, height: int, image: RealImageConfig) -> int:
+    """`reduction` of `width` x `height` files; one line where it leaves less than 8 x 8
+    pixels (checked before a `Camera` of that size is made: it refuses one)."""
+    if min(width // reduction, height // reduction) < 8:
+        raise InputError(f"reducing {width}x{height} by {reduction} (to pixels of "
+                         f"image.full_pixel {image.full_pixel:g} m at the median depth, at most "
+                         "image.max_full_pixels) leaves less than 8x8 pixels")
+    return reduction
+
+
+def _at_resolution(inputs: Inputs, reduction: int, factor: int) -> Inputs:
+    """`inputs` at another resolution: the files block-medianed by `reduction`, the detection
+    at block `factor` of that; one line where either leaves too few pixels."""
+    width, height = inputs.source_size
+    small_w, small_h = (width // _checked_reduction(reduction, width, height, inputs.image),
+                        height // reduction)
+    image = dataclasses.replace(inputs.image, downsample=factor)
+    _, coarse = block_factors(small_w, image)
+    if min(small_w, small_h) // coarse < 8:
+        raise InputError(f"downsampling {width}x{height} by {reduction * coarse} leaves less "
+                         "than 8x8 pixels")
+    return dataclasses.replace(
+        inputs, reduction=reduction, width=small_w, height=small_h,
+        workspace=_reduced_workspace(inputs.source_workspace, reduction),
+        config=dataclasses.replace(inputs.config, image=image))
 
 
 def _bin_of(inputs: Inputs, path: Path, source_depth: np.ndarray, file_k) -> np.ndarray:
