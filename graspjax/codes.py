@@ -59,7 +59,7 @@ class SupportReason(IntEnum):
     TOO_FEW_INLIERS = 3  # the best plane holds less than `min_plane_fraction` of the pixels
     OFF = 4  # not searched (`scene.support = false`: the paper's rule, target = nearest point)
     TOO_TILTED = 5  # no plane within `max_plane_tilt_deg`, but one tilted past it holds at least
-    # `min_plane_fraction` of the pixels (a camera looking down more steeply than the limit)
+    # `min_plane_fraction` of the pixels (a camera that sees its table more obliquely than the limit)
 
 
 class TargetReason(IntEnum):

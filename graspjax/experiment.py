@@ -372,7 +372,7 @@ def detect_images(inputs, outputs: DetectOutputs, batch: int | None = None, quie
     bar, log = progress_bar(len(inputs.paths), quiet, unit="image", show_bar=many)
     with bar:
         for found in detect_files(inputs, batch, bar.update, log):
-            records[found.index] = rec.record(found, found.inputs)
+            records[found.index] = rec.record(found)
             if outputs.figure or outputs.figures:
                 png = real_image_figure(found.depth, found.workspace, found.camera, found.result,
                                         found.inputs.config, found.inputs.image,

@@ -175,7 +175,7 @@ def test_a_large_fine_image_is_detected_at_the_resolution_it_needs(tmp_path):
                      roi=(160, 80, 2400, 1600))
     assert (inputs.reduction, inputs.width, inputs.height) == (4, 640, 480)
     found, = detect_files(inputs)
-    rec = record(found, inputs)
+    rec = record(found)
     assert rec["found"] and rec["size"] == [2560, 1920] and rec["input_reduction"] == 4
     top = scene.to_camera(scene.top)
     reduced_pixel = 0.75 * 4 / 3100.0  # metres, on the table
@@ -323,7 +323,7 @@ def test_common_sensors_formats_sizes_and_tilts(tmp_path, name):
     inputs = prepare([path], intrinsics=IntrinsicsRequest(focal=(focal, focal)))
     assert inputs.reduction == 1 and inputs.image.downsample == factor
     found, = detect_files(inputs)
-    rec = record(found, inputs)
+    rec = record(found)
     assert rec["found"], rec["reason"]
     assert rec["support_plane"]["tilt_deg"] == pytest.approx(tilt, abs=0.3)
     top = rotation.T @ (np.array([*centre, 0.04]) - eye)
@@ -394,7 +394,7 @@ def test_a_tote_whose_walls_lie_in_the_box(tmp_path):
     np.save(tmp_path / "tote.npy", scene.depth)
     focal = IntrinsicsRequest(focal=(scene.camera.fx, scene.camera.fy))
     plain = prepare([tmp_path / "tote.npy"], intrinsics=focal, roi=scene.roi)
-    rec = record(next(iter(detect_files(plain))), plain)
+    rec = record(next(iter(detect_files(plain))))
     assert rec["found"] and rec["target"]["height"] == pytest.approx(0.12, abs=1e-3)
     assert rec["grasp"]["width"] < 0.015  # a wall's top edge
     inputs = prepare([tmp_path / "tote.npy"], intrinsics=focal, roi=scene.roi, bin=True)
@@ -405,7 +405,7 @@ def test_a_tote_whose_walls_lie_in_the_box(tmp_path):
     interior = inputs.workspace_of(0)
     assert (interior & floor).sum() > 0.95 * floor.sum()
     assert not (interior & (heights > 0.065)).any()  # no wall pixel
-    rec = record(next(iter(detect_files(inputs))), inputs)
+    rec = record(next(iter(detect_files(inputs))))
     assert rec["found"] and rec["workspace"]["bin"]
     top = scene.to_camera(scene.top)
     assert np.linalg.norm(np.asarray(rec["grasp"]["position"]) - top) < 3 * PIXEL
@@ -433,13 +433,45 @@ def test_every_image_gets_its_own_bin(tmp_path, batch):
     moved = np.roll(first, shift, axis=1)
     assert (second & moved).sum() > 0.97 * max(second.sum(), moved.sum())
     assert (second != first).sum() > 0.05 * first.sum()
-    records = [record(d, inputs) for d in detect_files(inputs, batch=batch)]
+    records = [record(d) for d in detect_files(inputs, batch=batch)]
     pixels = [np.asarray(r["grasp"]["pixel"]) for r in records]
     assert all(r["found"] and r["workspace"]["bin"] for r in records)
     assert records[1]["workspace"]["pixels"] == int(second.sum())
     top = scene.camera.project(scene.to_camera(scene.top))
     assert np.linalg.norm(pixels[0] - top) < 3
     assert np.linalg.norm(pixels[1] - (top + np.array([shift, 0.0]))) < 3
+
+
+def test_images_at_other_resolutions_keep_their_own_workspace_and_bin(tmp_path):
+    """The host side of `Inputs.parts`, nothing compiled: the tote through its own lens, through
+    one of three times its focal length (0.4 mm pixels: taken at half size) and its own again,
+    with --bin. Each part holds its images at its resolution: its workspace and each image's bin
+    at its own size, the same bin an image gets alone, and its positions in the run."""
+    from graspjax.imagefiles.inputs import prepare
+
+    scene = bin_scene(whole=True)
+    c = scene.camera
+    own = np.array([[c.fx, 0.0, c.cx], [0.0, c.fy, c.cy], [0.0, 0.0, 1.0]])
+    long = own * np.array([[3.0], [3.0], [1.0]])  # fx, fy and the centre three times
+    long[:2, 2] = own[:2, 2]
+    paths = [tmp_path / f"{name}.npz" for name in ("own_a", "long", "own_b")]
+    for path, k in zip(paths, (own, long, own), strict=True):
+        np.savez(path, depth=scene.depth, K=k)
+    box = (50, 10, WIDTH - 10, HEIGHT - 10)
+    inputs = prepare(paths, roi=box, bin=True)
+    assert inputs.resolutions[0] == inputs.resolutions[2] == (inputs.reduction,
+                                                             inputs.image.downsample)
+    assert inputs.resolutions[1][0] == 2 and inputs.reduction == 1
+    (first, at_own), (second, at_long) = inputs.parts()
+    assert first == (0, 2) and second == (1,) and at_long.paths == (paths[1],)
+    assert at_long.workspace.shape == at_long.workspace_of(0).shape == (HEIGHT // 2, WIDTH // 2)
+    assert at_own.workspace_of(1).shape == (HEIGHT, WIDTH)
+    np.testing.assert_array_equal(at_own.workspace_of(0), at_own.workspace_of(1))
+    alone = prepare([paths[1]], roi=box, bin=True)
+    assert (alone.reduction, alone.image.downsample) == inputs.resolutions[1]
+    np.testing.assert_array_equal(at_long.workspace_of(0), alone.workspace_of(0))
+    interior = at_long.workspace_of(0)  # a bin found at that size, within the workspace
+    assert interior.sum() > 1000 and not (interior & ~at_long.workspace).any()
 
 
 def test_bin_on_an_image_without_a_floor_names_it(tmp_path):

@@ -266,6 +266,17 @@ def test_a_tote_seen_obliquely_stands_on_the_table_not_on_its_far_wall(support, 
     assert bool(limited.found) and _angle_deg(limited.normal, up) > 80.0  # a wall
 
 
+def test_a_camera_just_above_a_deep_totes_rim_takes_its_far_wall(support):
+    """The trade-off of the 85-degree limit, recorded: 15 cm above the rim of a tote with 30 cm
+    walls, looking 40 degrees down, the far wall fills most of the view with nothing seen behind
+    it, and is taken as the support; a 45-degree limit found no plane there (`TOO_TILTED`)."""
+    depth, up = _tote_view(0.45, 40.0)
+    plane = support(jnp.asarray(depth), WORK)
+    assert bool(plane.found) and _angle_deg(plane.normal, up) > 80.0  # a wall
+    limited = support(jnp.asarray(depth), WORK, RealImageConfig(max_plane_tilt_deg=45.0))
+    assert int(limited.reason) == SupportReason.TOO_TILTED
+
+
 def test_support_plane_failures_are_reasons(support):
     assert int(support(jnp.zeros((240, 320)), WORK).reason) == SupportReason.NO_DEPTH
     # Only a plane tilted 60 degrees from the optical axis: the support under the default limit

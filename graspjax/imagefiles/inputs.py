@@ -161,8 +161,8 @@ class Inputs:
         return self.config.image
 
     def read(self, path: Path) -> tuple[np.ndarray, Camera, str]:
-        """One image at full resolution: its depth (H, W), its camera and where its
-        intrinsics come from."""
+        """One image at full resolution (this `Inputs`' `reduction`: a part's for its own
+        images, `parts`): its depth (H, W), its camera and where its intrinsics come from."""
         return self.at_full_resolution(*read_depth(path, self.depth_scale))
 
     def at_full_resolution(self, depth: np.ndarray, file_k) -> tuple[np.ndarray, Camera, str]:
@@ -175,8 +175,9 @@ class Inputs:
         return depth, reduced(camera, self.reduction), self.intrinsics.describe(file_k)
 
     def workspace_of(self, index: int) -> np.ndarray:
-        """Where the search may look in image `index` (H, W) bool: its bin's interior with
-        --bin, else the one `workspace` of every image."""
+        """Where the search may look in image `index` of `paths` (H, W) bool, at this
+        `Inputs`' resolution (a part's for its own images, `parts`): its bin's interior with
+        --bin, else the one `workspace`."""
         if self.bins is None:
             return self.workspace
         return np.unpackbits(self.bins[index], axis=-1, count=self.width).astype(bool)
@@ -195,7 +196,8 @@ class Inputs:
             for resolution, indices in positions.items()]
 
     def source_pixel(self, pixel) -> np.ndarray:
-        """Full-resolution pixel coordinates (..., 2) (u, v) in the files' own pixels."""
+        """Full-resolution pixel coordinates (..., 2) (u, v), at this `Inputs`' `reduction`, in
+        the files' own pixels."""
         if self.reduction == 1:
             return pixel
         return (np.asarray(pixel, np.float64) + 0.5) * self.reduction - 0.5
@@ -369,10 +371,13 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                              "the intrinsics for all images")
         _check_range(depth, path, image, depth_scale)
         camera = _plausible_camera(source, width, height, path, k)
-        reduction = _checked_reduction(input_reduction(depth, camera, image), width, height,
-                                       image)
-        resolution = reduction, detection_factor(depth, reduced(camera, reduction), image)
-        part = _at_resolution(inputs, *resolution)  # refuses a resolution left too small
+        try:  # the image's own resolutions, refused where they leave too few pixels
+            reduction = _checked_reduction(input_reduction(depth, camera, image), width,
+                                           height, image)
+            resolution = reduction, detection_factor(depth, reduced(camera, reduction), image)
+            part = _at_resolution(inputs, *resolution)
+        except InputError as error:
+            raise InputError(f"{path}: {error}") from None
         if i == 0:
             inputs = part  # the first image's resolution is the run's
         resolutions.append(resolution)
@@ -395,11 +400,12 @@ def _checked_reduction(reduction: int, width: int, height: int, image: RealImage
 
 
 def _at_resolution(inputs: Inputs, reduction: int, factor: int) -> Inputs:
-    """`inputs` at another resolution: the files block-medianed by `reduction`, the detection
-    at block `factor` of that; one line where either leaves too few pixels."""
+    """`inputs` at another resolution: the files block-medianed by `reduction` (`reduction`,
+    `width`, `height`, `workspace`), the detection at block `factor` of that
+    (`image.downsample`); one line where either leaves too few pixels."""
     width, height = inputs.source_size
-    small_w, small_h = (width // _checked_reduction(reduction, width, height, inputs.image),
-                        height // reduction)
+    _checked_reduction(reduction, width, height, inputs.image)
+    small_w, small_h = width // reduction, height // reduction
     image = dataclasses.replace(inputs.image, downsample=factor)
     _, coarse = block_factors(small_w, image)
     if min(small_w, small_h) // coarse < 8:

@@ -45,10 +45,11 @@ def in_world(pose: np.ndarray | None, camera_pose: np.ndarray | None) -> np.ndar
     return None if pose is None or camera_pose is None else camera_pose @ pose
 
 
-def record(d: Detection, inputs: Inputs) -> dict:
-    """The record of one image's `Detection` (JSON values: lists, numbers, strings, None);
-    each grasp's `pose` as the module docstring says."""
-    r, camera = d.result, d.camera
+def record(d: Detection) -> dict:
+    """The record of one image's `Detection` (JSON values: lists, numbers, strings, None), at
+    the resolution it was detected at (`Detection.inputs`); each grasp's `pose` as the module
+    docstring says."""
+    r, camera, inputs = d.result, d.camera, d.inputs
     g, a, s, ranked = r.grasp, r.alignment, r.support, r.ranked
     fine, coarse = block_factors(inputs.width, inputs.image)
     pose = grasp_pose(r.position, r.closing_axis, r.approach)

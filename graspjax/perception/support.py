@@ -21,7 +21,8 @@ tilt): a camera looking at its table more obliquely than the limit. The limit is
 against walls: a wall can face a tilted camera at any angle (a tote's far wall is nearly
 head-on to a camera looking 50 degrees down), so a limit that keeps a tilted table out lets
 such a wall in. The score keeps walls out: the table beyond a wall lies behind it. A wall
-that holds more of the view than the floor, with nothing seen behind it, wins at any limit
+that holds more of the view than the floor, with nothing seen behind it (a camera just above
+a deep tote's rim), is taken, where a 45-degree limit found no plane at all
 (`tests/test_real_image_steps.py`). The best plane is refit by least squares to the
 pixels within half the threshold of it, `plane_refits` times (the half keeps out the feet of
 walls and objects, which pull on a plane). Everything works on a regular grid of about
