@@ -360,6 +360,7 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
                     config=dataclasses.replace(config, image=dataclasses.replace(
                         image, bin=image.bin or bin)))
     resolutions, interiors = [], []
+    at: dict[tuple[int, int], Inputs] = {}  # each resolution's settings, made once
     for i, path in enumerate(paths):
         depth, k = (first, first_k) if i == 0 else read_depth(path, depth_scale)
         if depth.shape != (height, width):
@@ -375,14 +376,15 @@ def prepare(images: Sequence[str | Path], *, depth_scale: float = 0.001,
             reduction = _checked_reduction(input_reduction(depth, camera, image), width,
                                            height, image)
             resolution = reduction, detection_factor(depth, reduced(camera, reduction), image)
-            part = _at_resolution(inputs, *resolution)
+            if resolution not in at:
+                at[resolution] = _at_resolution(inputs, *resolution)
         except InputError as error:
             raise InputError(f"{path}: {error}") from None
         if i == 0:
-            inputs = part  # the first image's resolution is the run's
+            inputs = at[resolution]  # the first image's resolution is the run's
         resolutions.append(resolution)
         if inputs.image.bin:
-            interiors.append(np.packbits(_bin_of(part, path, depth, k), axis=-1))
+            interiors.append(np.packbits(_bin_of(at[resolution], path, depth, k), axis=-1))
     if source.values is None and first_k is None:  # once all is checked: a mistake is one line
         warn(assumed_camera(inputs.intrinsics.camera(width, height, None)))
     return dataclasses.replace(inputs, resolutions=tuple(resolutions),
