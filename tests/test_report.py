@@ -50,6 +50,7 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     preset, setups, trials and pairing, the paper's 15 px is marked, a panel per setup shows
     first view and rescued stacked; McNemar's z against 15 px by hand."""
     from graspjax.figures.report import sweep_figure, sweep_outputs, sweep_title, swept_points
+    from graspjax.stats import paired_difference
 
     parts = []
     # Setup 1, object a, 10 trials: successes and rescues per window, same worlds (seed 0).
@@ -82,20 +83,36 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     sloped = sweep_title("cfg.align.window_px", {**meta, "overrides": {"procedure.view_tilt_deg": 30.0}},
                          [1, 3])
     assert sloped.startswith("align.window_px, paper preset (procedure.view_tilt_deg=30.0), Setups")
+    # the paired difference from 15 px, per setup: 5 px, Setup 1: 6 pairs both succeed, none
+    # gained, 2 lost, 2 neither: -20 points; Setup 3 (every point alike): 0
+    assert per.loc[(1, 5), "difference_vs_paper"] == pytest.approx(-0.2)
+    assert per.loc[(1, 25), "difference_vs_paper"] == pytest.approx(-0.1)
+    assert (per.loc[(1, 5), ["difference_low", "difference_high"]].tolist()
+            == pytest.approx(list(paired_difference(6, 0, 2, 2)[1:])))
+    assert np.isnan(per.loc[(1, 15), "difference_low"])  # 15 px against itself: no interval
     fig = sweep_figure(per.reset_index(), "cfg.align.window_px", title)
     assert fig._suptitle.get_text() == title
-    panels = fig.axes
-    assert [ax.get_title().split(" (")[0] for ax in panels] == ["Setup 1", "Setup 3"]
-    for ax in panels:
+    rates, differences = fig.axes[:2], fig.axes[2:]  # a row of rates, a row of differences
+    assert [ax.get_title().split(" (")[0] for ax in rates] == ["Setup 1", "Setup 3"]
+    for ax in differences:
         ticks = [t.get_text() for t in ax.get_xticklabels()]
         assert ticks == ["5", "15", "25"]
         assert ax.get_xticklabels()[1].get_fontweight() == "bold"  # the paper's 15 px
-        assert all(line.get_linestyle() == "None" for line in ax.get_lines())  # caps alone:
-        # no line drawn from one category to the next
+    bars = [round(p.get_height(), 6) for p in differences[0].patches if p.get_width() == 0.7]
+    assert bars[0] == pytest.approx(-20) and np.isnan(bars[1]) and bars[2] == pytest.approx(-10)
+    for ax in fig.axes:
+        lines = [line for line in ax.get_lines() if line.get_linestyle() != "None"]  # caps
+        # alone, and in a row of differences its zero: no line from one category to the next
+        assert all(list(line.get_ydata()) == [0, 0] for line in lines)
+        assert len(lines) == (ax in differences)
         assert ax.get_legend() is None  # the legend sits below the panels, over no data
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    assert sorted(labels) == ["95 % interval", "first view", "rescued by a re-alignment",
-                              "the paper preset's value (15)"]
+    assert sorted(labels) == ["95 % interval", "first view",
+                              "paired difference from the paper preset's value",
+                              "rescued by a re-alignment", "the paper preset's value (15)"]
+    # points that share no world (an unpaired sweep): no differences, one row of rates
+    unpaired = per.reset_index().assign(difference_low=np.nan, difference_high=np.nan)
+    assert len(sweep_figure(unpaired, "cfg.align.window_px", title).axes) == 2
     # one setup, a long title: the title and the legend stay inside the narrower figure
     one = per.reset_index()
     fig = sweep_figure(one[one["setup"] == 1], "cfg.align.window_px", sloped + ", 1500 trials")

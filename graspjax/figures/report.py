@@ -13,7 +13,7 @@ from matplotlib.patches import Rectangle
 from graspjax.figures import new_figure, png
 from graspjax.report.tables import point_labels, sweep_axes, varying_config
 from graspjax.schema import outcome_label
-from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, wilson
+from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, paired_difference, wilson
 
 
 def success_figure(summary: pd.DataFrame, meta: dict | None = None):
@@ -119,7 +119,10 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
     trial, object; an unpaired sweep's points share no world: nan): objects this value grasps
     and the paper's does not (`gained`) and the reverse (`lost`), McNemar's z (> 0: this value
     grasps more of the same objects) and exact two-sided p, and the smallest difference of
-    rates the pairs resolve at 5 % with 80 % power (`stats.paired_detectable`). `others`: the
+    rates the pairs resolve at 5 % with 80 % power (`stats.paired_detectable`), and the paired
+    difference of rates with its 95 % interval (`difference_vs_paper`, `difference_low`,
+    `difference_high`: fractions, `stats.paired_difference`; the paper's value against itself
+    has no interval). `others`: the
     grid's other swept columns, held equal in a pair; `paper`: the reference value (default
     `paper_value(key)`)."""
     objects = objects.assign(first_view=objects["success"] * (1 - objects.get("rescued", 0)))
@@ -130,7 +133,8 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
     per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
     per["rate_first_view"] = per["first_view"] / per["n"]
     per["rate_rescued"] = per["rate"] - per["rate_first_view"]
-    paired = ["gained", "lost", "z_vs_paper", "p_vs_paper", "detectable_vs_paper"]
+    paired = ["gained", "lost", "z_vs_paper", "p_vs_paper", "detectable_vs_paper",
+              "difference_vs_paper", "difference_low", "difference_high"]
     per[paired] = np.nan
     paper = paper_value(key) if paper is None else paper
     if paper is not None and (objects[key] == paper).any():
@@ -141,6 +145,7 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
         counts = pd.DataFrame({
             "gained": (joined["success"] > joined["success_paper"]).groupby(by).sum(),
             "lost": (joined["success"] < joined["success_paper"]).groupby(by).sum(),
+            "both": ((joined["success"] > 0) & (joined["success_paper"] > 0)).groupby(by).sum(),
             "pairs": joined.groupby(by).size()})
         discordant = counts["gained"] + counts["lost"]
         changes = list(zip(counts["gained"].astype(int), counts["lost"].astype(int), strict=True))
@@ -148,25 +153,38 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
         counts["p_vs_paper"] = [mcnemar_p(g, lo) for g, lo in changes]
         counts["detectable_vs_paper"] = [paired_detectable(int(d), int(n)) for d, n in zip(
             discordant, counts["pairs"], strict=True)]
-        per = per.drop(columns=paired).merge(counts.drop(columns="pairs").reset_index(),
-                                              on=[key, "setup"], how="left")
-        per.loc[per[key] == paper, "detectable_vs_paper"] = np.nan  # itself: nothing to resolve
+        neither = counts["pairs"] - counts["both"] - discordant
+        (counts["difference_vs_paper"], counts["difference_low"],
+         counts["difference_high"]) = paired_difference(counts["both"], counts["gained"],
+                                                        counts["lost"], neither)
+        per = per.drop(columns=paired).merge(
+            counts.drop(columns=["pairs", "both"]).reset_index(), on=[key, "setup"], how="left")
+        itself = per[key] == paper  # nothing to resolve against itself
+        per.loc[itself, ["detectable_vs_paper", "difference_low", "difference_high"]] = np.nan
     return per.sort_values(["setup", key], kind="stable").reset_index(drop=True)
 
 
 def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
-    """A study's figure: one panel per setup, a bar per swept value (categories, no line
-    between them), first view and rescued stacked, the 95 % interval of their sum, the paper
-    preset's value (`paper`, default `paper_value(key)`) marked on its tick; the legend below
-    the panels, over no data."""
+    """A study's figure: one column of panels per setup, a bar per swept value (categories, no
+    line between them), first view and rescued stacked, the 95 % interval of their sum, the
+    paper preset's value (`paper`, default `paper_value(key)`) marked on its tick; where the
+    points are paired with the paper's value (`swept_points`' differences), a second row: each
+    value's paired difference from it in points, with its 95 % interval (`stats.
+    paired_difference`), which shows differences of a point that the rates' scale hides. The
+    legend below the panels, over no data."""
     setups = sorted(per["setup"].unique())
     values = per[key].drop_duplicates().tolist()
     wide = max(len(str(v)) for v in values) > 8  # grid points named by several values
     width = max(6.0, 3.4 * len(setups))
-    fig = new_figure(width, 3.9 + (1.2 if wide else 0))
-    axes = fig.subplots(1, len(setups), squeeze=False, sharey=True)[0]
+    base = 3.9 + (1.2 if wide else 0)
+    paired = "difference_low" in per.columns and per["difference_low"].notna().any()
+    height = base + (2.4 if paired else 0)
+    fig = new_figure(width, height)
+    axes = fig.subplots(2 if paired else 1, len(setups), squeeze=False, sharey="row",
+                        sharex="col", height_ratios=[base - 1.4, 2.4 - 0.4] if paired else None)
     paper = paper_value(key) if paper is None else paper
-    for ax, setup in zip(axes, setups, strict=True):
+    for column, setup in enumerate(setups):
+        ax = axes[0, column]
         part = per[per["setup"] == setup]
         x = np.arange(len(part))
         ax.bar(x, 100 * part["rate_first_view"], 0.7, color="tab:blue", label="first view")
@@ -175,28 +193,62 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
         ax.errorbar(x, 100 * part["rate"], yerr=100 * np.maximum(0, np.vstack(
             [part["rate"] - part["ci_low"], part["ci_high"] - part["rate"]])), fmt="none",
             ecolor="black", capsize=3, label="95 % interval")
-        values = part[key].tolist()
-        ax.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in values],
-                      rotation=90 if wide else 0, fontsize=7 if wide else None)
-        if paper in values:
-            at = values.index(paper)
-            ax.get_xticklabels()[at].set_fontweight("bold")
-            ax.axvspan(at - 0.45, at + 0.45, color="tab:orange", alpha=0.25, lw=0, zorder=0,
-                       label=f"the paper preset's value ({paper:g})" if isinstance(paper, float)
-                       else f"the paper preset's value ({paper})")
+        ax.set_ylim(0, 105)
         ax.set_title(f"Setup {setup} (n = {int(part['n'].min())}"
                      + (f"-{int(part['n'].max())}" if part["n"].nunique() > 1 else "")
                      + " objects per value)", fontsize=9)
-        ax.set_xlabel(key[len("cfg."):] if key.startswith("cfg.") else key, fontsize=7 if wide else None)
-        ax.set_ylim(0, 105)
-    axes[0].set_ylabel("grasp success (%)")
-    handles, labels = axes[0].get_legend_handles_labels()
+        if paired:
+            below = axes[1, column]
+            difference = 100 * part["difference_vs_paper"].where(part["difference_low"].notna())
+            below.bar(x, difference, 0.7, color="tab:gray",
+                      label="paired difference from the paper preset's value")
+            below.errorbar(x, difference, yerr=100 * np.maximum(0, np.vstack(
+                [part["difference_vs_paper"] - part["difference_low"],
+                 part["difference_high"] - part["difference_vs_paper"]])), fmt="none",
+                ecolor="black", capsize=3)
+            below.axhline(0.0, color="black", linewidth=0.8)
+        values = part[key].tolist()
+        bottom = axes[-1, column]
+        bottom.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in values],
+                          rotation=90 if wide else 0, fontsize=7 if wide else None)
+        bottom.set_xlabel(key[len("cfg."):] if key.startswith("cfg.") else key,
+                          fontsize=7 if wide else None)
+        if paper in values:
+            at = values.index(paper)
+            bottom.get_xticklabels()[at].set_fontweight("bold")
+            for ax in axes[:, column]:
+                ax.axvspan(at - 0.45, at + 0.45, color="tab:orange", alpha=0.25, lw=0, zorder=0,
+                           label=f"the paper preset's value ({paper:g})"
+                           if isinstance(paper, float) else f"the paper preset's value ({paper})")
+    axes[0, 0].set_ylabel("grasp success (%)")
+    if paired:
+        axes[1, 0].set_ylabel("paired difference from\nthe paper's value (points)")
+    legend = {}  # every row's entries once, in the order first drawn
+    for ax in axes[:, 0]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
     fig.suptitle(textwrap.fill(title, int(13 * width)), fontsize=10)  # within the figure's width
-    columns = len(labels) if width >= 9 else 2  # a one-panel figure stacks its legend
-    rows = -(-len(labels) // columns)
-    fig.tight_layout(rect=(0, (0.05 + 0.05 * rows) * (0.8 if wide else 1), 1, 1))
-    fig.legend(handles, labels, loc="lower center", ncol=columns, fontsize=8, frameon=False)
+    columns = _legend_columns(fig, legend)
+    rows = -(-len(legend) // columns)
+    below_panels = (0.05 + 0.05 * rows) * (0.8 if wide else 1) * base  # inches for the legend
+    fig.tight_layout(rect=(0, below_panels / height, 1, 1))
+    fig.legend(list(legend.values()), list(legend), loc="lower center", ncol=columns, fontsize=8,
+               frameon=False)
     return fig
+
+
+def _legend_columns(fig, entries: dict) -> int:
+    """The most columns (at most one row's worth of `entries`, label -> handle) whose legend
+    fits within the figure's width, as drawn at the size `sweep_figure` draws it."""
+    renderer = fig.canvas.get_renderer()
+    for columns in range(len(entries), 1, -1):
+        trial = fig.legend(list(entries.values()), list(entries), ncol=columns, fontsize=8,
+                           frameon=False)
+        fits = trial.get_window_extent(renderer).width <= 0.97 * fig.bbox.width
+        trial.remove()
+        if fits:
+            return columns
+    return 1
 
 
 def run_description(meta: dict, setups) -> str:
