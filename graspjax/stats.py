@@ -52,17 +52,21 @@ def paired_difference(both, gained, lost, neither, z: float = 1.959964):
     """The difference of two success rates measured on the same pairs, with its 95 % interval:
     (difference, low, high) as fractions (arrays or scalars). The pairs: `both` succeed,
     `gained` succeed only in the first sample, `lost` only in the second, `neither`; the
-    difference is (gained - lost) / pairs. The interval is Newcombe's (1998, Statistics in
-    Medicine 17:2635, method 10): each rate's Wilson interval, combined with the correlation of
-    the pairs' outcomes (phi, 0 where a margin is empty). Unlike the Wald interval it keeps its
-    coverage where few pairs differ (tests/test_stats.py). nan for no pairs."""
+    difference is (gained - lost) / pairs. The interval is Newcombe's square-and-add interval
+    (1998, Statistics in Medicine 17:2635, method 10): each rate's Wilson interval, combined
+    with the correlation of the pairs' outcomes, its numerator ad - bc lessened by n / 2 when
+    positive (0 when that leaves it below 0, or a margin is empty), so that pairs all alike do
+    not claim a perfect correlation. Unlike the Wald interval it keeps its coverage where few
+    pairs differ (tests/test_stats.py). nan for no pairs."""
     a, b, c, d = (np.asarray(x, float) for x in (both, gained, lost, neither))
     n = a + b + c + d
     first, second = (a + b) / np.where(n > 0, n, np.nan), (a + c) / np.where(n > 0, n, np.nan)
     low1, high1 = wilson(a + b, n, z)
     low2, high2 = wilson(a + c, n, z)
     margins = (a + b) * (c + d) * (a + c) * (b + d)
-    phi = np.where(margins > 0, (a * d - b * c) / np.sqrt(np.where(margins > 0, margins, 1.0)), 0.0)
+    alike = a * d - b * c
+    alike = np.where(alike > n / 2, alike - n / 2, np.minimum(alike, 0.0))
+    phi = np.where(margins > 0, alike / np.sqrt(np.where(margins > 0, margins, 1.0)), 0.0)
     below = np.sqrt(np.maximum(0.0, (first - low1) ** 2 - 2 * phi * (first - low1) * (high2 - second)
                                + (high2 - second) ** 2))
     above = np.sqrt(np.maximum(0.0, (high1 - first) ** 2 - 2 * phi * (high1 - first) * (second - low2)

@@ -490,4 +490,11 @@ def test_a_grid_of_several_keys_is_compared_point_by_point_with_the_papers_point
     anchor = swept_points(objects, "cfg.align.anchor", ("cfg.align.turn_normal",)).set_index(
         "cfg.align.anchor")
     assert anchor.loc["centre", ["gained", "lost"]].tolist() == [2, 2]  # pixel pairs alone
+    # ... so its difference (0 of 10 pairs) is not that of the pooled rates (18 of 20 centre
+    # grasps against 8 of 10), and the figure's row of differences says over how many pairs
+    assert anchor.loc["centre", ["n", "pairs", "difference_vs_paper"]].tolist() == [20, 10, 0]
+    from graspjax.figures.report import sweep_figure
+
+    fig = sweep_figure(anchor.reset_index(), "cfg.align.anchor", "anchor")
+    assert fig.axes[1].get_title() == "over 10 pairs per value (other swept keys equal)"
     assert files["sweep_points.png"][:8] == b"\x89PNG\r\n\x1a\n"

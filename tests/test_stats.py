@@ -34,29 +34,30 @@ def test_wilson_interval_and_detectable_difference_by_hand():
     assert paired_detectable(100, 1000) == pytest.approx(2.8 * math.sqrt(0.1 / 1000))
 
 
-def test_paired_difference_by_hand_where_the_pairs_are_uncorrelated_or_all_alike():
+def test_paired_difference_by_hand_and_against_published_intervals():
     z = 1.959964
     half = z * math.sqrt(0.25 / 100 + z**2 / 40_000) / (1 + z**2 / 100)  # Wilson at 50 of 100
-    # phi = 0 (ad = bc): each rate's distance to its Wilson bound added in square
+    # ad = bc: no correlation, each rate's distance to its Wilson bound added in square
     assert paired_difference(25, 25, 25, 25) == pytest.approx((0.0, -math.sqrt(2) * half,
                                                                math.sqrt(2) * half))
-    # every pair alike (phi = 1): the bounds' distances subtract, what is left is the Wilson
-    # interval's asymmetry at 60 of 100
-    low, high = wilson(60, 100)
-    skew = abs((0.6 - float(low)) - (float(high) - 0.6))
-    assert paired_difference(60, 0, 0, 40) == pytest.approx((0.0, -skew, skew))
-    difference, low, high = paired_difference(70, 6, 3, 21)
-    assert difference == pytest.approx(0.03) and low < 0.03 < high
+    # Fagerland, Lydersen & Laake's examples of Newcombe's interval (Statistical Analysis of
+    # Contingency Tables, ch. 8): complete response before and after consolidation therapy
+    # (Cavo et al. 2012), airway hyper-responsiveness before and after a stem cell transplant
+    # (Bentur et al. 2009)
+    assert paired_difference(59, 6, 16, 80) == pytest.approx((-10 / 161, -0.1186, -0.0046),
+                                                             abs=6e-5)
+    assert paired_difference(1, 1, 7, 12) == pytest.approx((-6 / 21, -0.507, -0.026), abs=6e-4)
     assert np.isnan(paired_difference(0, 0, 0, 0)).all()
 
 
 def test_paired_difference_covers_the_true_difference_as_often_as_it_claims():
     """20,000 samples of pairs drawn from known cells: the 95 % interval holds the true
     difference in 95 % of them (+-1 point: the simulation's own error is 0.15). Where few
-    pairs differ it stays at or above 95 %, where the Wald interval ((b - c) / n +- z se)
-    falls below 90 %."""
+    pairs differ (nearly all alike, at 50 % or at 90 %) it stays at or above 95 %, where the
+    Wald interval ((b - c) / n +- z se) falls below 90 %."""
     rng = np.random.default_rng(0)
     for cells, n, (least, most) in (((0.70, 0.06, 0.03, 0.21), 300, (0.94, 0.96)),
+                                    ((0.50, 0.001, 0.0, 0.499), 1800, (0.95, 1.0)),
                                     ((0.90, 0.02, 0.005, 0.075), 100, (0.95, 1.0))):
         counts = rng.multinomial(n, cells, size=20_000).T
         truth = cells[1] - cells[2]

@@ -122,7 +122,8 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
     rates the pairs resolve at 5 % with 80 % power (`stats.paired_detectable`), and the paired
     difference of rates with its 95 % interval (`difference_vs_paper`, `difference_low`,
     `difference_high`: fractions, `stats.paired_difference`; the paper's value against itself
-    has no interval). `others`: the
+    has no interval), over `pairs` objects (fewer than `n` where other swept keys must be
+    equal in a pair, so the difference is not that of the pooled rates). `others`: the
     grid's other swept columns, held equal in a pair; `paper`: the reference value (default
     `paper_value(key)`)."""
     objects = objects.assign(first_view=objects["success"] * (1 - objects.get("rescued", 0)))
@@ -133,7 +134,7 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
     per["ci_low"], per["ci_high"] = wilson(per["successes"], per["n"])
     per["rate_first_view"] = per["first_view"] / per["n"]
     per["rate_rescued"] = per["rate"] - per["rate_first_view"]
-    paired = ["gained", "lost", "z_vs_paper", "p_vs_paper", "detectable_vs_paper",
+    paired = ["gained", "lost", "pairs", "z_vs_paper", "p_vs_paper", "detectable_vs_paper",
               "difference_vs_paper", "difference_low", "difference_high"]
     per[paired] = np.nan
     paper = paper_value(key) if paper is None else paper
@@ -142,11 +143,11 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
         reference = objects[objects[key] == paper][[*pair, "success"]]
         joined = objects.merge(reference, on=pair, suffixes=("", "_paper"))
         by = [joined[key], joined["setup"]]
-        counts = pd.DataFrame({
-            "gained": (joined["success"] > joined["success_paper"]).groupby(by).sum(),
-            "lost": (joined["success"] < joined["success_paper"]).groupby(by).sum(),
-            "both": ((joined["success"] > 0) & (joined["success_paper"] > 0)).groupby(by).sum(),
-            "pairs": joined.groupby(by).size()})
+        here, there = joined["success"] > 0, joined["success_paper"] > 0
+        counts = pd.DataFrame({"gained": (here & ~there).groupby(by).sum(),
+                               "lost": (~here & there).groupby(by).sum(),
+                               "pairs": joined.groupby(by).size(),
+                               "both": (here & there).groupby(by).sum()})
         discordant = counts["gained"] + counts["lost"]
         changes = list(zip(counts["gained"].astype(int), counts["lost"].astype(int), strict=True))
         counts["z_vs_paper"] = [mcnemar_z(g, lo) for g, lo in changes]
@@ -157,8 +158,8 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
         (counts["difference_vs_paper"], counts["difference_low"],
          counts["difference_high"]) = paired_difference(counts["both"], counts["gained"],
                                                         counts["lost"], neither)
-        per = per.drop(columns=paired).merge(
-            counts.drop(columns=["pairs", "both"]).reset_index(), on=[key, "setup"], how="left")
+        per = per.drop(columns=paired).merge(counts.drop(columns="both").reset_index(),
+                                              on=[key, "setup"], how="left")
         itself = per[key] == paper  # nothing to resolve against itself
         per.loc[itself, ["detectable_vs_paper", "difference_low", "difference_high"]] = np.nan
     return per.sort_values(["setup", key], kind="stable").reset_index(drop=True)
@@ -207,7 +208,17 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
                  part["difference_high"] - part["difference_vs_paper"]])), fmt="none",
                 ecolor="black", capsize=3)
             below.axhline(0.0, color="black", linewidth=0.8)
+            compared = part[part["difference_low"].notna()]
+            if compared.empty:  # this setup did not play the paper's value
+                below.text(0.5, 0.5, "no pairs with the paper preset's value", fontsize=8,
+                           ha="center", va="center", transform=below.transAxes)
+            elif (compared["pairs"] < compared["n"]).any():  # the other keys held equal
+                below.set_title(f"over {int(compared['pairs'].min())}"
+                                + (f"-{int(compared['pairs'].max())}"
+                                   if compared["pairs"].nunique() > 1 else "")
+                                + " pairs per value (other swept keys equal)", fontsize=8)
         values = part[key].tolist()
+        ax.set_xlim(-0.6, len(x) - 0.4)  # (shared by the column) a half bar's margin
         bottom = axes[-1, column]
         bottom.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in values],
                           rotation=90 if wide else 0, fontsize=7 if wide else None)
