@@ -199,24 +199,7 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
                      + (f"-{int(part['n'].max())}" if part["n"].nunique() > 1 else "")
                      + " objects per value)", fontsize=9)
         if paired:
-            below = axes[1, column]
-            difference = 100 * part["difference_vs_paper"].where(part["difference_low"].notna())
-            below.bar(x, difference, 0.7, color="tab:gray",
-                      label="paired difference from the paper preset's value")
-            below.errorbar(x, difference, yerr=100 * np.maximum(0, np.vstack(
-                [part["difference_vs_paper"] - part["difference_low"],
-                 part["difference_high"] - part["difference_vs_paper"]])), fmt="none",
-                ecolor="black", capsize=3)
-            below.axhline(0.0, color="black", linewidth=0.8)
-            compared = part[part["difference_low"].notna()]
-            if compared.empty:  # this setup did not play the paper's value
-                below.text(0.5, 0.5, "no pairs with the paper preset's value", fontsize=8,
-                           ha="center", va="center", transform=below.transAxes)
-            elif (compared["pairs"] < compared["n"]).any():  # the other keys held equal
-                below.set_title(f"over {int(compared['pairs'].min())}"
-                                + (f"-{int(compared['pairs'].max())}"
-                                   if compared["pairs"].nunique() > 1 else "")
-                                + " pairs per value (other swept keys equal)", fontsize=8)
+            _difference_panel(axes[1, column], part, x)
         values = part[key].tolist()
         ax.set_xlim(-0.6, len(x) - 0.4)  # (shared by the column) a half bar's margin
         bottom = axes[-1, column]
@@ -246,6 +229,28 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
     fig.legend(list(legend.values()), list(legend), loc="lower center", ncol=columns, fontsize=8,
                frameon=False)
     return fig
+
+
+def _difference_panel(ax, part: pd.DataFrame, x: np.ndarray) -> None:
+    """A setup's row of paired differences (`swept_points`' rows of that setup, at `x`): a bar
+    per value from 0 with its 95 % interval, none for the paper's value itself; the number of
+    pairs where other swept keys held equal made them fewer than the objects."""
+    difference = 100 * part["difference_vs_paper"].where(part["difference_low"].notna())
+    ax.bar(x, difference, 0.7, color="tab:gray",
+           label="paired difference from the paper preset's value")
+    ax.errorbar(x, difference, yerr=100 * np.maximum(0, np.vstack(
+        [part["difference_vs_paper"] - part["difference_low"],
+         part["difference_high"] - part["difference_vs_paper"]])), fmt="none", ecolor="black",
+        capsize=3)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    compared = part[part["difference_low"].notna()]
+    if compared.empty:  # this setup did not play the paper's value
+        ax.text(0.5, 0.5, "no pairs with the paper preset's value", fontsize=8, ha="center",
+                va="center", transform=ax.transAxes)
+    elif (compared["pairs"] < compared["n"]).any():  # the other keys held equal
+        ax.set_title(f"over {int(compared['pairs'].min())}"
+                     + (f"-{int(compared['pairs'].max())}" if compared["pairs"].nunique() > 1
+                        else "") + " pairs per value (other swept keys equal)", fontsize=8)
 
 
 def _legend_columns(fig, entries: dict) -> int:
