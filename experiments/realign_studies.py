@@ -9,8 +9,9 @@ grid point and setup: attempts, success with its Wilson 95 % interval, attempts 
 re-aligned, rescued, and the rescue rate among the re-aligned (Wilson). Against the reference
 point (the one whose values equal the default configuration, else point 0): the discordant
 pairs (same world and attempt, success at only one of the two points), McNemar's exact
-two-sided p, and the smallest success difference this many pairs could detect (5 % two-sided,
-80 % power, from the discordant share).
+two-sided p, the smallest success difference this many pairs could detect (5 % two-sided,
+80 % power, from the discordant share), and the paired difference with its 95 % interval
+(Newcombe's square-and-add).
 
 --across BEFORE AFTER: two sweeps of the same grid on the same worlds (same seed and command
 but one setting), compared point by point the same way (AFTER is the reference).
@@ -28,7 +29,7 @@ import pandas as pd
 
 from graspjax.config import Config
 from graspjax.report import load_attempts
-from graspjax.stats import mcnemar_p, paired_detectable, wilson
+from graspjax.stats import mcnemar_p, paired_detectable, paired_difference, wilson
 from graspjax.tree import named_fields
 
 PAIR = ["setup", "object", "trial", "attempt"]
@@ -51,6 +52,14 @@ def _interval(k: int, n: int) -> str:
     return f"{_pct(k / max(n, 1))} [{_pct(float(low))}-{_pct(float(high))}]"
 
 
+def _difference(here: pd.Series, reference: pd.Series) -> str:
+    """The paired success difference, here less the reference, in points with its 95 %
+    interval (`stats.paired_difference`: Newcombe's square-and-add)."""
+    difference, low, high = paired_difference((here & reference).sum(), (here & ~reference).sum(),
+                                              (~here & reference).sum(), (~here & ~reference).sum())
+    return f"{100 * difference:+.1f} [{100 * low:+.1f} to {100 * high:+.1f}]"
+
+
 def sweep_table(folder: str) -> str:
     frame = load_attempts(folder)
     frame = frame[frame["attempt"] >= 0]
@@ -65,8 +74,8 @@ def sweep_table(folder: str) -> str:
              "| " + " | ".join([*keys, "setup", "attempts", "success % [95 %]", "re-aligned",
                                 "rescued", "rescue % of re-aligned [95 %]",
                                 "only here / only ref.", "McNemar p",
-                                "detectable diff. (points)"]) + " |",
-             "|" + "---|" * (len(keys) + 9)]
+                                "detectable diff. (points)", "diff. (points) [95 %]"]) + " |",
+             "|" + "---|" * (len(keys) + 10)]
     for setup, part in frame.groupby("setup"):
         ref = part[part["point"] == reference].set_index(PAIR)["success"].astype(bool)
         for p in points:
@@ -77,9 +86,10 @@ def sweep_table(folder: str) -> str:
                                keys=["here", "ref"]).dropna().astype(bool)
             only_here = int((paired["here"] & ~paired["ref"]).sum())
             only_ref = int((~paired["here"] & paired["ref"]).sum())
-            compare = (("", "", "") if p == reference else (
+            compare = (("", "", "", "") if p == reference else (
                 f"{only_here} / {only_ref}", f"{mcnemar_p(only_here, only_ref):.2g}",
-                _pct(paired_detectable(only_here + only_ref, len(paired)))))
+                _pct(paired_detectable(only_here + only_ref, len(paired))),
+                _difference(paired["here"], paired["ref"])))
             lines.append("| " + " | ".join([
                 *(str(grid[k][p]) for k in keys), str(setup), str(len(here)),
                 _interval(int(here["success"].sum()), len(here)), str(len(realigned)),
@@ -95,8 +105,8 @@ def across_table(before: str, after: str) -> str:
     lines = [f"### {before} -> {after} (the same worlds; paired by world and attempt)", "",
              "| " + " | ".join([*keys, "pairs", "success before %", "success after %",
                                 "only before / only after", "McNemar p",
-                                "detectable diff. (points)"]) + " |",
-             "|" + "---|" * (len(keys) + 6)]
+                                "detectable diff. (points)", "diff. (points) [95 %]"]) + " |",
+             "|" + "---|" * (len(keys) + 7)]
     for p in sorted(b["point"].unique()):
         pair = pd.concat([f[(f["point"] == p) & (f["attempt"] >= 0)].set_index(PAIR)["success"]
                           .astype(bool) for f in (a, b)], axis=1, keys=["a", "b"]).dropna().astype(bool)
@@ -105,7 +115,8 @@ def across_table(before: str, after: str) -> str:
         lines.append("| " + " | ".join([
             *(str(grid[k][p]) for k in keys), str(len(pair)), _pct(pair["a"].mean()),
             _pct(pair["b"].mean()), f"{only_a} / {only_b}", f"{mcnemar_p(only_a, only_b):.2g}",
-            _pct(paired_detectable(only_a + only_b, len(pair)))]) + " |")
+            _pct(paired_detectable(only_a + only_b, len(pair))),
+            _difference(pair["a"], pair["b"])]) + " |")
     return "\n".join(lines)
 
 
