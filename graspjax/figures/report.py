@@ -179,10 +179,11 @@ def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
     width = max(6.0, 3.4 * len(setups))
     base = 3.9 + (1.2 if wide else 0)
     paired = "difference_low" in per.columns and per["difference_low"].notna().any()
-    height = base + (2.4 if paired else 0)
+    row = 2.4  # inches the row of differences adds, its panels' height 0.4 less (their gap)
+    height = base + (row if paired else 0)
     fig = new_figure(width, height)
     axes = fig.subplots(2 if paired else 1, len(setups), squeeze=False, sharey="row",
-                        sharex="col", height_ratios=[base - 1.4, 2.4 - 0.4] if paired else None)
+                        sharex="col", height_ratios=[base - 1.4, row - 0.4] if paired else None)
     paper = paper_value(key) if paper is None else paper
     for column, setup in enumerate(setups):
         ax = axes[0, column]
