@@ -83,6 +83,15 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     sloped = sweep_title("cfg.align.window_px", {**meta, "overrides": {"procedure.view_tilt_deg": 30.0}},
                          [1, 3])
     assert sloped.startswith("align.window_px, paper preset (procedure.view_tilt_deg=30.0), Setups")
+    # the objects, where the run played some of the twelve (Table 2's in Setup 1, or three)
+    table_2 = {**meta, "jobs": [{"trials": 600, "setups": [1], "objects": list("ghijkl")}]}
+    assert (sweep_title("cfg.align.window_px", table_2, [1])
+            == "align.window_px, paper preset, Setup 1, objects g-l, 600 trials per cell, paired")
+    some = {**meta, "jobs": [{"trials": 10, "setups": [1], "objects": ["d", "a", "b"]}]}
+    assert "Setup 1, objects a, b, d, 10 trials" in sweep_title("cfg.align.window_px", some, [1])
+    tables = {**meta, "jobs": [{"trials": 10, "setups": [1, 2, 3], "objects": list("abcdef")},
+                               {"trials": 10, "setups": [1], "objects": list("ghijkl")}]}
+    assert "objects" not in sweep_title("cfg.align.window_px", tables, [1, 2, 3])
     # the paired difference from 15 px, per setup: 5 px, Setup 1: 6 pairs both succeed, none
     # gained, 2 lost, 2 neither: -20 points; Setup 3 (every point alike): 0
     assert per.loc[(1, 5), "difference_vs_paper"] == pytest.approx(-0.2)

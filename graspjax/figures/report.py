@@ -269,13 +269,24 @@ def _legend_columns(fig, entries: dict) -> int:
 
 
 def run_description(meta: dict, setups) -> str:
-    """"paper preset (changed=value), Setups 1, 3, 300 trials per cell": the preset, the settings
-    changed from it, the setups and the trials of a run's `config.json`."""
-    trials = sorted({job.get("trials") for job in meta.get("jobs", [])} - {None})
+    """"paper preset (changed=value), Setups 1, 3, objects g-l, 300 trials per cell": the
+    preset, the settings changed from it, the setups, the objects where the run played only
+    some of the twelve, and the trials of a run's `config.json`."""
+    jobs = meta.get("jobs", [])
+    trials = sorted({job.get("trials") for job in jobs} - {None})
+    objects = sorted({o for job in jobs for o in job.get("objects", [])})
     changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
     return (f"{meta.get('preset', 'unknown')} preset" + (f" ({changed})" if changed else "")
             + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
+            + (f", objects {_letters(objects)}" if objects and len(objects) < 12 else "")
             + (f", {'/'.join(map(str, trials))} trials per cell" if trials else ""))
+
+
+def _letters(objects: list[str]) -> str:
+    """Sorted object letters as "a-f" when they run without a gap, else "a, c, d"."""
+    if len(objects) > 2 and ord(objects[-1]) - ord(objects[0]) == len(objects) - 1:
+        return f"{objects[0]}-{objects[-1]}"
+    return ", ".join(objects)
 
 
 def sweep_title(key: str, meta: dict | None, setups) -> str:
