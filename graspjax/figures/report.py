@@ -11,7 +11,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.patches import Rectangle
 
 from graspjax.figures import new_figure, png
-from graspjax.report.tables import point_labels, sweep_axes, varying_config
+from graspjax.report.tables import paper_value, point_labels, sweep_axes, varying_config
 from graspjax.schema import outcome_label
 from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, paired_difference, wilson
 
@@ -97,18 +97,6 @@ def outcomes_figure(frame: pd.DataFrame) -> bytes:
     ax.set_xlabel("setup / object")
     ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     return png(fig)
-
-
-def paper_value(key: str):
-    """The paper preset's value of a swept `cfg.` column (the paper's 15 px, 0.3, one
-    re-alignment; our reading where the paper is silent); None for a column that is no
-    setting."""
-    from graspjax.config import preset
-    from graspjax.tree import named_fields
-
-    if not key.startswith("cfg."):
-        return None
-    return named_fields(preset("paper")).get(key[len("cfg."):])
 
 
 def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
@@ -275,18 +263,13 @@ def run_description(meta: dict, setups) -> str:
     jobs = meta.get("jobs", [])
     trials = sorted({job.get("trials") for job in jobs} - {None})
     objects = sorted({o for job in jobs for o in job.get("objects", [])})
+    run = len(objects) > 2 and ord(objects[-1]) - ord(objects[0]) == len(objects) - 1  # "a-f"
     changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
     return (f"{meta.get('preset', 'unknown')} preset" + (f" ({changed})" if changed else "")
             + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
-            + (f", objects {_letters(objects)}" if objects and len(objects) < 12 else "")
+            + (f", objects {f'{objects[0]}-{objects[-1]}' if run else ', '.join(objects)}"
+               if 0 < len(objects) < 12 else "")
             + (f", {'/'.join(map(str, trials))} trials per cell" if trials else ""))
-
-
-def _letters(objects: list[str]) -> str:
-    """Sorted object letters as "a-f" when they run without a gap, else "a, c, d"."""
-    if len(objects) > 2 and ord(objects[-1]) - ord(objects[0]) == len(objects) - 1:
-        return f"{objects[0]}-{objects[-1]}"
-    return ", ".join(objects)
 
 
 def sweep_title(key: str, meta: dict | None, setups) -> str:

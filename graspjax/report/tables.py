@@ -302,3 +302,15 @@ def comparison_markdown(summary: pd.DataFrame, order: list[str], state: str = ""
                 lines.append(f"| Setup {setup}, the paper | " + " | ".join(cells) + " |")
         lines.append("")
     return "\n".join(lines)
+
+
+def paper_value(key: str):
+    """The paper preset's value of a swept `cfg.` column (the paper's 15 px, 0.3, one
+    re-alignment; our reading where the paper is silent); None for a column that is no
+    setting."""
+    from graspjax.config import preset
+    from graspjax.tree import named_fields
+
+    if not key.startswith("cfg."):
+        return None
+    return named_fields(preset("paper")).get(key[len("cfg."):])
