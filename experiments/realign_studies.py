@@ -1,6 +1,7 @@
 """Paired studies of the re-alignment, from the run folders' files alone.
 
     python3 experiments/realign_studies.py SWEEP... [--planes PLANES...] > study.md
+    python3 experiments/realign_studies.py SWEEP... --figure OUT.png
 
 SWEEP: a folder of `graspjax sweep --paired` (every grid point plays the same worlds; in
 Setups 2 and 3 an attempt pairs only where both points attempted the same object at the same
@@ -17,6 +18,10 @@ two-sided p, the smallest success difference this many pairs could detect (5 % t
 but one setting), compared point by point the same way (AFTER is the reference).
 
 PLANES: a folder of `graspjax planes`: its per-point summary as a table.
+
+--figure OUT: instead of the tables, draw the SWEEP folders, one study's cells each run at the
+trials it needs (`experiments/studies.sh`'s TAG), as one figure (`report.studies`): a panel per
+setup and object set, the rates and the paired differences from the paper's value.
 """
 
 from __future__ import annotations
@@ -149,7 +154,13 @@ if __name__ == "__main__":
     parser.add_argument("--across", nargs=2, action="append", default=[],
                         metavar=("BEFORE", "AFTER"))
     parser.add_argument("--planes", nargs="*", default=[])
+    parser.add_argument("--figure", metavar="OUT")
     args = parser.parse_args()
+    if args.figure:
+        from graspjax.report.studies import study_figure
+
+        Path(args.figure).write_bytes(study_figure(args.sweeps))
+        raise SystemExit(0)
     print("\n\n".join([*map(sweep_table, args.sweeps),
                         *(across_table(*pair) for pair in args.across),
                         *map(planes_table, args.planes)]))

@@ -507,3 +507,45 @@ def test_a_grid_of_several_keys_is_compared_point_by_point_with_the_papers_point
     fig = sweep_figure(anchor.reset_index(), "cfg.align.anchor", "anchor")
     assert fig.axes[1].get_title() == "over 10 pairs per value (other swept keys equal)"
     assert files["sweep_points.png"][:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_study_run_cell_by_cell_is_drawn_as_one_figure():
+    """Two parts of one window study, each run at its own trials: Setup 1 with objects a and
+    b at 10 trials, Setup 1 with g at 20 (15 px and 5 px on the same worlds): a panel each,
+    named by setup and objects, with the objects and the paired differences of its own part;
+    parts that sweep another key or run under other settings are refused."""
+    from graspjax.figures.report import swept_points
+    from graspjax.report.studies import study_points
+
+    def part(cells, trials, won_at_5):
+        frames = []
+        for window in (15, 5):
+            frame = _frame(cells).assign(**{"cfg.align.window_px": window, "rescued": 0})
+            if window == 5:  # the first `won_at_5` failures of the paper's value succeed
+                failed = frame.index[frame["success"] == 0][:won_at_5]
+                frame.loc[failed, ["success", "outcome", "reason"]] = [1, "SUCCESS", "SUCCESS"]
+            frames.append(frame)
+        meta = {"preset": "paper", "paired": True, "overrides": {"procedure.view_tilt_deg": 30.0},
+                "jobs": [{"trials": trials, "setups": [1], "objects": sorted({o for _, o in cells})}]}
+        return pd.concat(frames, ignore_index=True), meta
+
+    a_f = part({(1, "a"): (6, 10), (1, "b"): (4, 10)}, 10, 3)
+    g_l = part({(1, "g"): (5, 20)}, 20, 2)
+    per, key, title = study_points([a_f, g_l])
+    assert key == "cfg.align.window_px"
+    assert title == ("align.window_px, paper preset (procedure.view_tilt_deg=30.0), each panel "
+                     "at its own trials (10 / 20 per cell), paired")
+    panels = per.set_index(["setup", key])
+    assert panels["n"].to_dict() == {("1 a, b", 5): 20, ("1 a, b", 15): 20, ("1 g", 5): 20,
+                                     ("1 g", 15): 20}
+    assert panels.loc[("1 a, b", 5), "difference_vs_paper"] == pytest.approx(3 / 20)
+    assert panels.loc[("1 g", 5), "difference_vs_paper"] == pytest.approx(2 / 20)
+    alone = swept_points(object_outcomes(g_l[0]), key).set_index(key)
+    assert (panels.loc[("1 g", 5), ["difference_low", "difference_high"]].tolist()
+            == pytest.approx(alone.loc[5, ["difference_low", "difference_high"]].tolist()))
+    other_key = (a_f[0].rename(columns={key: "cfg.align.distance_threshold"}), a_f[1])
+    with pytest.raises(ValueError, match="must sweep the one key cfg.align.window_px"):
+        study_points([a_f, other_key])
+    flat = (g_l[0], {**g_l[1], "overrides": {}})
+    with pytest.raises(ValueError, match="other settings"):
+        study_points([a_f, flat])

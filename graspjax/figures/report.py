@@ -11,7 +11,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.patches import Rectangle
 
 from graspjax.figures import new_figure, png
-from graspjax.report.tables import paper_value, point_labels, sweep_axes, varying_config
+from graspjax.report.tables import object_letters, paper_value, point_labels, sweep_axes, varying_config
 from graspjax.schema import outcome_label
 from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, paired_difference, wilson
 
@@ -262,13 +262,11 @@ def run_description(meta: dict, setups) -> str:
     some of the twelve, and the trials of a run's `config.json`."""
     jobs = meta.get("jobs", [])
     trials = sorted({job.get("trials") for job in jobs} - {None})
-    objects = sorted({o for job in jobs for o in job.get("objects", [])})
-    run = len(objects) > 2 and ord(objects[-1]) - ord(objects[0]) == len(objects) - 1  # "a-f"
+    objects = {o for job in jobs for o in job.get("objects", [])}
     changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
     return (f"{meta.get('preset', 'unknown')} preset" + (f" ({changed})" if changed else "")
             + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
-            + (f", objects {f'{objects[0]}-{objects[-1]}' if run else ', '.join(objects)}"
-               if 0 < len(objects) < 12 else "")
+            + (f", objects {object_letters(objects)}" if 0 < len(objects) < 12 else "")
             + (f", {'/'.join(map(str, trials))} trials per cell" if trials else ""))
 
 

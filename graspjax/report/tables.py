@@ -314,3 +314,12 @@ def paper_value(key: str):
     if not key.startswith("cfg."):
         return None
     return named_fields(preset("paper")).get(key[len("cfg."):])
+
+
+def object_letters(objects) -> str:
+    """Object letters as written in a title: "a-f" for three or more without a gap, else
+    "a, c" (sorted)."""
+    letters = sorted(objects)
+    if len(letters) > 2 and ord(letters[-1]) - ord(letters[0]) == len(letters) - 1:
+        return f"{letters[0]}-{letters[-1]}"
+    return ", ".join(letters)
