@@ -157,6 +157,8 @@ if __name__ == "__main__":
     parser.add_argument("--figure", metavar="OUT")
     args = parser.parse_args()
     if args.figure:
+        if not args.sweeps or args.across or args.planes:
+            parser.error("--figure draws SWEEP folders alone: give them, without --across or --planes")
         from graspjax.report.studies import study_figure
 
         Path(args.figure).write_bytes(study_figure(args.sweeps))

@@ -23,6 +23,7 @@ LAYERS = [
                                           "imagefiles.bins"]),
     ("batches", ["batch", "batch.*", "imagefiles.batches", "imagefiles.records"]),
     ("studies, files, reports, benchmarks", ["planes", "saved_views", "figures.views", "figures.report",
+                                             "figures.titles",
                                              "outputs", "report", "report.*",
                                              "bench", "bench_finish", "bench_profile"]),
     ("workflows", ["experiment"]),

@@ -148,7 +148,8 @@ def test_plane_study_figure_names_its_preset_and_outlines_the_papers_cell():
     by hand in its cell, the paper's 15 px / 0.3 outlined, the title naming preset and trials."""
     from matplotlib.patches import Rectangle
 
-    from graspjax.figures.report import planes_figure, planes_title
+    from graspjax.figures.report import planes_figure
+    from graspjax.figures.titles import planes_title
 
     rows = []
     for setup in (1, 3):

@@ -49,7 +49,8 @@ def test_a_study_figure_names_its_preset_and_marks_the_papers_value():
     """A paired window study (5, 15, 25 px) on the same objects: the figure's title names the
     preset, setups, trials and pairing, the paper's 15 px is marked, a panel per setup shows
     first view and rescued stacked; McNemar's z against 15 px by hand."""
-    from graspjax.figures.report import sweep_figure, sweep_outputs, sweep_title, swept_points
+    from graspjax.figures.report import sweep_figure, sweep_outputs, swept_points
+    from graspjax.figures.titles import sweep_title
     from graspjax.stats import paired_difference
 
     parts = []
@@ -510,42 +511,72 @@ def test_a_grid_of_several_keys_is_compared_point_by_point_with_the_papers_point
 
 
 def test_a_study_run_cell_by_cell_is_drawn_as_one_figure():
-    """Two parts of one window study, each run at its own trials: Setup 1 with objects a and
-    b at 10 trials, Setup 1 with g at 20 (15 px and 5 px on the same worlds): a panel each,
-    named by setup and objects, with the objects and the paired differences of its own part;
-    parts that sweep another key or run under other settings are refused."""
-    from graspjax.figures.report import swept_points
+    """Parts of one window study, each run at its own trials (15 px and 5 px on the same
+    worlds): Setup 1 with objects a and b at 10 trials, Setup 1 with g at 20, and Setups 2
+    and 3 with a-f at 5: a panel per setup and object set, named by both, with the objects and
+    the paired differences of its own part, in the order of the setups; parts that sweep
+    another key, run under other settings or play the same panel again are refused."""
     from graspjax.report.studies import study_points
 
     def part(cells, trials, won_at_5):
         frames = []
         for window in (15, 5):
             frame = _frame(cells).assign(**{"cfg.align.window_px": window, "rescued": 0})
-            if window == 5:  # the first `won_at_5` failures of the paper's value succeed
-                failed = frame.index[frame["success"] == 0][:won_at_5]
-                frame.loc[failed, ["success", "outcome", "reason"]] = [1, "SUCCESS", "SUCCESS"]
+            if window == 5:  # the first `won_at_5` failures of each cell succeed at 5 px
+                for _, rows in frame.groupby(["setup", "object"]):
+                    failed = rows.index[rows["success"] == 0][:won_at_5]
+                    frame.loc[failed, ["success", "outcome", "reason"]] = [1, "SUCCESS", "SUCCESS"]
             frames.append(frame)
         meta = {"preset": "paper", "paired": True, "overrides": {"procedure.view_tilt_deg": 30.0},
-                "jobs": [{"trials": trials, "setups": [1], "objects": sorted({o for _, o in cells})}]}
+                "jobs": [{"trials": trials, "setups": sorted({s for s, _ in cells}),
+                          "objects": sorted({o for _, o in cells})}]}
         return pd.concat(frames, ignore_index=True), meta
 
-    a_f = part({(1, "a"): (6, 10), (1, "b"): (4, 10)}, 10, 3)
-    g_l = part({(1, "g"): (5, 20)}, 20, 2)
-    per, key, title = study_points([a_f, g_l])
+    a_b = part({(1, "a"): (6, 10), (1, "b"): (4, 10)}, 10, 2)  # 4 more of 20 at 5 px
+    g = part({(1, "g"): (5, 20)}, 20, 2)  # 2 more of 20
+    piles = part({(s, o): (1, 5) for s in (2, 3) for o in "abcdef"}, 5, 1)  # 6 more of 30
+    per, key, title = study_points([piles, g, a_b])
     assert key == "cfg.align.window_px"
     assert title == ("align.window_px, paper preset (procedure.view_tilt_deg=30.0), each panel "
-                     "at its own trials (10 / 20 per cell), paired")
-    panels = per.set_index(["setup", key])
-    assert panels["n"].to_dict() == {("1 a, b", 5): 20, ("1 a, b", 15): 20, ("1 g", 5): 20,
-                                     ("1 g", 15): 20}
-    assert panels.loc[("1 a, b", 5), "difference_vs_paper"] == pytest.approx(3 / 20)
-    assert panels.loc[("1 g", 5), "difference_vs_paper"] == pytest.approx(2 / 20)
-    alone = swept_points(object_outcomes(g_l[0]), key).set_index(key)
-    assert (panels.loc[("1 g", 5), ["difference_low", "difference_high"]].tolist()
-            == pytest.approx(alone.loc[5, ["difference_low", "difference_high"]].tolist()))
-    other_key = (a_f[0].rename(columns={key: "cfg.align.distance_threshold"}), a_f[1])
+                     "at its own trials (5/10/20 trials per cell), paired")
+    assert per["setup"].drop_duplicates().tolist() == ["1 a, b", "1 g", "2 a-f", "3 a-f"]
+    at_5 = per[per[key] == 5].set_index("setup")
+    assert at_5["n"].tolist() == [20, 20, 30, 30]
+    assert (100 * at_5["difference_vs_paper"]).tolist() == pytest.approx([20, 10, 20, 20])
+    assert at_5[["gained", "lost"]].to_numpy().tolist() == [[4, 0], [2, 0], [6, 0], [6, 0]]
+    single, _, alone = study_points([g])
+    assert alone.endswith("(procedure.view_tilt_deg=30.0), 20 trials per cell, paired")
+    assert single.loc[single[key] == 5, "difference_low"].item() == pytest.approx(
+        at_5.loc["1 g", "difference_low"])
+    other_key = (a_b[0].rename(columns={key: "cfg.align.distance_threshold"}), a_b[1])
     with pytest.raises(ValueError, match="must sweep the one key cfg.align.window_px"):
-        study_points([a_f, other_key])
-    flat = (g_l[0], {**g_l[1], "overrides": {}})
+        study_points([a_b, other_key])
     with pytest.raises(ValueError, match="other settings"):
-        study_points([a_f, flat])
+        study_points([a_b, (g[0], {**g[1], "overrides": {}})])
+    with pytest.raises(ValueError, match="the same panel: Setup 1 g"):
+        study_points([g, a_b, g])
+    with pytest.raises(ValueError, match="no parts"):
+        study_points([])
+
+
+def test_titles_name_objects_only_where_a_run_played_some():
+    """The object letters of a title: a run of three or more as a range, else a list, and
+    nothing for all twelve."""
+    from graspjax.report.tables import objects_named
+
+    assert objects_named("ghijkl") == "g-l" and objects_named(["d", "a", "b"]) == "a, b, d"
+    assert objects_named(["g"]) == "g" and objects_named("ab") == "a, b"
+    assert objects_named("abcdefghijkl") == ""
+
+
+@pytest.mark.parametrize("module", ["graspjax.figures.report", "graspjax.figures.titles",
+                                    "graspjax.report.studies", "graspjax.report.tables"])
+def test_each_module_of_the_report_imports_first(module):
+    """A fresh interpreter imports each module that draws or titles the report first (the
+    figures and the report's package import each other's parts)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr.splitlines()[-1:]

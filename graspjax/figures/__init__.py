@@ -1,7 +1,8 @@
 """Every figure graspjax draws, off-screen, returned as PNG bytes; nothing here needs a display.
 
 This module holds the canvas every figure is drawn on (`new_figure`, `png`); `report.py` the
-report's figures, from a run folder's rows alone (no JAX); `views.py` the debug pictures of
+report's figures, from a run folder's rows alone (no JAX), `titles.py` their titles from its
+`config.json`; `views.py` the debug pictures of
 one simulated attempt or one real image, like the paper's Figs. 2-5 and 8.
 """
 

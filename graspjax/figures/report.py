@@ -11,7 +11,8 @@ from matplotlib.collections import PolyCollection
 from matplotlib.patches import Rectangle
 
 from graspjax.figures import new_figure, png
-from graspjax.report.tables import object_letters, paper_value, point_labels, sweep_axes, varying_config
+from graspjax.figures.titles import run_description, sweep_title
+from graspjax.report.tables import paper_value, point_labels, sweep_axes, varying_config
 from graspjax.schema import outcome_label
 from graspjax.stats import mcnemar_p, mcnemar_z, paired_detectable, paired_difference, wilson
 
@@ -154,7 +155,8 @@ def swept_points(objects: pd.DataFrame, key: str, others: tuple[str, ...] = (),
 
 
 def sweep_figure(per: pd.DataFrame, key: str, title: str, paper=None):
-    """A study's figure: one column of panels per setup, a bar per swept value (categories, no
+    """A study's figure: one column of panels per setup (or per panel name in `setup`, as
+    `report.studies` names them: "1 g-l"), a bar per swept value (categories, no
     line between them), first view and rescued stacked, the 95 % interval of their sum, the
     paper preset's value (`paper`, default `paper_value(key)`) marked on its tick; where the
     points are paired with the paper's value (`swept_points`' differences), a second row: each
@@ -254,32 +256,6 @@ def _legend_columns(fig, entries: dict) -> int:
         if fits:
             return columns
     return 1
-
-
-def run_description(meta: dict, setups) -> str:
-    """"paper preset (changed=value), Setups 1, 3, objects g-l, 300 trials per cell": the
-    preset, the settings changed from it, the setups, the objects where the run played only
-    some of the twelve, and the trials of a run's `config.json`."""
-    jobs = meta.get("jobs", [])
-    trials = sorted({job.get("trials") for job in jobs} - {None})
-    objects = {o for job in jobs for o in job.get("objects", [])}
-    changed = ", ".join(f"{k}={v}" for k, v in meta.get("overrides", {}).items())
-    return (f"{meta.get('preset', 'unknown')} preset" + (f" ({changed})" if changed else "")
-            + f", Setup{'s' if len(setups) > 1 else ''} {', '.join(map(str, setups))}"
-            + (f", objects {object_letters(objects)}" if 0 < len(objects) < 12 else "")
-            + (f", {'/'.join(map(str, trials))} trials per cell" if trials else ""))
-
-
-def sweep_title(key: str, meta: dict | None, setups) -> str:
-    """A study figure's title: what was swept, under which preset and the settings changed from
-    it, in which setups, how many trials, paired or not (from the run's `config.json`, where it
-    has one)."""
-    meta = meta or {}
-    name = key[len("cfg."):] if key.startswith("cfg.") else key
-    title = f"{name}, {run_description(meta, setups)}"
-    if "paired" in meta:
-        title += ", paired" if meta["paired"] else ", unpaired"
-    return title
 
 
 def sweep_outputs(frame: pd.DataFrame, meta: dict | None = None) -> dict[str, bytes]:
@@ -431,11 +407,3 @@ def _index_of(values, value):
         if isinstance(v, (int, float, np.number)) and abs(float(v) - float(value)) < 1e-9:
             return i
     return None
-
-
-def planes_title(meta: dict) -> str:
-    """A plane study figure's title: the grid's keys, the preset, the setups and trials, and
-    the settings changed from the preset (config.json)."""
-    setups = sorted({s for job in meta.get("jobs", []) for s in job.get("setups", [])})
-    return (f"The re-alignment's plane over {' x '.join(meta.get('grid', {}))}, "
-            f"{run_description(meta, setups)}; views with no grasp in the first view")

@@ -24,7 +24,6 @@ import pandas as pd
 
 from graspjax.config import Config, override
 from graspjax.figures import png
-from graspjax.figures.report import comparison_figure, outcomes_figure, success_figure, sweep_outputs
 from graspjax.report.density import consistency_lines, target_clutter_lines
 from graspjax.report.files import (
     load_attempts,
@@ -67,6 +66,9 @@ def build(frame: pd.DataFrame, rounds: pd.DataFrame | None = None,
     """Every report file (name -> bytes) from the attempt rows (and the round rows); `state`
     ("unfinished: n of N worlds", `run_state`) goes into every table's title, `meta` (the
     run's config.json: preset, trials, pairing) into a sweep figure's."""
+    # (here, not at the top: the figures read the settings with this package's `tables`)
+    from graspjax.figures.report import comparison_figure, outcomes_figure, success_figure, sweep_outputs
+
     objects = object_outcomes(frame)  # the tables count objects per round, as the paper's
     summary = summarize(objects)
     files = {"summary.csv": summary.to_csv(index=False).encode()}
@@ -128,7 +130,8 @@ def write_report(folder: str | Path, debug: int = 0,
 def plane_outputs(rows: pd.DataFrame, meta: dict) -> dict[str, bytes]:
     """A plane study's tables and figure from its rows (planes.csv) and config.json:
     planes_summary.csv (`planes.summarize`) and planes.png (`figures.planes_figure`)."""
-    from graspjax.figures.report import planes_figure, planes_title
+    from graspjax.figures.report import planes_figure
+    from graspjax.figures.titles import planes_title
     from graspjax.planes import summarize
 
     grid = meta.get("grid", {})

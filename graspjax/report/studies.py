@@ -10,17 +10,22 @@ import pandas as pd
 
 from graspjax.figures import png
 from graspjax.figures.report import sweep_figure, swept_points
-from graspjax.report.files import read_meta
-from graspjax.report.tables import object_letters, object_outcomes, varying_config
+from graspjax.figures.titles import pairing, preset_description, trials_description
+from graspjax.report.files import load_attempts, read_meta
+from graspjax.report.tables import object_outcomes, objects_named, varying_config
 
 
 def study_points(parts: list[tuple[pd.DataFrame, dict]]) -> tuple[pd.DataFrame, str, str]:
-    """The paired points (`swept_points`) of each part of one study, `parts`: (attempt rows,
-    config.json) per folder, every one a sweep of the same single key under the same preset
-    and settings. Each part's setups are its panels, named by the setup and, where the part
-    played only some objects, their letters ("1 g-l", "1 a, b"). Returns the points (their `setup`
-    column the panel names), the swept key and the figure's title. A part that sweeps
-    another key or runs under other settings than the first is refused (ValueError)."""
+    """The paired points (`swept_points`) of each part of one study.
+
+    parts: (attempt rows, config.json) per folder, each a sweep of the same single key under
+    the same settings (preset, overrides, pairing). Each part's setups are its panels, named
+    by the setup and, where the part played only some objects in it, their letters ("1 g-l",
+    "2 a-f"). Returns the points (their `setup` column the panel names, sorted), the swept key
+    and the figure's title. No parts, a part that sweeps another key or runs under other
+    settings than the first, or two parts with the same panel are refused (ValueError)."""
+    if not parts:
+        raise ValueError("no parts given")
     frames, key, first = [], None, None
     for frame, meta in parts:
         keys = varying_config(frame)
@@ -32,27 +37,24 @@ def study_points(parts: list[tuple[pd.DataFrame, dict]]) -> tuple[pd.DataFrame, 
             raise ValueError(f"the parts run under other settings: {settings} against {first}")
         key, first = keys[0], settings
         objects = object_outcomes(frame)
-        letters = set(objects["object"].unique())
-        some = "" if len(letters) == 12 else f" {object_letters(letters)}"
+        named = {s: objects_named(o) for s, o in objects.groupby("setup")["object"]}
         per = swept_points(objects, key)
-        frames.append(per.assign(setup=per["setup"].map(lambda s, some=some: f"{s}{some}")))
-    if key is None:
-        raise ValueError("no parts given")
-    preset, overrides, paired = first
-    changed = ", ".join(f"{k}={v}" for k, v in overrides.items())
-    trials = sorted({job.get("trials") for _, meta in parts for job in meta.get("jobs", [])}
-                    - {None})
-    title = (f"{key[len('cfg.'):]}, {preset} preset" + (f" ({changed})" if changed else "")
-             + f", each panel at its own trials ({' / '.join(f'{n:,}' for n in trials)} per cell)"
-             + (", paired" if paired else ""))
-    points = pd.concat(frames, ignore_index=True).sort_values(["setup", key], kind="stable")
-    return points.reset_index(drop=True), key, title
+        frames.append(per.assign(setup=[f"{s} {named[s]}".strip() for s in per["setup"]]))
+    points = pd.concat(frames, ignore_index=True)
+    twice = sorted(points.loc[points.duplicated(["setup", key]), "setup"].unique())
+    if twice:
+        raise ValueError(f"two parts play the same panel: Setup {', '.join(twice)}")
+    metas = [meta for _, meta in parts]
+    trials = trials_description(metas)
+    title = (f"{key[len('cfg.'):]}, {preset_description(metas[0])}"
+             + (f", each panel at its own trials ({trials})" if len(parts) > 1 and trials
+                else f", {trials}" if trials else "") + pairing(metas[0]))
+    points = points.sort_values(["setup", key], kind="stable").reset_index(drop=True)
+    return points, key, title
 
 
 def study_figure(folders: list[str | Path]) -> bytes:
     """`study_points` of these run folders (their rows and config.json) as one PNG
     (`sweep_figure`: rates, first view and rescued, and the paired differences per panel)."""
-    from graspjax.report import load_attempts
-
     per, key, title = study_points([(load_attempts(f), read_meta(f)) for f in folders])
     return png(sweep_figure(per, key, title), laid_out=True)

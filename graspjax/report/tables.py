@@ -1,5 +1,7 @@
 """Tables from rows alone: per-cell success with Wilson intervals beside the paper's, the
-paper's Table 1 and 2 layouts, a sweep's comparison, the clutter of Setup 2/3 rounds."""
+paper's Table 1 and 2 layouts, a sweep's comparison, the clutter of Setup 2/3 rounds; and the
+readings of a run's settings the report's titles and comparisons share (a swept column's
+paper-preset value, the objects named)."""
 
 from __future__ import annotations
 
@@ -316,10 +318,12 @@ def paper_value(key: str):
     return named_fields(preset("paper")).get(key[len("cfg."):])
 
 
-def object_letters(objects) -> str:
-    """Object letters as written in a title: "a-f" for three or more without a gap, else
-    "a, c" (sorted)."""
-    letters = sorted(objects)
+def objects_named(objects) -> str:
+    """Object letters as a title writes them: "a-f" for three or more without a gap, else
+    "a, c" (sorted); "" for all twelve of Tables 1 and 2."""
+    letters = sorted(set(objects))
+    if len(letters) == len(TABLE_OBJECTS[1]) + len(TABLE_OBJECTS[2]):
+        return ""
     if len(letters) > 2 and ord(letters[-1]) - ord(letters[0]) == len(letters) - 1:
         return f"{letters[0]}-{letters[-1]}"
     return ", ".join(letters)
