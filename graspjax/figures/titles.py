@@ -3,6 +3,8 @@ it, the setups, the objects where not all twelve, the trials, the pairing."""
 
 from __future__ import annotations
 
+from graspjax.report.tables import objects_named
+
 
 def preset_description(meta: dict) -> str:
     """"paper preset (changed=value)": a run's preset and the settings changed from it
@@ -26,8 +28,6 @@ def run_description(meta: dict, setups) -> str:
     """"paper preset (changed=value), Setup 1, objects g-l, 600 trials per cell": the preset,
     the settings changed from it, the setups, the objects of all its jobs where they are not
     the twelve, and the trials of a run's `config.json`."""
-    from graspjax.report.tables import objects_named  # (graspjax.report draws with this module)
-
     objects = objects_named(o for job in meta.get("jobs", []) for o in job.get("objects", []))
     trials = trials_description([meta])
     return (preset_description(meta)

@@ -46,9 +46,9 @@ def study_points(parts: list[tuple[pd.DataFrame, dict]]) -> tuple[pd.DataFrame, 
         raise ValueError(f"two parts play the same panel: Setup {', '.join(twice)}")
     metas = [meta for _, meta in parts]
     trials = trials_description(metas)
-    title = (f"{key[len('cfg.'):]}, {preset_description(metas[0])}"
-             + (f", each panel at its own trials ({trials})" if len(parts) > 1 and trials
-                else f", {trials}" if trials else "") + pairing(metas[0]))
+    if trials:
+        trials = f", each panel at its own trials ({trials})" if len(parts) > 1 else f", {trials}"
+    title = f"{key[len('cfg.'):]}, {preset_description(metas[0])}{trials}{pairing(metas[0])}"
     points = points.sort_values(["setup", key], kind="stable").reset_index(drop=True)
     return points, key, title
 
