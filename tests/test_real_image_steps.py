@@ -25,7 +25,7 @@ from graspjax.perception.virtual import (
     warp_depth_and_values,
 )
 from graspjax.perception.window import detection_window, followed_surface, in_view, surface_in_view
-from graspjax.perception.workspace import block_median, fill_holes
+from graspjax.perception.workspace import block_median, fill_holes, nan_median
 from graspjax.synthetic import analytic_depth, box
 
 WORK = Camera(320, 240, 262.5, 262.5, 159.5, 119.5)  # the PrimeSense at half resolution
@@ -67,6 +67,26 @@ def test_block_median_is_the_median_of_the_valid_pixels(factor):
             block = depth[i * factor:(i + 1) * factor, j * factor:(j + 1) * factor]
             valid = block[np.isfinite(block) & (block > 0)]
             assert out[i, j] == pytest.approx(np.median(valid) if valid.size else 0.0, abs=1e-7)
+
+
+def test_nan_median_is_numpys_without_a_sort():
+    """Bit for bit NumPy's `nanmedian` (the mean of the two middle values, in float32):
+    odd and even counts, ties, signs and both zeros, nan among the values, one value; nan
+    when all are nan or there are none; the same under vmap."""
+    rng = np.random.default_rng(7)
+    median = jax.jit(nan_median)
+    cases = [np.array([0.7], np.float32), np.array([2.0, 1.0], np.float32),
+             np.array([-0.0, 0.0, -1.5, 3.25], np.float32), np.full(5, 0.61, np.float32)]
+    for n in (2, 3, 50, 1001, 19_200):
+        values = rng.uniform(0.3, 1.5, n).astype(np.float32)
+        values[rng.random(n) < 0.3] = np.nan
+        cases += [values, np.round(rng.normal(size=n), 1).astype(np.float32)]
+    for values in cases:
+        np.testing.assert_array_equal(median(values), np.float32(np.nanmedian(values)))
+    assert np.isnan(median(np.full((3, 4), np.nan, np.float32)))
+    assert np.isnan(median(np.zeros(0, np.float32)))
+    rows = np.stack(cases[-2:])  # (2, 19200)
+    np.testing.assert_array_equal(jax.vmap(nan_median)(rows), np.nanmedian(rows, axis=1))
 
 
 def test_fill_holes_bridges_holes_inside_a_surface_but_not_across_a_step():

@@ -61,7 +61,7 @@ from graspjax.perception.target import standing_candidates, surface_slope
 from graspjax.perception.target_loop import Placements, TargetSearch
 from graspjax.perception.virtual import view_camera, view_rotation, warp_depth_and_values
 from graspjax.perception.window import in_view
-from graspjax.perception.workspace import working_views
+from graspjax.perception.workspace import nan_median, working_views
 from graspjax.tree import pytree_dataclass
 
 
@@ -217,7 +217,7 @@ def detect_real_image(depth: jax.Array, workspace: jax.Array, camera: Camera,
     support = in_view(prep.support, rotation)
     valid = valid_mask(prep.depth)
     heights = height_map(jnp.where(in_range, jnp.asarray(depth, jnp.float32), 0.0), camera,
-                         rotation, fine_view, jnp.nanmedian(jnp.where(valid, prep.depth, jnp.nan)),
+                         rotation, fine_view, nan_median(jnp.where(valid, prep.depth, jnp.nan)),
                          support, image.sweep_fill_px)  # the jaws see outside the workspace
     search = TargetSearch(
         config=config, image=image, heights=heights,

@@ -77,6 +77,45 @@ def block_median(depth: jax.Array, factor: int) -> jax.Array:
     return jnp.where(count > 0, 0.5 * (low + high), 0.0)
 
 
+def _order_keys(values: jax.Array) -> jax.Array:
+    """uint32 keys in the order of the float32 `values` (-0 just below +0)."""
+    bits = jax.lax.bitcast_convert_type(values.astype(jnp.float32), jnp.uint32)
+    return jnp.where(bits >> 31 == 1, ~bits, bits | jnp.uint32(1 << 31))
+
+
+def _from_order_keys(keys: jax.Array) -> jax.Array:
+    """The float32 values whose `_order_keys` are `keys`."""
+    bits = jnp.where(keys >> 31 == 1, keys & jnp.uint32(0x7FFFFFFF), ~keys)
+    return jax.lax.bitcast_convert_type(bits, jnp.float32)
+
+
+def nan_median(values: jax.Array) -> jax.Array:
+    """The median `()` of the non-nan `values` (any shape, as float32), nan if there are none:
+    the same number as `jnp.nanmedian`, found without sorting. Each of the two middle ranks is
+    selected by 32 counting passes, one per bit of an order-preserving uint32 key, from the
+    top: the largest key with at most `rank` keys below it is the key of that rank. On the
+    2-core CPU a sort of a 640 x 480 image's detection view (about 19,000 depths) took 3.4 ms,
+    the passes 0.35 ms, and `graspjax detect` 1.5 ms less per image (results/benchmarks)."""
+    values = jnp.ravel(values).astype(jnp.float32)
+    present = ~jnp.isnan(values)
+    keys = jnp.where(present, _order_keys(values), jnp.uint32(0xFFFFFFFF))
+    count = jnp.sum(present).astype(jnp.float32)
+    q = 0.5 * (count - 1.0)  # jnp.nanmedian's linear interpolation, term by term
+    low, high = jnp.floor(q), jnp.ceil(q)
+    high_weight = q - low
+    ranks = jnp.clip(jnp.stack([low, high]), 0, jnp.maximum(count - 1, 0)).astype(jnp.int32)
+
+    def bit(b, found):
+        trial = found | (jnp.uint32(1) << (31 - b).astype(jnp.uint32))
+        below = jnp.sum(keys[None, :] < trial[:, None], axis=1)
+        return jnp.where(below <= ranks, trial, found)
+
+    found = jax.lax.fori_loop(0, 32, bit, jnp.zeros(2, jnp.uint32))
+    low_value, high_value = _from_order_keys(found)
+    median = low_value * (1.0 - high_weight) + high_value * high_weight
+    return jnp.where(count > 0, median, jnp.nan)
+
+
 def _shifted(padded: jax.Array, gap: int, du: int, dv: int, shape) -> jax.Array:
     """The image padded by `gap` on every side, read `(du, dv)` pixels away `(H, W)`."""
     v0, u0 = gap + dv, gap + du
