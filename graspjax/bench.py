@@ -154,11 +154,11 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
 
     Images: `detect_workload` (`synthetic.random_real_scene` at `width` x `height`). The
     single image goes in as a NumPy array (the transfer is timed); the batch is on the
-    device already. `profile`: a folder where one more batch call plays under JAX's profiler
-    (`bench_profile`): its trace, `kernels.csv` (device time per compiled operation and the
-    line it was traced from) and a printed summary in the record.
-    """
-    from graspjax.imagefiles.batches import detect_batch, detect_single, stack_cameras
+    device already. `profile`: a folder where one more call plays under JAX's profiler
+    (`bench_profile`), the one `graspjax detect` makes on this device (one image on a CPU, the
+    batch elsewhere: `profiled_call`): its trace, `kernels.csv` (device time per compiled
+    operation and the line it was traced from) and a printed summary in the record."""
+    from graspjax.imagefiles.batches import default_image_batch, detect_batch, detect_single, stack_cameras
 
     config = for_device(config, jax.default_backend(), images=True)  # the settings of the device it runs on
     progress(f"rendering {unique} real-looking scenes at {width}x{height} ...")
@@ -167,8 +167,7 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     cameras = stack_cameras([camera] * batch)
     results = {"batch": batch, "width": width, "height": height, "unique_scenes": unique,
                "repeats": repeats, "detect_width": width // block_factors(width, image)[0],
-               "support_width": width // block_factors(width, image)[1],
-               **provenance()}
+               "support_width": width // block_factors(width, image)[1], **provenance()}
 
     progress(f"compiling the batch of {batch} ...")
     t0 = time.perf_counter()
@@ -195,14 +194,17 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     found = detect_batch(jnp.asarray(scenes), workspace, stack_cameras([camera] * unique),
                           config, image).found
     results["grasp_found_fraction"] = float(jnp.mean(found))
-    results.update(profile=None, profiled_s=None, profile_summary=None)
+    results.update(profile=None, profiled_call=None, profiled_s=None, profile_summary=None)
     if profile:
         from graspjax.bench_profile import profile_call, summary
 
-        progress("one batch under the profiler ...")
-        traced, kernels = profile_call(detect_batch, (depth, workspace, cameras, config, image),
-                                       Path(profile))
-        results.update(profile=profile, profiled_s=traced, profile_summary=summary(kernels, traced))
+        call = "single" if default_image_batch() == 1 else "batch"  # as `graspjax detect` calls
+        progress(f"one more {call} call under the profiler ...")
+        args = (scenes[0], workspace, camera) if call == "single" else (depth, workspace, cameras)
+        traced, kernels = profile_call(single if call == "single" else detect_batch,
+                                       (*args, config, image), Path(profile))
+        results.update(profile=profile, profiled_call=call, profiled_s=traced,
+                       profile_summary=summary(kernels, traced))
     return bench_record("detect", results)
 
 
@@ -217,8 +219,8 @@ def format_detect(r: dict) -> str:
             f"{r['single_latency_p90_ms']:.1f} ms p90, after a {r['single_compile_s']:.1f} s compile\n"
             f"batch of {r['batch']}: {r['images_per_s']:,.0f} images/s "
             f"({1e3 * r['batch_s']:.1f} ms per call) after a {r['batch_compile_s']:.1f} s compile"
-            + (f"\n{r['profile_summary']}\n(kernels: {r['profile']}/kernels.csv)"
-               if r["profile"] else ""))
+            + (f"\none {r['profiled_call']} call profiled:\n{r['profile_summary']}\n"
+               f"(kernels: {r['profile']}/kernels.csv)" if r["profile"] else ""))
 
 
 @dataclasses.dataclass(frozen=True)

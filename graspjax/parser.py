@@ -215,9 +215,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write the full record to this JSON file")
     p.add_argument("--profile", metavar="DIR",
                    help="pipeline: play the first round under JAX's profiler; detect: one "
-                        "more batch call under it; write DIR/trace/ and DIR/kernels.csv "
-                        "(device time per compiled operation and its source line) and print "
-                        "where the time went")
+                        "more call under it (one image on a CPU, a batch elsewhere); write "
+                        "DIR/trace/ and DIR/kernels.csv (device time per compiled operation and "
+                        "its source line) and print where the time went")
     p.add_argument("--fast", action="store_true", help="GPU: allow non-deterministic XLA ops")
     p.add_argument("--preset", choices=["paper", "realistic"],
                    help="configuration preset (default paper; see graspjax run --help; "

@@ -178,8 +178,8 @@ BENCH_FIELDS = {
         "batch_compile_s", "batch_s", "images_per_s",  # the batch: compile, s per call, rate
         "single_compile_s", "single_latency_ms", "single_latency_p90_ms",  # one image, NumPy in
         "grasp_found_fraction",  # share of the scenes with a grasp
-        "profile", "profiled_s", "profile_summary",  # --profile: one batch call traced, as
-        # pipeline's
+        "profile", "profiled_call", "profiled_s", "profile_summary",  # --profile: one more
+        # call traced, as pipeline's: "single" (one image, a CPU's) or "batch"
     ),
     "physics": (  # `bench.physics_benchmark`: one scene's worlds settling and grasping
         "scene", "setup", "batch",  # object letters, setup, worlds

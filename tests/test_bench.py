@@ -32,8 +32,8 @@ def test_a_tiny_detect_benchmark_writes_its_record_and_its_profile(tmp_path):
     """Two real-looking 640 x 480 images, in a batch of two and one at a time, with the default
     settings: the programs test_image_batches, test_jaws and test_cli's folder run
     (`detect_batch` of two images, `detect_single`), so the suite compiles them once.
-    Profiled, the batch's device time goes to the lines of graspjax's perception that traced
-    it."""
+    Profiled, the call `graspjax detect` makes on a CPU (one image) spends its device time in
+    the lines of graspjax's perception that traced it."""
     import pandas as pd
 
     record = bench.detect_benchmark(batch=2, width=640, height=480, repeats=1, unique=2,
@@ -41,6 +41,8 @@ def test_a_tiny_detect_benchmark_writes_its_record_and_its_profile(tmp_path):
     assert tuple(record) == (*BENCH_FIELDS["detect"], *PROVENANCE_FIELDS)
     assert record["images_per_s"] > 0 and 0 <= record["grasp_found_fraction"] <= 1
     assert "images/s" in bench.format_detect(record)
+    assert record["profiled_call"] == "single"  # a CPU's `graspjax detect` calls one image
+    assert "one single call profiled" in bench.format_detect(record)
     kernels = pd.read_csv(tmp_path / "kernels.csv")
     by_file = kernels.groupby(kernels["file"].fillna(""))["seconds"].sum()
     assert by_file[by_file.index.str.startswith("graspjax/perception/")].sum() > 0.5 * by_file.sum()
