@@ -198,11 +198,11 @@ def detect_benchmark(batch: int = 1024, width: int = 640, height: int = 480, rep
     if profile:
         from graspjax.bench_profile import profile_call, summary
 
-        call = "single" if default_image_batch() == 1 else "batch"  # as `graspjax detect` calls
+        call, fn, args = (("single", single, (scenes[0], workspace, camera))  # as `graspjax
+                          if default_image_batch() == 1  # detect` calls this device
+                          else ("batch", detect_batch, (depth, workspace, cameras)))
         progress(f"one more {call} call under the profiler ...")
-        args = (scenes[0], workspace, camera) if call == "single" else (depth, workspace, cameras)
-        traced, kernels = profile_call(single if call == "single" else detect_batch,
-                                       (*args, config, image), Path(profile))
+        traced, kernels = profile_call(fn, (*args, config, image), Path(profile))
         results.update(profile=profile, profiled_call=call, profiled_s=traced,
                        profile_summary=summary(kernels, traced))
     return bench_record("detect", results)
