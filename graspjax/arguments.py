@@ -246,7 +246,8 @@ def experiment_request(args, grid_items):
     return Experiment(jobs=checked, base=config, points=points, keys=keys, seed=args.seed,
                       batch=args.batch, paired=paired, preset=args.preset,
                       save_views=args.save_views, max_views=args.max_views,
-                      deterministic=not args.fast, config_file=config_file)
+                      deterministic=not args.fast, config_file=config_file,
+                      reuse=getattr(args, "reuse", None))
 
 
 def sweep_seeds(seed: int, points: int, paired: bool) -> None:

@@ -80,6 +80,7 @@ class Experiment:
     max_views: int
     deterministic: bool  # XLA's deterministic GPU ops (not --fast)
     config_file: dict | None = None  # --config: {"path", "settings" (key -> value text)}
+    reuse: str | None = None  # --reuse: a finished run whose worlds a paired study shares
 
     @property
     def sweep(self) -> bool:
@@ -116,18 +117,20 @@ def run(experiment: Experiment, out: str | Path, resume: bool = False, overwrite
     are kept). With `compile_first`, every program is ready on every device before this
     process's first chunk (`batch.schedule.run_chunks` without overlap)."""
     trace_workers()  # a bad GRASPJAX_TRACE_WORKERS stops the run before it writes anything
+    reused = _reused(experiment)  # and so does a run that --reuse refuses
     if distributed:
         part, parts = process_of_run()
     if part == 0 or not distributed:  # distributed: process 0 alone checks (and overwrites)
         out = check_output_folder(out, resume or parts > 1 and not distributed, overwrite)
     with writing(Path(out), shared=parts > 1):  # one process writes a folder (parts: several)
         return _run(experiment, Path(out), resume, part, parts, quiet, processes, distributed,
-                    compile_first)
+                    compile_first, reused)
 
 
-def run_meta(experiment: Experiment, batch: int) -> dict:
+def run_meta(experiment: Experiment, batch: int, reused=None) -> dict:
     """What a run's config.json holds at its start: its id (`outputs.run_id`: the same for
-    the same settings, however given), every setting, what --config gave, the provenance."""
+    the same settings, however given), every setting, what --config gave, the run it reuses
+    (`reused`: a `reuse.Reused`), the provenance."""
     meta = {"seed": experiment.seed, "paired": experiment.paired, "preset": experiment.preset,
             "jobs": [dataclasses.asdict(j) for j in experiment.jobs],
             "overrides": differences(experiment.base, Config()),
@@ -137,30 +140,33 @@ def run_meta(experiment: Experiment, batch: int) -> dict:
             "config": run_settings(experiment.base),
             "batch": batch, "deterministic": experiment.deterministic,
             "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": experiment.save_views,
+            **({"reuse": {"folder": experiment.reuse, "run_id": reused.run_id}} if reused else {}),
             **provenance()}
     return {"run_id": run_id(meta), **meta}
 
 
 def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int, quiet: bool,
-         processes: int, distributed: bool, compile_first: bool) -> RunResult:
-    """`run`, with the folder checked and locked."""
+         processes: int, distributed: bool, compile_first: bool, reused) -> RunResult:
+    """`run`, with the folder checked and locked (`reused`: `_reused`)."""
     from graspjax.saved_views import ViewSaver
 
     clock = [time.perf_counter()]  # the ends of the run's phases (`RunResult.seconds`)
     before = process_age()
 
     batch = experiment.batch or default_batch()
-    configs, groups = _grouped(experiment)
+    configs, groups = _grouped(experiment, reused)
     planned = chunks(groups, batch)
-    meta = run_meta(experiment, batch)
+    copied = reused.copied_points(configs) if reused else []  # chunks len(planned) + i
+    meta = run_meta(experiment, batch, reused)
     columns = RunColumns(meta["run_id"], configs, experiment.keys, experiment.base)
     ours = [c for c in planned if c.index % parts == part]
     if distributed and part > 0:
         barrier("folder")  # process 0 has set the folder up
-    folder = RunFolder(out, meta, len(planned), resume or distributed and part > 0,
+    folder = RunFolder(out, meta, len(planned) + len(copied), resume or distributed and part > 0,
                        shared=parts > 1, keep=not (distributed and part > 0))
     if distributed and part == 0:
         barrier("folder")
+    _copy_reused(reused, copied, len(planned), columns, folder, part, parts)
     work: dict[int, float] = {}  # per group, the device work of its chunks still to play
     for c in ours:
         if c.index not in folder.done:
@@ -179,6 +185,9 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
         log(f"{len(experiment.points)} grid points of {', '.join(experiment.keys)}; "
             + (f"every point has seed {experiment.seed} (paired)" if experiment.paired
                else f"point i has seed {experiment.seed} + i"))
+    if reused:
+        log(f"--reuse {experiment.reuse}: {len(reused.played_again)} of its {reused.worlds} worlds "
+            "play again where a point's settings differ from its; the others' rows are its own")
     saver = ViewSaver(out, experiment.save_views, experiment.max_views, configs)
     lock = threading.Lock()  # the helpers' progress comes from threads of their own
 
@@ -198,7 +207,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     clock.append(time.perf_counter())
     files = folder.finish(remove_parts=True if distributed else None)  # others are done
     if not files:
-        return RunResult(out, [], len(folder.done), len(planned), 0, float("nan"))
+        return RunResult(out, [], len(folder.done), folder.chunks, 0, float("nan"))
     if (out / "timings.csv").is_file() and not resume:  # a resumed run's are partly old
         estimate.record_timings(groups, batch, experiment.save_views != "none",
                        pd.read_csv(out / "timings.csv"))
@@ -214,22 +223,41 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     seconds = dict(zip(("start", "chunks", "rows", "report"), lengths, strict=True))
     if before is not None:
         seconds = {"before": round(before, 2), **seconds}
-    return RunResult(out, files, len(planned), len(planned), len(success), float(success.mean()),
+    return RunResult(out, files, folder.chunks, folder.chunks, len(success), float(success.mean()),
                      seconds)
+
+
+def _copy_reused(reused, points: list[int], first: int, columns: RunColumns, folder: RunFolder,
+                 part: int, parts: int) -> None:
+    """The rows `reused` (`reuse.Reused`) gives grid point `points[i]`, kept as chunk `first + i`
+    by the process that plays that chunk index (no device plays them)."""
+    for index, point in enumerate(points, start=first):
+        if index % parts == part and index not in folder.done:
+            folder.add(index, *reused.rows(point, columns, index), None)
 
 
 def planned_groups(experiment: Experiment) -> list[estimate.PlannedGroup]:
     """What `run` would play, group by group, and an estimate of its time (`batch.estimate`)."""
-    _, groups = _grouped(experiment)
-    return estimate.planned(groups, experiment.batch or default_batch(),
-                            experiment.save_views != "none")
+    return estimate.planned(_grouped(experiment, _reused(experiment))[1],
+                            experiment.batch or default_batch(), experiment.save_views != "none")
 
 
-def _grouped(experiment: Experiment) -> tuple[list[Config], list[Group]]:
-    """The run's grid points and groups: one derivation for the run and its helpers, which
-    must plan (and so number the chunks) alike."""
+def _reused(experiment: Experiment):
+    """The finished run whose worlds `experiment` reuses (`reuse.load`: checked), or None."""
+    if not experiment.reuse:
+        return None
+    from graspjax import reuse  # beside the report's files: read by a run that reuses one
+
+    batch = experiment.batch or default_batch()
+    return reuse.load(experiment.reuse, experiment, batch, run_meta(experiment, batch))
+
+
+def _grouped(experiment: Experiment, reused) -> tuple[list[Config], list[Group]]:
+    """The run's grid points and groups, less the worlds whose rows `reused` gives: one
+    derivation for the run and its helpers, which must plan (and so number the chunks) alike."""
     configs = [c for _, c in experiment.points]
-    return configs, plan(experiment.jobs, configs, experiment.seed, experiment.paired)
+    return configs, plan(experiment.jobs, configs, experiment.seed, experiment.paired,
+                         **({"keep": reused.plays(configs)} if reused else {}))
 
 
 def _play_shares(experiment: Experiment, out: Path, meta: dict, groups: list[Group],
@@ -298,10 +326,12 @@ def play_helper_share(job: Assignment, progress) -> None:
     """A helper process's part of a run (`runtime.players`): the same plan as the run's, its
     chunks into the run's folder, and `progress(attempts)` as each call finishes."""
     experiment = job.experiment
-    configs, groups = _grouped(experiment)
+    reused = _reused(experiment)
+    configs, groups = _grouped(experiment, reused)
     planned = chunks(groups, job.meta["batch"])
     columns = RunColumns(job.meta["run_id"], configs, experiment.keys, experiment.base)
-    folder = RunFolder(job.out, job.meta, len(planned), resume=True, shared=True, keep=False)
+    total = len(planned) + (len(reused.copied_points(configs)) if reused else 0)
+    folder = RunFolder(job.out, job.meta, total, resume=True, shared=True, keep=False)
     skip = {c.index for c in planned} - set(job.chunks)
     _play(groups, configs, job.meta["batch"], skip, folder, columns, progress, lambda m: None,
           process=job.process)

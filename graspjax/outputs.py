@@ -216,7 +216,7 @@ def run_id(meta: dict) -> str:
 
 def _difference(old: dict, new: dict) -> str:
     """The first setting in which two runs' `config.json` differ, in words."""
-    for key in (*RUN_KEYS, "batch"):
+    for key in (*RUN_KEYS, "batch", "reuse"):  # reuse: the same rows, other chunks
         if old.get(key) != new.get(key):
             if isinstance(old.get(key), dict) and isinstance(new.get(key), dict):
                 for k in sorted(set(old[key]) | set(new[key])):
@@ -291,7 +291,7 @@ class RunFolder:
         old = {}
         if config.is_file() and (resume or shared):
             old = _read_config(config)
-            if any(old.get(key) != self.meta.get(key) for key in ("run_id", "batch")):
+            if any(old.get(key) != self.meta.get(key) for key in ("run_id", "batch", "reuse")):
                 raise InputError(f"--out {self.folder} holds another run "
                                  f"({_difference(old, self.meta)})")
         elif self.folder.exists():  # --overwrite: nothing of the old run may mix with this one
@@ -370,10 +370,10 @@ class RunFolder:
             for chunk in sorted(self.done - self.appended):
                 self._append(chunk, *self._part(chunk))
 
-    def add(self, chunk: int, frame: pd.DataFrame, layouts: pd.DataFrame, timings: dict) -> None:
-        """Keep one finished chunk: the CSV append, its timings and round rows, then its attempt
-        rows, whose part file marks it done (written last: a chunk marked done is all on disk;
-        a kill before that leaves an append that `--resume` drops)."""
+    def add(self, chunk: int, frame: pd.DataFrame, layouts: pd.DataFrame, timings: dict | None) -> None:
+        """Keep one finished chunk: the CSV append, its timings (None: rows copied, `reuse`) and
+        round rows, then its attempt rows, whose part file marks it done (written last: a chunk
+        marked done is all on disk; a kill before that leaves an append `--resume` drops)."""
         buffer = io.BytesIO()
         frame.to_parquet(buffer, index=False)
         rounds = io.BytesIO()
@@ -423,9 +423,8 @@ class RunFolder:
                 _csv(f.iloc[:0], True) + text) for c, (f, text) in zip(done, parts, strict=True)],
                 ignore_index=True) if alike else None
             frame, csv, report = _sorted(frame, parsed, lines if alike else None)
-            timings = pd.DataFrame([self._read(f"timings-{c:05d}.json",
-                                               lambda path: json.loads(path.read_text()))
-                                    for c in sorted(self.done)])[list(TIMINGS_COLUMNS)]
+            timings = pd.DataFrame([t for c in done if (t := self._read(  # null: rows copied
+                f"timings-{c:05d}.json", lambda p: json.loads(p.read_text())))], columns=TIMINGS_COLUMNS)
             with concurrent.futures.ThreadPoolExecutor(1) as pool:
                 parquet = pool.submit(lambda: write_atomic(  # Arrow encodes without the GIL
                     self.folder / "attempts.parquet", frame.to_parquet(index=False)))

@@ -145,6 +145,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="values of one configuration key; several --grid give the full grid")
     p.add_argument("--paired", action="store_true",
                    help="every grid point plays the same worlds (same seed): paired differences")
+    p.add_argument("--reuse", metavar="RUN",
+                   help="a finished run of the same worlds (same command without the grid): with a "
+                        "--paired grid of align.* or procedure.max_reorientations, play again only "
+                        "its worlds where a view held no grasp, copy the others' rows")
 
     p = sub.add_parser("planes", help="perception-only study of the re-alignment's plane: every "
                        "first view of settled worlds, judged per grid point (no grasping)")

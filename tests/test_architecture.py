@@ -24,7 +24,7 @@ LAYERS = [
     ("batches", ["batch", "batch.*", "imagefiles.batches", "imagefiles.records"]),
     ("studies, files, reports, benchmarks", ["planes", "saved_views", "figures.views", "figures.report",
                                              "figures.titles",
-                                             "outputs", "report", "report.*",
+                                             "outputs", "report", "report.*", "reuse",
                                              "bench", "bench_finish", "bench_profile"]),
     ("workflows", ["experiment"]),
     ("entry point", ["cli", "parser", "arguments"]),

@@ -50,8 +50,17 @@ class RunColumns:
 def attempt_rows(result: ChunkResult, run: RunColumns) -> pd.DataFrame:
     """Every attempt row of a finished chunk, the first columns first (in world order; the run
     folder sorts the whole run with `sort_attempts`)."""
-    frame = _record_rows(result.group.letters, result.chunk.worlds, result.records)
-    frame.insert(0, "chunk", result.chunk.index)
+    return with_run_columns(_record_rows(result.group.letters, result.chunk.worlds,
+                                         result.records), run, result.chunk.index)
+
+
+def with_run_columns(frame: pd.DataFrame, run: RunColumns, chunk: int) -> pd.DataFrame:
+    """Attempt rows of a chunk given the run's own columns (its id, the chunk, each row's
+    point's method and `cfg.` values), in the schema's order; the world and record columns
+    are the frame's (fresh from the records, or copied from a reused run's rows)."""
+    frame = frame.drop(columns=[c for c in frame.columns
+                                if c in ("run_id", "chunk") or c.startswith("cfg.")])
+    frame.insert(0, "chunk", chunk)
     frame.insert(0, "run_id", run.run_id)
     frame["method"] = [run.points[p].method for p in frame["point"]]
     values = [named_fields(p) for p in run.points]
