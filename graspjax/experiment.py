@@ -166,7 +166,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                        shared=parts > 1, keep=not (distributed and part > 0))
     if distributed and part == 0:
         barrier("folder")
-    _copy_reused(reused, copied, len(planned), columns, folder, part, parts)
+    copy = _copies(reused, copied, len(planned), columns, folder, part, parts)
     work: dict[int, float] = {}  # per group, the device work of its chunks still to play
     for c in ours:
         if c.index not in folder.done:
@@ -181,13 +181,7 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     per_chunk = {c.index: len(c.worlds) * groups[c.group].attempts for c in ours}
     bar, log = progress_bar(sum(per_chunk.values()), quiet,
                             sum(n for c, n in per_chunk.items() if c in folder.done))
-    if experiment.sweep:
-        log(f"{len(experiment.points)} grid points of {', '.join(experiment.keys)}; "
-            + (f"every point has seed {experiment.seed} (paired)" if experiment.paired
-               else f"point i has seed {experiment.seed} + i"))
-    if reused:
-        log(f"--reuse {experiment.reuse}: {len(reused.played_again)} of its {reused.worlds} worlds "
-            "play again where a point's settings differ from its; the others' rows are its own")
+    _log_sweep(experiment, reused, log)
     saver = ViewSaver(out, experiment.save_views, experiment.max_views, configs)
     lock = threading.Lock()  # the helpers' progress comes from threads of their own
 
@@ -199,11 +193,12 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
     with bar:
         _play_shares(experiment, out, meta, groups, configs, batch, ours, shares, skip, folder,
                      columns, progress, log, bar.set_description_str, compile_first,
-                     process=part if distributed else 0, saver=saver)
+                     process=part if distributed else 0, saver=saver, host_work=copy)
+        copy()  # where no device chunk was played here
     if distributed:
         barrier("played")  # every process's chunks are in the folder
         if part > 0:
-            return RunResult(out, [], len(planned), len(planned), 0, float("nan"))
+            return RunResult(out, [], folder.chunks, folder.chunks, 0, float("nan"))
     clock.append(time.perf_counter())
     files = folder.finish(remove_parts=True if distributed else None)  # others are done
     if not files:
@@ -227,13 +222,30 @@ def _run(experiment: Experiment, out: Path, resume: bool, part: int, parts: int,
                      seconds)
 
 
-def _copy_reused(reused, points: list[int], first: int, columns: RunColumns, folder: RunFolder,
-                 part: int, parts: int) -> None:
-    """The rows `reused` (`reuse.Reused`) gives grid point `points[i]`, kept as chunk `first + i`
-    by the process that plays that chunk index (no device plays them)."""
-    for index, point in enumerate(points, start=first):
-        if index % parts == part and index not in folder.done:
+def _log_sweep(experiment: Experiment, reused, log) -> None:
+    """A sweep's grid and seeds in words, and what it reuses (`reuse.Reused`, or None)."""
+    if experiment.sweep:
+        log(f"{len(experiment.points)} grid points of {', '.join(experiment.keys)}; "
+            + (f"every point has seed {experiment.seed} (paired)" if experiment.paired
+               else f"point i has seed {experiment.seed} + i"))
+    if reused:
+        log(f"--reuse {experiment.reuse}: {len(reused.played_again)} of its {reused.worlds} worlds "
+            "play again where a point's settings differ from its; the others' rows are its own")
+
+
+def _copies(reused, points: list[int], first: int, columns: RunColumns, folder: RunFolder,
+            part: int, parts: int):
+    """A callable that keeps, once, the rows `reused` (`reuse.Reused`) gives grid point
+    `points[i]` as chunk `first + i`, in the process that plays that chunk index (no device
+    plays them): the run calls it once its first device chunk is kept, while the devices play."""
+    pending = [(index, point) for index, point in enumerate(points, start=first)
+               if index % parts == part and index not in folder.done]
+
+    def copy() -> None:
+        while pending:
+            index, point = pending.pop(0)
             folder.add(index, *reused.rows(point, columns, index), None)
+    return copy
 
 
 def planned_groups(experiment: Experiment) -> list[estimate.PlannedGroup]:
@@ -263,10 +275,10 @@ def _grouped(experiment: Experiment, reused) -> tuple[list[Config], list[Group]]
 def _play_shares(experiment: Experiment, out: Path, meta: dict, groups: list[Group],
                  configs: list[Config], batch: int, ours: list, shares: list[list[int]],
                  skip: set[int], folder: RunFolder, columns: RunColumns, progress, log, status,
-                 compile_first: bool, process: int, saver) -> None:
+                 compile_first: bool, process: int, saver, host_work=lambda: None) -> None:
     """The chunks of `ours` not in `skip` played into `folder`: the last of `shares` here, each
     other share by a helper process of its own (`runtime.players`), whose rows stream into the
-    folder as they come; a failed helper stops the run."""
+    folder as they come; a failed helper stops the run. `host_work()` after each chunk kept."""
     helpers = []
     try:
         # Each process keeps to cores of its own only when every program loads from the
@@ -288,7 +300,7 @@ def _play_shares(experiment: Experiment, out: Path, meta: dict, groups: list[Gro
             _play(groups, configs, batch, skip, folder, columns, progress, log,
                   process=process, saver=saver, keep_views=experiment.save_views != "none",
                   overlap=not compile_first, status=status,
-                  after_chunk=lambda: [folder.catch_up(), *(h.check() for h in helpers)])
+                  after_chunk=lambda: [host_work(), folder.catch_up(), *(h.check() for h in helpers)])
         while any(helper.running() for helper in helpers):  # stream the helpers' rows
             folder.catch_up()
             for helper in helpers:

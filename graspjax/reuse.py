@@ -120,7 +120,7 @@ def load(folder: str, experiment, batch: int, run_meta: dict) -> Reused:
     rounds = load_rounds(folder)
     return Reused(meta["run_id"], meta["config"], attempts,
                   rounds if rounds is not None else pd.DataFrame(columns=list(ROUND_COLUMNS)),
-                  _played_again(attempts, experiment.base))
+                  worlds_to_play_again(attempts, experiment.base))
 
 
 def _attempts(folder: Path) -> pd.DataFrame:
@@ -129,7 +129,7 @@ def _attempts(folder: Path) -> pd.DataFrame:
     return sort_attempts(pd.read_parquet(parquet)) if parquet.is_file() else load_attempts(folder)
 
 
-def _played_again(attempts: pd.DataFrame, config: Config) -> frozenset[tuple[int, int, str]]:
+def worlds_to_play_again(attempts: pd.DataFrame, config: Config) -> frozenset[tuple[int, int, str]]:
     """The worlds where an `AFTER_FIRST_MISS` key may act: not every attempt of the world
     (`plan.round_attempts`) aimed at an object and found its grasp in the first view."""
     held = (attempts["attempt"] >= 0) & (attempts["first_view_grasp"] == 1)

@@ -7,7 +7,7 @@ import pytest
 
 from graspjax.cli import main
 from graspjax.config import Config
-from graspjax.reuse import _played_again
+from graspjax.reuse import worlds_to_play_again
 
 # Objects a and c alone on every view tilted 30 deg (where first views often hold no grasp),
 # 3 trials each in chunks of 3: the program of test_experiment's tiny run (the tilt is traced).
@@ -89,5 +89,15 @@ def test_a_world_plays_again_unless_every_attempt_found_its_grasp_in_the_first_v
         row(2, 1, "acf", 0, 1), row(2, 1, "acf", 1, 0), row(2, 1, "acf", 2, 1),
         row(2, 2, "acf", 0, 1), row(2, 2, "acf", 1, 1), row(2, 2, "acf", -1, 0),  # one left
     ])
-    assert _played_again(rows, Config()) == {(1, 1, "a"), (1, 2, "a"), (2, 1, "acf"),
+    assert worlds_to_play_again(rows, Config()) == {(1, 1, "a"), (1, 2, "a"), (2, 1, "acf"),
                                              (2, 2, "acf")}
+
+
+def test_a_grid_of_the_runs_own_settings_plays_nothing_and_copies_every_row(sloped_run, tmp_path):
+    out = tmp_path / "own"
+    assert main(["sweep", *SLOPED, "--paired", "--grid", "align.distance_threshold=0.3",
+                 "--reuse", str(sloped_run), "--out", str(out)]) == 0
+    assert pd.read_csv(out / "timings.csv").empty
+    rows = [pd.read_csv(f / "attempts.csv") for f in (sloped_run, out)]
+    pd.testing.assert_frame_equal(rows[0].drop(columns=["run_id", "chunk"]),
+                                  rows[1].drop(columns=["run_id", "chunk", "cfg.align.distance_threshold"]))
