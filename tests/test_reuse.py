@@ -48,6 +48,11 @@ def test_a_study_reusing_a_run_has_the_full_studys_rows_and_plays_only_worlds_th
     assert main(["sweep", *SLOPED, *GRID, "--reuse", str(sloped_run), "--out", str(full),
                  "--resume"]) == 2
     assert "reuse: None there" in capsys.readouterr().err
+    parts = tmp_path / "parts"  # two parts of the study, each its share of played and copied
+    for part in ("1/2", "0/2"):
+        assert main(["sweep", *SLOPED, *GRID, "--reuse", str(sloped_run), "--out", str(parts),
+                     "--part", part]) == 0
+    assert (parts / "attempts.csv").read_bytes() == (shared / "attempts.csv").read_bytes()
 
 
 @pytest.mark.parametrize("command, message", [
