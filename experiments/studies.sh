@@ -22,11 +22,16 @@
 #                    window x threshold, Setups 1-3, flat and sloped (perception only)
 # JOBS (default "--table 1,2") and TAG (default none; appended to each folder's name) run a
 # study on part of the tables, e.g. JOBS="--setup 3 --objects a,b,c,d,e,f" TAG=_setup3.
+# The studies of align.* and the re-alignments (window, threshold, realign, readings, triangles)
+# reuse a plain run of their worlds (`graspjax sweep --reuse`: only the worlds where a view held
+# no grasp play again at each point), made once per variant into RUNS (default a folder under
+# /tmp, never results/) and kept there for the next study of the same worlds.
 set -uo pipefail
 device=${DEVICE:-cpu}
 trials=${TRIALS:-300}
 read -r -a jobs <<< "${JOBS:---table 1,2}"
 tag=${TAG:-}
+runs=${RUNS:-/tmp/graspjax_study_runs}
 case "$device" in
   cpu) out=${OUT:-results/studies} ;;
   gpu) out=${OUT:?set OUT to the folder that collects the results} ;;
@@ -52,6 +57,19 @@ step() {  # step FOLDER COMMAND ARGS...: one graspjax command into $out/FOLDER
     tar -C "$out" -czf "$out/$(basename "$folder").tgz" "$(basename "$folder")" && rm -rf "$folder"
   fi
 }
+reused() {  # reused STUDY [--set ...]: the --reuse argument of a study over align.* or the
+  # re-alignments (the plain run of its worlds, made here once), else nothing
+  case "$1" in window|threshold|realign|readings|triangles) ;; *) return 0 ;; esac
+  shift
+  local folder=$runs/run${tag}_${device}_$trials${1:+_sloped}
+  if ! grep -qs '"finished"' "$folder/config.json"; then
+    mkdir -p "$runs"
+    python3 -m graspjax.cli run "${jobs[@]}" --trials "$trials" --preset paper "$@" --seed 0 \
+      --quiet --overwrite --out "$folder" > "$folder.log" 2>&1 || { tail -n 2 "$folder.log" >&2; return 1; }
+    rm -f "$folder.log"
+  fi
+  echo "--reuse $folder"
+}
 grid() {  # the --grid argument of one study
   case "$1" in
     window) echo "align.window_px=5,10,15,20,25,30" ;;
@@ -75,10 +93,14 @@ for name in "$@"; do
       --preset paper --set procedure.view_tilt_deg=30 --grid align.window_px=5,10,15,20,25,30 \
       --grid align.distance_threshold=0.05,0.1,0.2,0.3,0.5,1.0 ;;
     sloped-*) g=$(grid "${name#sloped-}") || exit 2
+      r=$(reused "${name#sloped-}" --set procedure.view_tilt_deg=30) || exit 1
+      read -r -a r <<< "$r"
       step "${name#sloped-}_sloped${tag}_${device}_$trials" sweep "${jobs[@]}" --trials "$trials" \
-      --paired --preset paper --set procedure.view_tilt_deg=30 --grid "$g" ;;
+      --paired --preset paper --set procedure.view_tilt_deg=30 --grid "$g" "${r[@]}" ;;
     *) g=$(grid "$name") || exit 2
+      r=$(reused "$name") || exit 1
+      read -r -a r <<< "$r"
       step "${name}${tag}_${device}_$trials" sweep "${jobs[@]}" --trials "$trials" --paired \
-      --preset paper --grid "$g" ;;
+      --preset paper --grid "$g" "${r[@]}" ;;
   esac
 done
