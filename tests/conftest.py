@@ -37,7 +37,7 @@ CAMERA_HEIGHT = 0.5  # metres above the table
 # files, reports and configuration, in a few minutes (README).
 SLOW_MODULES = {"test_experiment", "test_image_batches", "test_bench", "test_jaws", "test_physics",
                 "test_procedure", "test_collision", "test_layout_settled", "test_planes",
-                "test_solver", "test_convex", "test_scatters", "test_raycast"}
+                "test_solver", "test_convex", "test_scatters", "test_raycast", "test_reuse"}
 
 
 def pytest_collection_modifyitems(config, items):

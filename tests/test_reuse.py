@@ -15,6 +15,10 @@ ANY_TILT = ["--setup", "1", "--objects", "a,c", "--trials", "3", "--quiet", "--b
             "--set", "align.window_px=12"]
 SLOPED = [*ANY_TILT, "--seed", "3", "--set", "procedure.view_tilt_deg=30"]
 GRID = ["--paired", "--grid", "align.distance_threshold=0.3,0.6"]  # 0.3: the run's own
+# test_experiment's continued rounds (its program): each round ends empty before its 4 attempts,
+# so the attempts left find no target and every round plays again at the other point
+CONTINUED = ["--setup", "2", "--objects", "a,d", "--trials", "3", "--batch", "3", "--seed", "2",
+             "--quiet", "--preset", "realistic", "--set", "procedure.round_attempts=4"]
 
 
 @pytest.fixture(scope="module")
@@ -106,3 +110,17 @@ def test_a_grid_of_the_runs_own_settings_plays_nothing_and_copies_every_row(slop
     rows = [pd.read_csv(f / "attempts.csv") for f in (sloped_run, out)]
     pd.testing.assert_frame_equal(rows[0].drop(columns=["run_id", "chunk"]),
                                   rows[1].drop(columns=["run_id", "chunk", "cfg.align.distance_threshold"]))
+
+
+def test_rounds_whose_attempts_found_no_target_play_again_and_their_round_rows_match(tmp_path):
+    base, full, shared = (tmp_path / name for name in ("run", "full", "shared"))
+    assert main(["run", *CONTINUED, "--out", str(base)]) == 0
+    grid = ["--paired", "--grid", "align.distance_threshold=0.3,0.05"]
+    assert main(["sweep", *CONTINUED, *grid, "--out", str(full)]) == 0
+    assert main(["sweep", *CONTINUED, *grid, "--reuse", str(base), "--out", str(shared)]) == 0
+    rows = [pd.read_csv(f / "attempts.csv").drop(columns=["run_id", "chunk"]) for f in (full, shared)]
+    pd.testing.assert_frame_equal(*rows)
+    assert (full / "rounds.csv").read_text() == (shared / "rounds.csv").read_text()
+    rounds = pd.read_csv(base / "rounds.csv")
+    assert (rounds["attempts"] < 4).all()  # so each round plays again at 0.05 (and only there)
+    assert pd.read_csv(shared / "timings.csv")["worlds"].sum() == len(rounds)
