@@ -111,11 +111,14 @@ def load(folder: str, experiment, batch: int, run_meta: dict) -> Reused:
         if theirs != mine:
             raise InputError(f"--reuse {folder}: its {key} is {theirs}, this sweep's {mine}; "
                              "its worlds would not play the same here")
-    mine = _as_saved(run_settings(experiment.base))
-    other = [k for k in mine if mine[k] != meta["config"].get(k) and not acts_after_first_miss(k)]
+    # every setting, and the device's choices (`config.run_settings` leaves them out) where set
+    mine = {**_as_saved(run_settings(experiment.base)), **ours["overrides"]}
+    theirs = {**meta["config"], **meta.get("overrides", {})}
+    other = sorted(k for k in set(mine) | set(theirs)
+                   if mine.get(k) != theirs.get(k) and not acts_after_first_miss(k))
     if other:
-        raise InputError(f"--reuse {folder}: its {other[0]} is {meta['config'].get(other[0])}, "
-                         f"this sweep's {mine[other[0]]}")
+        raise InputError(f"--reuse {folder}: its {other[0]} is {theirs.get(other[0])}, "
+                         f"this sweep's {mine.get(other[0])}")
     attempts = _attempts(Path(folder))
     rounds = load_rounds(folder)
     return Reused(meta["run_id"], meta["config"], attempts,

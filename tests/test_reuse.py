@@ -68,6 +68,8 @@ def test_a_study_reusing_a_run_has_the_full_studys_rows_and_plays_only_worlds_th
     ([*ANY_TILT, "--seed", "4", "--set", "procedure.view_tilt_deg=30", *GRID],
      "its seed is 3, this sweep's 4"),
     ([*SLOPED, "--batch", "2", *GRID], "its batch is 3, this sweep's 2"),
+    ([*SLOPED, "--set", "detect.unrolled_loops=true", *GRID],  # a device's choice, set by hand
+     "its detect.unrolled_loops is None, this sweep's True"),
 ])
 def test_reuse_refuses_a_run_whose_worlds_would_not_play_the_same(
         sloped_run, tmp_path, capsys, command, message):
