@@ -140,7 +140,8 @@ def run_meta(experiment: Experiment, batch: int, reused=None) -> dict:
             "config": run_settings(experiment.base),
             "batch": batch, "deterministic": experiment.deterministic,
             "xla_flags": os.environ.get("XLA_FLAGS", ""), "save_views": experiment.save_views,
-            **({"reuse": {"folder": experiment.reuse, "run_id": reused.run_id}} if reused else {}),
+            **({"reuse": {"folder": str(Path(experiment.reuse).resolve()), "run_id": reused.run_id}}
+               if reused else {}),
             **provenance()}
     return {"run_id": run_id(meta), **meta}
 
@@ -235,9 +236,8 @@ def _log_sweep(experiment: Experiment, reused, log) -> None:
 
 def _copies(reused, points: list[int], first: int, columns: RunColumns, folder: RunFolder,
             part: int, parts: int):
-    """A callable that keeps, once, the rows `reused` (`reuse.Reused`) gives grid point
-    `points[i]` as chunk `first + i`, in the process that plays that chunk index (no device
-    plays them): the run calls it once its first device chunk is kept, while the devices play."""
+    """A callable that keeps, once, the rows `reused` (`reuse.Reused`) gives grid point `points[i]`
+    as chunk `first + i` (this process's share): the run calls it while the devices play."""
     pending = [(index, point) for index, point in enumerate(points, start=first)
                if index % parts == part and index not in folder.done]
 

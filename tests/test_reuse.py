@@ -1,6 +1,7 @@
 """A paired study of the re-alignment that reuses a finished run's worlds (`sweep --reuse`)."""
 
 import json
+import os
 
 import pandas as pd
 import pytest
@@ -46,15 +47,15 @@ def test_a_study_reusing_a_run_has_the_full_studys_rows_and_plays_only_worlds_th
     assert played["worlds"].sum() == len(missed)
     assert len(pd.read_csv(full / "timings.csv")) == 4  # the full sweep: 2 points x 2 chunks
     meta, run_meta = (json.loads((f / "config.json").read_text()) for f in (shared, sloped_run))
-    assert meta["reuse"] == {"folder": str(sloped_run), "run_id": run_meta["run_id"]}
+    assert meta["reuse"] == {"folder": str(sloped_run.resolve()), "run_id": run_meta["run_id"]}
     assert meta["run_id"] == json.loads((full / "config.json").read_text())["run_id"]  # same rows
     # ... in other chunks: neither continues the other
     assert main(["sweep", *SLOPED, *GRID, "--reuse", str(sloped_run), "--out", str(full),
                  "--resume"]) == 2
     assert "reuse: None there" in capsys.readouterr().err
-    parts = tmp_path / "parts"  # two parts of the study, each its share of played and copied
-    for part in ("1/2", "0/2"):
-        assert main(["sweep", *SLOPED, *GRID, "--reuse", str(sloped_run), "--out", str(parts),
+    parts = tmp_path / "parts"  # two parts of the study, each its share of played and copied,
+    for part, run in (("1/2", sloped_run), ("0/2", os.path.relpath(sloped_run))):  # RUN either way
+        assert main(["sweep", *SLOPED, *GRID, "--reuse", str(run), "--out", str(parts),
                      "--part", part]) == 0
     assert (parts / "attempts.csv").read_bytes() == (shared / "attempts.csv").read_bytes()
 
