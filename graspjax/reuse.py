@@ -96,9 +96,11 @@ def load(folder: str, experiment, batch: int, run_meta: dict) -> Reused:
     if not experiment.paired or experiment.save_views != "none":
         raise InputError("--reuse needs --paired (the worlds are RUN's) and no --save-views "
                          "(its copied worlds have no views)")
-    path = Path(folder) / "config.json"
-    meta = json.loads(path.read_text()) if path.is_file() else {}
-    if not meta.get("finished"):
+    try:
+        meta = json.loads((Path(folder) / "config.json").read_text())
+    except (OSError, ValueError):  # none there, or not JSON
+        meta = None
+    if not isinstance(meta, dict) or not meta.get("finished") or "config" not in meta:
         raise InputError(f"--reuse {folder}: no finished run there (its config.json says so)")
     if meta.get("points") != 1:
         raise InputError(f"--reuse {folder} is a sweep of {meta.get('points')} points; give a run")

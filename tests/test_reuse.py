@@ -81,10 +81,14 @@ def test_reuse_refuses_a_run_whose_worlds_would_not_play_the_same(
     assert not out.exists()
 
 
-def test_reuse_needs_a_finished_run(tmp_path, capsys):
+@pytest.mark.parametrize("config", [None, "{not json", '{"finished": "2026", "points": 1}'])
+def test_reuse_needs_a_finished_run(tmp_path, capsys, config):
+    if config is not None:
+        (tmp_path / "config.json").write_text(config)
     assert main(["sweep", *SLOPED, *GRID, "--reuse", str(tmp_path), "--out",
                  str(tmp_path / "out")]) == 2
-    assert "no finished run there" in capsys.readouterr().err
+    err = capsys.readouterr().err.strip()
+    assert "no finished run there" in err and len(err.splitlines()) == 1
 
 
 def test_a_world_plays_again_unless_every_attempt_found_its_grasp_in_the_first_view():
