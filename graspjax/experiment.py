@@ -269,7 +269,7 @@ def _grouped(experiment: Experiment, reused) -> tuple[list[Config], list[Group]]
     derivation for the run and its helpers, which must plan (and so number the chunks) alike."""
     configs = [c for _, c in experiment.points]
     return configs, plan(experiment.jobs, configs, experiment.seed, experiment.paired,
-                         **({"keep": reused.plays(configs)} if reused else {}))
+                         keep=reused.plays(configs) if reused else None)
 
 
 def _play_shares(experiment: Experiment, out: Path, meta: dict, groups: list[Group],

@@ -30,12 +30,13 @@ from graspjax.provenance import made_by_other_code
 from graspjax.report.files import load_attempts, load_rounds
 from graspjax.schema import ROUND_COLUMNS, sort_attempts
 
-AFTER_FIRST_MISS = "align.*, procedure.max_reorientations"  # the keys that act only then
+AFTER_FIRST_MISS = ("align.", "procedure.max_reorientations")  # the keys that act only then
+# (a prefix ending in "." names a whole section)
 
 
 def acts_after_first_miss(key: str) -> bool:
     """Whether the dotted setting `key` acts only once a view holds no grasp (`AFTER_FIRST_MISS`)."""
-    return key.startswith("align.") or key == "procedure.max_reorientations"
+    return any(key == k or k.endswith(".") and key.startswith(k) for k in AFTER_FIRST_MISS)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,7 +93,8 @@ def load(folder: str, experiment, batch: int, run_meta: dict) -> Reused:
     bad = [k for k in experiment.keys if not acts_after_first_miss(k)]
     if bad:
         raise InputError(f"--reuse: --grid {bad[0]} acts before a view without a grasp; only "
-                         f"{AFTER_FIRST_MISS} leave the other worlds as they played")
+                         f"{', '.join(k + '*' if k.endswith('.') else k for k in AFTER_FIRST_MISS)} "
+                         "leave the other worlds as they played")
     if not experiment.paired or experiment.save_views != "none":
         raise InputError("--reuse needs --paired (the worlds are RUN's) and no --save-views "
                          "(its copied worlds have no views)")

@@ -34,12 +34,7 @@ def test_a_study_reusing_a_run_has_the_full_studys_rows_and_plays_only_worlds_th
     """The rows equal those of the same sweep played in full; the device played only the
     run's worlds whose first view held no grasp, and only at the point whose settings differ
     from the run's (the other copies every row)."""
-    full, shared = tmp_path / "full", tmp_path / "shared"
-    assert main(["sweep", *SLOPED, *GRID, "--out", str(full)]) == 0
-    assert main(["sweep", *SLOPED, *GRID, "--reuse", str(sloped_run), "--out", str(shared)]) == 0
-    rows = [pd.read_csv(f / "attempts.csv").drop(columns=["run_id", "chunk"]) for f in (full, shared)]
-    pd.testing.assert_frame_equal(*rows)
-    assert (full / "rounds.csv").read_text() == (shared / "rounds.csv").read_text()
+    full, shared = _played_in_full_and_reusing(SLOPED, GRID, sloped_run, tmp_path)
     first = pd.read_csv(sloped_run / "attempts.csv")
     missed = first[first.first_view_grasp == 0]
     played = pd.read_csv(shared / "timings.csv")
@@ -120,14 +115,22 @@ def test_a_grid_of_the_runs_own_settings_plays_nothing_and_copies_every_row(slop
 
 
 def test_rounds_whose_attempts_found_no_target_play_again_and_their_round_rows_match(tmp_path):
-    base, full, shared = (tmp_path / name for name in ("run", "full", "shared"))
+    base = tmp_path / "run"
     assert main(["run", *CONTINUED, "--out", str(base)]) == 0
     grid = ["--paired", "--grid", "align.distance_threshold=0.3,0.05"]
-    assert main(["sweep", *CONTINUED, *grid, "--out", str(full)]) == 0
-    assert main(["sweep", *CONTINUED, *grid, "--reuse", str(base), "--out", str(shared)]) == 0
-    rows = [pd.read_csv(f / "attempts.csv").drop(columns=["run_id", "chunk"]) for f in (full, shared)]
-    pd.testing.assert_frame_equal(*rows)
-    assert (full / "rounds.csv").read_text() == (shared / "rounds.csv").read_text()
+    _, shared = _played_in_full_and_reusing(CONTINUED, grid, base, tmp_path)
     rounds = pd.read_csv(base / "rounds.csv")
     assert (rounds["attempts"] < 4).all()  # so each round plays again at 0.05 (and only there)
     assert pd.read_csv(shared / "timings.csv")["worlds"].sum() == len(rounds)
+
+
+def _played_in_full_and_reusing(command, grid, run, tmp_path):
+    """The sweep `command` + `grid` played in full and reusing `run`: their folders, once their
+    attempt rows (but the run id and chunk) and round rows are found the same."""
+    full, shared = tmp_path / "full", tmp_path / "shared"
+    assert main(["sweep", *command, *grid, "--out", str(full)]) == 0
+    assert main(["sweep", *command, *grid, "--reuse", str(run), "--out", str(shared)]) == 0
+    rows = [pd.read_csv(f / "attempts.csv").drop(columns=["run_id", "chunk"]) for f in (full, shared)]
+    pd.testing.assert_frame_equal(*rows)
+    assert (full / "rounds.csv").read_text() == (shared / "rounds.csv").read_text()
+    return full, shared

@@ -112,10 +112,11 @@ class Chunk:
 
 
 def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False,
-         keep=lambda world: True) -> list[Group]:
-    """Every world of a run for which `keep(WorldKey)` holds (`reuse`: the others' rows are
-    copied), grouped by compiled program; grid point i has seed `seed + i`, or `seed` for every
-    point when `paired` (the same layouts and keys: differences are paired)."""
+         keep=None) -> list[Group]:
+    """Every world of a run (with `keep`, those for which `keep(WorldKey)` holds: `reuse`, the
+    others' rows are copied), grouped by compiled program; grid point i has seed `seed + i`,
+    or `seed` for every point when `paired` (the same layouts and keys: differences are
+    paired)."""
     groups: dict = {}
     for i, config in enumerate(points):
         seed_i = seed if paired else seed + i
@@ -128,7 +129,7 @@ def plan(jobs: list[Job], points: list[Config], seed: int, paired: bool = False,
                     worlds = [WorldKey(i, seed_i, setup, t, job.objects) for t in range(job.trials)]
                 key = (job.letters, setup > 1, round_attempts(setup, job.objects, config),
                        jax.tree.structure(config))
-                groups.setdefault(key, (config, []))[1].extend(w for w in worlds if keep(w))
+                groups.setdefault(key, (config, []))[1].extend(w for w in worlds if keep is None or keep(w))
     return [Group(letters, collide, attempts, config, tuple(worlds))
             for (letters, collide, attempts, _), (config, worlds) in groups.items() if worlds]
 
