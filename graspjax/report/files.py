@@ -161,7 +161,7 @@ def run_state(folder: str | Path, frame: pd.DataFrame) -> str:
         planned = planned_worlds(meta)
     except (KeyError, TypeError, ValueError):
         return ""  # rows from elsewhere: nothing to check them against
-    ids = set(frame["run_id"].astype(str)) if "run_id" in frame.columns else set()
+    ids = set(frame["run_id"].astype(str).unique()) if "run_id" in frame.columns else set()
     if meta.get("run_id") and ids and ids != {str(meta["run_id"])}:
         raise ValueError(f"{folder}: attempts.csv holds rows of run {', '.join(sorted(ids))}, "
                          f"config.json describes run {meta['run_id']}")
