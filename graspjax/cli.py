@@ -70,8 +70,10 @@ def _run_experiment(args, grid_items=None) -> int:
 
     request = arguments.experiment_request(args, grid_items)
     if args.dry_run:
-        return _dry_run(args, lambda: estimate.plan_lines(experiment.planned_groups(request),
-                                                           len(request.points), request.batch))
+        def lines() -> list[str]:
+            groups, reused = experiment.planned_groups(request)
+            return [*reused, *estimate.plan_lines(groups, len(request.points), request.batch)]
+        return _dry_run(args, lines)
     from graspjax.runtime import players
 
     try:

@@ -46,12 +46,7 @@ def progress_bar(total: int, quiet: bool, initial: int = 0, unit: str = "attempt
 
     bar = tqdm(total=total, initial=initial, unit=unit, disable=quiet or not show_bar,
                dynamic_ncols=True, file=sys.stderr, smoothing=0.05)
-
-    def log(message: str) -> None:
-        if not quiet:
-            bar.write(message, file=sys.stderr)
-
-    return bar, log
+    return bar, (lambda message: None) if quiet else (lambda message: bar.write(message, file=sys.stderr))
 
 
 @functools.cache
@@ -230,8 +225,7 @@ def _log_sweep(experiment: Experiment, reused, log) -> None:
             + (f"every point has seed {experiment.seed} (paired)" if experiment.paired
                else f"point i has seed {experiment.seed} + i"))
     if reused:
-        log(f"--reuse {experiment.reuse}: {len(reused.played_again)} of its {reused.worlds} worlds "
-            "play again where a point's settings differ from its; the others' rows are its own")
+        log(reused.summary(experiment.reuse))
 
 
 def _copies(reused, points: list[int], first: int, columns: RunColumns, folder: RunFolder,
@@ -248,10 +242,13 @@ def _copies(reused, points: list[int], first: int, columns: RunColumns, folder: 
     return copy
 
 
-def planned_groups(experiment: Experiment) -> list[estimate.PlannedGroup]:
-    """What `run` would play, group by group, and an estimate of its time (`batch.estimate`)."""
-    return estimate.planned(_grouped(experiment, _reused(experiment))[1],
-                            experiment.batch or default_batch(), experiment.save_views != "none")
+def planned_groups(experiment: Experiment) -> tuple[list[estimate.PlannedGroup], list[str]]:
+    """What `run` would play, group by group, and an estimate of its time (`batch.estimate`);
+    and what it reuses, in words (none, or `reuse.Reused.summary`)."""
+    reused = _reused(experiment)
+    return (estimate.planned(_grouped(experiment, reused)[1], experiment.batch or default_batch(),
+                             experiment.save_views != "none"),
+            [reused.summary(experiment.reuse)] if reused else [])
 
 
 def _reused(experiment: Experiment):

@@ -55,6 +55,11 @@ class Reused:
         """How many worlds RUN played."""
         return len(set(_ids(self.attempts)))
 
+    def summary(self, folder: str) -> str:
+        """What a study reusing this run (`folder`, as given) plays and copies, in words."""
+        return (f"--reuse {folder}: {len(self.played_again)} of its {self.worlds} worlds play "
+                "again where a point's settings differ from its; the others' rows are its own")
+
     def copies_all(self, config: Config) -> bool:
         """A grid point with RUN's own settings: every row is RUN's."""
         return _as_saved(run_settings(config)) == self.settings

@@ -55,6 +55,22 @@ def test_a_study_reusing_a_run_has_the_full_studys_rows_and_plays_only_worlds_th
     assert (parts / "attempts.csv").read_bytes() == (shared / "attempts.csv").read_bytes()
 
 
+def test_a_dry_run_says_what_it_reuses_and_counts_only_the_worlds_it_plays(
+        sloped_run, tmp_path, capsys):
+    """--dry-run with --reuse: RUN's worlds that play again (those whose first view held no
+    grasp, at the one point whose settings differ from RUN's) are all it plans; nothing written."""
+    out = tmp_path / "out"
+    assert main(["sweep", *SLOPED, *GRID, "--reuse", str(sloped_run), "--out", str(out),
+                 "--dry-run"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    first = pd.read_csv(sloped_run / "attempts.csv")  # Setup 1: a world is one attempt
+    missed = int((first.first_view_grasp == 0).sum())
+    assert printed[0] == (f"--reuse {sloped_run}: {missed} of its {len(first)} worlds play again "
+                          "where a point's settings differ from its; the others' rows are its own")
+    assert printed[1].startswith(f"2 grid point(s), {missed} worlds in ")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("command, message", [
     ([*SLOPED, "--grid", "gripper.opening=0.08,0.1"], "--grid gripper.opening acts before a view"),
     ([*SLOPED, *GRID[1:]], "needs --paired"),
