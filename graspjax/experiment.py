@@ -40,11 +40,11 @@ from graspjax.runtime.players import Assignment, Helper, cores_of, kept_to
 
 def progress_bar(total: int, quiet: bool, initial: int = 0, unit: str = "attempt",
                  show_bar: bool = True):
-    """A progress bar on stderr (none with `quiet`, or without `show_bar`) and a `log(message)` that
-    prints above it (nothing with `quiet`)."""
+    """A progress bar on stderr (none with `quiet`, without `show_bar` or with a `total` of 0:
+    every row copied) and a `log(message)` that prints above it (nothing with `quiet`)."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, initial=initial, unit=unit, disable=quiet or not show_bar,
+    bar = tqdm(total=total, initial=initial, unit=unit, disable=quiet or not show_bar or not total,
                dynamic_ncols=True, file=sys.stderr, smoothing=0.05)
     return bar, (lambda message: None) if quiet else (lambda message: bar.write(message, file=sys.stderr))
 

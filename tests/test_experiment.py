@@ -1042,6 +1042,19 @@ def test_planes_takes_a_settings_file_as_run_does(tmp_path):
     assert none is None
 
 
+def test_nothing_to_play_shows_no_bar_and_still_says_its_lines(capsys):
+    """A run whose rows are all copied (`--reuse`) has no attempts to count: no bar, its log
+    lines alone; with a count, the bar."""
+    from graspjax.experiment import progress_bar
+
+    for total in (0, 3):
+        bar, log = progress_bar(total, quiet=False)
+        log("copied")
+        bar.close()
+        err = capsys.readouterr().err
+        assert (err == "copied\n") == (total == 0) and "copied\n" in err
+
+
 def test_the_progress_bar_names_the_programs_still_compiling(monkeypatch):
     """`run_chunks`' status: both programs while both compile, the second alone once the first
     is ready, nothing once both are."""
