@@ -124,7 +124,8 @@ def _surface_by_search(depth, allowed, seed, step):
     return out
 
 
-@pytest.mark.parametrize("unroll", [False, True])
+@pytest.mark.parametrize("unroll", [False, pytest.param(True, marks=pytest.mark.slow)])  # True:
+# compiles programs of its own (`pytest -m "not slow"`: README)
 def test_connected_surface_matches_a_breadth_first_search(unroll):
     """On random depths with steps and holes, the fill's steps unrolled into one loop
     iteration (`detect.unrolled_loops`) or not."""

@@ -74,6 +74,7 @@ def test_trace_visits_exactly_the_outer_4_boundary(seed):
     assert len(pts) == 1 or (steps == 1).all()  # consecutive points are 8-neighbours
 
 
+@pytest.mark.slow  # compiles programs of its own (`pytest -m "not slow"`: README)
 def test_the_steps_per_loop_iteration_change_nothing():
     """The trace and the edge walk take 1, 8 or 32 steps per loop iteration
     (`detect.unrolled_loops`: a GPU's launches): the same contour and edges, on blobs whose

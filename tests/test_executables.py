@@ -69,6 +69,7 @@ def test_without_a_store_nothing_is_kept(tmp_path, monkeypatch):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow  # starts Python processes that import JAX (`pytest -m "not slow"`: README)
 def test_another_process_with_two_devices_loads_it_onto_its_second_device(tmp_path):
     """A process with one CPU device compiles; a process with two (another topology, and a
     device of another id) loads the executable onto device 1 without compiling, with the
@@ -100,6 +101,7 @@ def test_another_process_with_two_devices_loads_it_onto_its_second_device(tmp_pa
     assert first_out == second_out == repr(np.asarray(jax.jit(_fn)(*VALUES)[0]).tolist()) + "\n"
 
 
+@pytest.mark.slow  # starts Python processes that import JAX (`pytest -m "not slow"`: README)
 def test_an_executable_read_from_jax_s_cache_is_not_kept(tmp_path):
     """On the CPU an executable JAX read from its own cache serializes without its functions'
     code (a later call fails: "Function ... not found"), so it is not kept: with the store
