@@ -6,6 +6,7 @@ value is a `UsageError` (one line; the command line prints it and exits with sta
 from __future__ import annotations
 
 import math
+import os
 import re
 import sys
 
@@ -87,11 +88,11 @@ def detect_settings(preset_name: str | None, top: int | None, sets: list[str] | 
 
     if top is not None and top < 1:
         raise UsageError(f"--top must be >= 1, got {top}")
-    parse_assignments(sets or [])  # the user's own: malformed or twice is an error
+    flags = [f"image.top_k={top}"] if top is not None else []
+    flags += [f"method={method}"] if method is not None else []
+    parse_assignments(flags + (sets or []))  # the user's own: malformed or twice is an error
     items = [f"{k}={v}" for k, v in PRESETS[preset_name or "paper"].items()]
-    items += [f"image.top_k={top}"] if top is not None else []
-    items += [f"method={method}"] if method is not None else []
-    return items + (sets or [])
+    return items + flags + (sets or [])
 
 
 def ints(text: str, name: str, allowed) -> tuple[int, ...]:
@@ -281,10 +282,18 @@ def detect_request(args):
     outputs = DetectOutputs(json=args.json, figure=args.figure, figures=args.figures,
                             csv=args.out if to_csv else None,
                             folder=args.out if args.out and not to_csv else None)
+    files = {}  # each output file's own path (a folder may take --out's and --figures'): one
+    # written over another is lost
     for path, what, folder in ((outputs.json, "--json", False), (outputs.figure, "--figure", False),
                                (outputs.csv, "--out", False), (outputs.folder, "--out", True),
                                (outputs.figures, "--figures", True)):
         check_writable(path, what, directory=folder)
+        if path is not None:
+            key = os.path.abspath(path)
+            if key in files and not (folder and files[key][1]):
+                raise UsageError(f"{files[key][0]} and {what} name the same path {path}: give "
+                                 "each its own")
+            files[key] = (what, folder)
     inputs = prepare(args.images, depth_scale=args.depth_scale, intrinsics=intrinsics(args),
                      camera_pose=args.camera_pose,
                      roi=roi(args.roi), mask=args.mask, depth_range=depth_range(args.range),
@@ -332,6 +341,10 @@ def bench_request(args) -> dict:
                 raise ValueError(f"{args.rows_from}'s rows have no chunk column")
         except (OSError, ValueError) as exc:
             raise UsageError(f"--rows-from: {exc}") from None
+        from pathlib import Path
+
+        from graspjax.bench_finish import run_settings
+        run_settings(Path(args.rows_from))  # its settings, read before anything is timed
     return dict(config=config, image=image, objects=letters,
                 setups=ints(str(args.setup), "--setup", (1, 2, 3)), trials=args.trials,
                 seconds=args.seconds, batch=args.batch, width=args.width, height=args.height,
@@ -371,6 +384,10 @@ def distributed(text: str | None, part: str | None):
         raise UsageError(f"--distributed takes HOST:PORT,N,I (or nothing), got {text!r}") from None
     if len(fields) != 3 or ":" not in address or not 0 <= index < count:
         raise UsageError(f"--distributed HOST:PORT,N,I needs 0 <= I < N, got {text!r}")
+    host, _, port = address.rpartition(":")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise UsageError(f"--distributed HOST:PORT,N,I needs a port 1-65535 after the host, "
+                         f"got {text!r}")
     return address, count, index
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.bench import bench_record
+from graspjax.errors import InputError
 from graspjax.outputs import RunFolder
 from graspjax.provenance import device_line, provenance
 from graspjax.report import load_attempts, load_rounds, write_report
@@ -23,9 +24,9 @@ def finish_benchmark(source: str, rows: int = 96_000, progress=print) -> dict:
     finished run's (`source`), repeated with their trials and rounds renumbered until there
     are `rows`, in that run's chunks; each chunk goes through `RunFolder.add` as the run's
     would (untimed), then the finish is timed."""
+    meta = run_settings(Path(source))
     attempts, rounds = load_attempts(source), load_rounds(source)
     rounds = rounds if rounds is not None else pd.DataFrame(columns=["point", "setup", "round"])
-    meta = json.loads((Path(source) / "config.json").read_text())
     meta.pop("finished", None)
     span = int(attempts["trial"].max()) + 1  # trials (rounds) of a copy are renumbered past it
     copies = -(-rows // len(attempts))
@@ -53,6 +54,21 @@ def finish_benchmark(source: str, rows: int = 96_000, progress=print) -> dict:
     return bench_record("finish", {"source": str(source), "rows": n, "chunks": len(parts),
                                    "files_s": files - start, "report_s": end - files,
                                    "after_last_chunk_s": end - start, **provenance()})
+
+
+def run_settings(source: Path) -> dict:
+    """The finished run's `config.json` (its settings, a JSON object); an `InputError` naming
+    it where it is missing or holds none."""
+    path = source / "config.json"
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
+        raise InputError(f"--rows-from {source}: {path} cannot be read ({why}): give a "
+                         "finished run's folder") from None
+    if not isinstance(meta, dict):
+        raise InputError(f"--rows-from {source}: {path} holds no run's settings (a JSON object)")
+    return meta
 
 
 def format_finish(r: dict) -> str:

@@ -67,19 +67,19 @@ def _run_experiment(args, grid_items=None) -> int:
     xla.start_devices()
     from graspjax import experiment
     from graspjax.batch import estimate
+    from graspjax.runtime import players
 
     request = arguments.experiment_request(args, grid_items)
+    processes = 1 if spec else players.count(args.processes)  # checked by a dry run too
     if args.dry_run:
         def lines() -> list[str]:
             groups, reused = experiment.planned_groups(request)
             return [*reused, *estimate.plan_lines(groups, len(request.points), request.batch)]
         return _dry_run(args, lines)
-    from graspjax.runtime import players
-
     try:
         result = experiment.run(request, args.out, args.resume, args.overwrite, part, parts,
-                                args.quiet, 1 if spec else players.count(args.processes),
-                                distributed=spec is not None, compile_first=args.compile_first)
+                                args.quiet, processes, distributed=spec is not None,
+                                compile_first=args.compile_first)
         distributed.shutdown()
     except players.HelperFailed as exc:
         print(f"graspjax: error: {exc} (the finished chunks are kept: the same command with "

@@ -2,6 +2,8 @@
 
 import io
 import json
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -202,6 +204,8 @@ def _bad_inputs(folder, tmp_path):
     metres = np.nan_to_num(np.load(folder / "a.npy")[..., 0]).round().astype(np.uint16)
     Image.fromarray(metres).save(tmp_path / "metres.png")  # a 16-bit PNG of whole metres: 0, 1
     a, b, intr = str(folder / "a.npy"), str(folder / "b.png"), str(folder / "cam.intr")
+    undecodable = tmp_path / os.fsdecode(b"b\xffd.npy")  # a name the records could not hold
+    shutil.copy(a, undecodable)
     return [
         ([str(tmp_path / "photo.png")], "is a colour image (640x480, 3 channels, uint8)"),
         ([a, "--mask", str(tmp_path / "mask.png")], "is 640x400, the depth images are 640x480"),
@@ -234,6 +238,9 @@ def _bad_inputs(folder, tmp_path):
         ([a, "--set", "image.top_k=2", "--set", "image.top_k=3"], "image.top_k is given twice"),
         ([a, "--set", "image.top_k=100"], "RealImageConfig.top_k must be in [1, 64]"),
         (["missing.npy"], "no such file"),
+        ([a, str(undecodable)], "'" + str(tmp_path) + "/b\\udcffd.npy': the file name is not UTF-8 text"),
+        ([a, "--method", "antipodal", "--set", "method=paper"], "method is given twice"),
+        ([a, "--top", "2", "--set", "image.top_k=3"], "image.top_k is given twice"),
     ]
 
 
@@ -252,9 +259,11 @@ def test_user_mistakes_get_one_line_exit_2_and_nothing_written(real_folder, tmp_
     (["{scene}", "--set", "align.window_px=0"], "window_px"),
     (["{scene}", "--fov-x", "60", "--fx", "100"], "not --fx/--fy/--cx/--cy and --fov-x/--fov-y"),
     (["{scene}", "--json", "/nonexistent-dir/x.json"], "does not exist"),
+    (["{scene}", "--json", "{figure}"], "--json and --figure name the same path"),  # one lost
 ])
 def test_bad_arguments_get_one_line_and_exit_2(kinect_scene, tmp_path, capsys, args, message):
-    args = [a.replace("{scene}", str(kinect_scene / "scene.npy")) for a in args]
+    args = [a.replace("{scene}", str(kinect_scene / "scene.npy")).replace(
+        "{figure}", str(tmp_path / "f.png")) for a in args]
     assert main(["detect", *args, "--figure", str(tmp_path / "f.png")]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
@@ -276,6 +285,24 @@ def test_bad_arguments_get_one_line_and_exit_2(kinect_scene, tmp_path, capsys, a
 def test_bench_mistakes_get_one_line_before_anything_compiles(tmp_path, capsys, args, message):
     out = tmp_path / "bench.json"
     assert main(["bench", *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and not out.exists()
+
+
+@pytest.mark.parametrize("settings, message", [
+    ("{not json", "config.json cannot be read (Expecting property name"),
+    ("[1, 2]", "config.json holds no run's settings (a JSON object)"),
+    (None, "config.json cannot be read (No such file or directory)"),
+])
+def test_bench_finish_names_a_folder_without_a_run_s_settings(tmp_path, capsys, settings, message):
+    folder = tmp_path / "run"
+    shutil.copytree("results/paper_cpu_10", folder)
+    if settings is None:
+        (folder / "config.json").unlink()
+    else:
+        (folder / "config.json").write_text(settings)
+    out = tmp_path / "bench.json"
+    assert main(["bench", "finish", "--rows-from", str(folder), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and not out.exists()
 

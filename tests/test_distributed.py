@@ -6,6 +6,10 @@ import socket
 import subprocess
 import sys
 
+import pytest
+
+from graspjax.cli import main
+
 
 def _free_port() -> int:
     with socket.socket() as probe:  # a free port for JAX's coordinator (the test's, not ours)
@@ -52,3 +56,46 @@ def test_a_process_that_never_joins_is_named_in_one_line_and_nothing_is_written(
                    f"at {address} within 3 s: start every process I of the run with --distributed "
                    f"{address},2,I, or check the address (process 0 serves it)\n")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("address, message", [
+    ("localhost:notaport,1,0", "needs a port 1-65535 after the host, got 'localhost:notaport,1,0'"),
+    ("localhost:0,1,0", "needs a port 1-65535 after the host"),
+    (":1234,1,0", "needs a port 1-65535 after the host"),
+    ("nohost.invalid:1234,2,0", "--distributed nohost.invalid:1234: the host nohost.invalid "
+                                "cannot be found"),
+])
+def test_a_coordinator_that_cannot_be_reached_is_one_line_before_any_wait(tmp_path, capsys,
+                                                                        address, message):
+    """Not a native crash (a port that is no number) or five minutes' wait for a host that does
+    not exist: one line and exit 2 at once, nothing written."""
+    out = tmp_path / "run"
+    assert main(["run", "--setup", "1", "--distributed", address, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and not out.exists()
+
+
+@pytest.mark.slow  # starts a Python process that imports JAX (`pytest -m "not slow"`: README)
+def test_distributed_alone_without_a_launcher_says_what_to_give(tmp_path):
+    """`--distributed` reads Slurm's or Open MPI's environment; with neither, one line (JAX's
+    own ValueError once ended in a traceback)."""
+    out = tmp_path / "run"
+    argv = ["graspjax", "run", "--setup", "1", "--distributed", "--dry-run", "--out", str(out)]
+    clean = {k: v for k, v in os.environ.items()
+             if not k.startswith(("SLURM_", "OMPI_", "PMI_", "JAX_COORDINATOR"))}
+    proc = subprocess.run([sys.executable, "-c", "import sys; sys.argv = " + repr(argv)
+                           + "; from graspjax.cli import entry; entry()"], text=True,
+                          capture_output=True, timeout=120, env={**clean, "JAX_PLATFORMS": "cpu"})
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert proc.stderr.startswith("graspjax: error: --distributed alone reads the launcher's "
+                                  "environment") and proc.stderr.count("\n") == 1
+    assert "give --distributed HOST:PORT,N,I" in proc.stderr and not out.exists()
+
+
+def test_a_run_of_one_process_that_did_not_start_says_the_address_must_be_this_host_s():
+    from graspjax.runtime.distributed import _not_joined
+
+    line = _not_joined(("example.org:1234", 1, 0))
+    assert line.startswith("--distributed example.org:1234,1,0: the run did not start at "
+                           "example.org:1234 within") and "this host's" in line
+    assert "some of processes" not in line

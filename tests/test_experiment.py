@@ -834,6 +834,7 @@ def test_two_processes_on_jax_s_distributed_runtime_leave_one_process_s_rows(tin
     (["run", "--setup", "1", "--part", "2/2"], "0 <= I < N"),
     (["run", "--setup", "1", "--part", "x"], "--part takes I/N"),
     (["run", "--setup", "1", "--processes", "0"], "--processes must be >= 1, got 0"),
+    (["run", "--setup", "1", "--processes", "0", "--dry-run"], "--processes must be >= 1, got 0"),
     (["run", "--setup", "1", "--resume", "--overwrite"], "not both"),
     (["sweep", "--setup", "1", "--grid", "align.window_px=5,x"], "must be int"),
     (["sweep", "--setup", "1"], "needs at least one --grid"),

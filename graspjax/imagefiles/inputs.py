@@ -228,7 +228,20 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
             paths.append(path)
     if not paths:
         raise InputError("no depth images given")
+    for path in paths:  # its name goes into the CSV and JSON records, which are UTF-8
+        if _undecodable(str(path)):
+            raise InputError(f"{ascii(str(path))}: the file name is not UTF-8 text (rename it)")
     return tuple(paths)
+
+
+def _undecodable(name: str) -> bool:
+    """Whether `name` holds bytes the file system gave that are not UTF-8 (Python keeps them as
+    lone surrogates, which no UTF-8 file can hold)."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
 
 
 def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_scale: float) -> None:

@@ -34,6 +34,7 @@ def initialize(spec) -> None:
         where = {}
     else:
         address, count, index = spec
+        _resolve(address)
         where = dict(coordinator_address=address, num_processes=count, process_id=index)
     failed: list[BaseException] = []
 
@@ -50,8 +51,25 @@ def initialize(spec) -> None:
     joining.join(JOIN_TIMEOUT_S)
     if joining.is_alive():
         raise InputError(_not_joined(spec))
+    if failed and isinstance(failed[0], ValueError) and spec == AUTO:  # no launcher's variables
+        raise InputError(f"--distributed alone reads the launcher's environment (Slurm, Open "
+                         f"MPI), which names no run here ({failed[0]}): give --distributed "
+                         "HOST:PORT,N,I") from None
     if failed:
         raise failed[0]
+
+
+def _resolve(address: str) -> None:
+    """Refuse a coordinator whose host name does not resolve (JAX would wait for it until
+    `JOIN_TIMEOUT_S`)."""
+    import socket
+
+    host, _, port = address.rpartition(":")
+    try:
+        socket.getaddrinfo(host.strip("[]"), int(port))
+    except (OSError, UnicodeError) as exc:
+        raise InputError(f"--distributed {address}: the host {host} cannot be found "
+                         f"({getattr(exc, 'strerror', None) or exc})") from None
 
 
 def _not_joined(spec) -> str:
@@ -62,6 +80,9 @@ def _not_joined(spec) -> str:
                 "environment names them): see whether every one started")
     address, count, index = spec
     others = [i for i in range(count) if i != index]
+    if not others:  # a run of one process: it serves the address itself
+        return (f"--distributed {address},{count},{index}: the run did not start at {address} "
+                f"{waited}: process 0 serves it, so the address must be this host's")
     missing = (f"process {others[0]}" if len(others) == 1
                else f"some of processes {', '.join(map(str, others))}")
     return (f"--distributed {address},{count},{index}: {missing} did not join the run at "
