@@ -12,6 +12,18 @@ CONFIG_HELP = ("settings file: the dotted keys of --set with their values, in TO
                "be given by --set as well (keys: graspjax config)")
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, its mistakes one line as graspjax's own are (argparse prints its usage
+    first): "graspjax run: error: ... (graspjax run --help)", exit status 2. Its subcommands'
+    parsers are of this class too (`add_subparsers`' default)."""
+
+    def error(self, message: str):
+        if message.endswith("expected one argument"):  # a value that starts with "-"
+            option = message.removeprefix("argument ").split(":")[0].split("/")[0]
+            message += f" (a value that starts with '-' goes after '=': {option}=VALUE)"
+        self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help)\n")
+
+
 def add_experiment_arguments(p) -> None:
     p.add_argument("--table", help="paper preset: 1 (a-f, Setups 1-3), 2 (g-l, Setup 1) or 1,2")
     p.add_argument("--setup", help="setup 1, 2 or 3 (or a list, e.g. 1,2,3)")
@@ -128,7 +140,7 @@ def add_detect_parser(sub):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="graspjax",
         description="Batch evaluator of double T-beam grasp detection and plane-detection "
                     "end-tool alignment (JAX / MuJoCo MJX).")

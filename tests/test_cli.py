@@ -101,6 +101,25 @@ def test_detect_writes_json_and_figure(kinect_scene, tmp_path, capsys, name):
     assert out_png.read_bytes()[:8] == PNG
 
 
+@pytest.mark.parametrize("args, line", [
+    (["run", "--trials", "abc", "--out", "x"],
+     "graspjax run: error: argument --trials: invalid int value: 'abc' (graspjax run --help)"),
+    (["run", "--setup", "1"], "graspjax run: error: the following arguments are required: --out "
+                              "(graspjax run --help)"),
+    (["detect", "d.npy", "--roi", "-1,0,10,10"], "graspjax detect: error: argument --roi: "
+     "expected one argument (a value that starts with '-' goes after '=': --roi=VALUE) "
+     "(graspjax detect --help)"),
+    (["bogus"], "graspjax: error: argument command: invalid choice: 'bogus' (choose from "
+                "'detect', 'run', 'sweep', 'planes', 'config', 'report', 'assets', 'bench') "
+                "(graspjax --help)"),
+])
+def test_argument_mistakes_are_one_line_without_the_usage(capsys, args, line):
+    """argparse's own mistakes, as graspjax's: one line (argparse printed its usage first)."""
+    with pytest.raises(SystemExit) as stopped:
+        main(args)
+    assert stopped.value.code == 2 and capsys.readouterr().err == line + "\n"
+
+
 def test_detect_help_says_what_happens_without_intrinsics(capsys):
     with pytest.raises(SystemExit):
         main(["detect", "--help"])
