@@ -103,9 +103,11 @@ def load(folder: str, experiment, batch: int, run_meta: dict) -> Reused:
     if not experiment.paired or experiment.save_views != "none":
         raise InputError("--reuse needs --paired (the worlds are RUN's) and no --save-views "
                          "(its copied worlds have no views)")
+    if not (Path(folder) / "config.json").is_file():
+        raise InputError(f"--reuse {folder}: no run there (no config.json)")
     try:
         meta = json.loads((Path(folder) / "config.json").read_text())
-    except (OSError, ValueError):  # none there, or not JSON
+    except (OSError, ValueError):  # not JSON
         meta = None
     if not isinstance(meta, dict) or not meta.get("finished") or "config" not in meta:
         raise InputError(f"--reuse {folder}: no finished run there (its config.json says so)")

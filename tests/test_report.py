@@ -316,7 +316,10 @@ def test_a_damaged_or_non_numeric_attempts_file_is_one_line_naming_it(tmp_path, 
               "success must be 0 or 1, row "),
              ("attempts.csv", text.replace("\n1,", "\nx,", 1).encode(),
               "setup must be a number, row 1 has 'x'"),
-             ("attempts.parquet", b"PAR1 cut", "is not a whole Parquet file")]
+             ("attempts.parquet", b"PAR1 cut", "is not a whole Parquet file"),
+             ("attempts.csv", "".join(line.replace("\n", ",1,2\n") if i == 2 else line for i, line
+                                      in enumerate(text.splitlines(True))).encode(),  # a long row
+              "is not a whole CSV table (Error tokenizing data. C error: Expected ")]
     for i, (name, data, message) in enumerate(cases):
         folder = tmp_path / str(i)
         folder.mkdir()

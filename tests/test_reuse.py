@@ -92,14 +92,18 @@ def test_reuse_refuses_a_run_whose_worlds_would_not_play_the_same(
     assert not out.exists()
 
 
-@pytest.mark.parametrize("config", [None, "{not json", '{"finished": "2026", "points": 1}'])
-def test_reuse_needs_a_finished_run(tmp_path, capsys, config):
+@pytest.mark.parametrize("config, message", [
+    (None, "no run there (no config.json)"),
+    ("{not json", "no finished run there (its config.json says so)"),
+    ('{"finished": "2026", "points": 1}', "no finished run there (its config.json says so)"),
+])
+def test_reuse_needs_a_finished_run(tmp_path, capsys, config, message):
     if config is not None:
         (tmp_path / "config.json").write_text(config)
     assert main(["sweep", *SLOPED, *GRID, "--reuse", str(tmp_path), "--out",
                  str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
-    assert "no finished run there" in err and len(err.splitlines()) == 1
+    assert message in err and len(err.splitlines()) == 1
 
 
 def test_a_world_plays_again_unless_every_attempt_found_its_grasp_in_the_first_view():

@@ -87,6 +87,22 @@ def test_the_compile_cache_is_created_private_and_refused_when_others_may_write_
         compilation_cache()
 
 
+def test_a_compile_cache_that_is_a_file_is_one_line_saying_so(tmp_path, monkeypatch, capsys):
+    """Not the OSError of a folder made in it, with a hint to --resume a run."""
+    from graspjax.cli import main
+
+    cache = tmp_path / "cache"
+    cache.write_text("")
+    monkeypatch.setenv("GRASPJAX_CACHE", str(cache))
+    monkeypatch.setattr("jax.config.update", lambda *args: None)  # the session's cache stays
+    out = tmp_path / "run"
+    assert main(["run", "--setup", "1", "--out", str(out), "--dry-run"]) == 2
+    assert capsys.readouterr().err == (f"graspjax: error: the compile cache {cache} "
+                                       "(GRASPJAX_CACHE) is not a folder: set GRASPJAX_CACHE to a "
+                                       "folder (0: no cache)\n")
+    assert not out.exists()
+
+
 def test_a_store_in_the_cache_that_others_may_write_is_refused_before_it_is_read(tmp_path):
     """`stores.store`, which every read of the exported programs and resting poses goes through,
     checks the cache and the store folder each time; `stores.keep` creates both private."""

@@ -23,7 +23,11 @@ def parse_attempts(text: str, name: str = "attempts.csv") -> pd.DataFrame:
     if not text.endswith("\n"):
         raise ValueError(f"{name} ends in an incomplete row (still being written: try again; "
                          "cut by a kill: --resume the run to rewrite it)")
-    return checked_attempts(read_attempts_csv(text), name)
+    try:
+        frame = read_attempts_csv(text)
+    except pd.errors.ParserError as exc:  # a row of more fields than the header: edited by hand
+        raise ValueError(f"{name} is not a whole CSV table ({str(exc).splitlines()[0]})") from None
+    return checked_attempts(frame, name)
 
 
 def read_attempts_csv(text: str | bytes) -> pd.DataFrame:

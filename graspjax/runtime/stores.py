@@ -7,6 +7,7 @@ code, so it must be this user's alone (`check_cache`).
 from __future__ import annotations
 
 import os
+import stat
 from pathlib import Path
 
 from graspjax.disk import write_atomic
@@ -22,6 +23,9 @@ def check_cache(folder: str | os.PathLike) -> None:
         info = os.stat(folder)
     except FileNotFoundError:
         return
+    if not stat.S_ISDIR(info.st_mode):
+        raise InputError(f"the compile cache {folder} (GRASPJAX_CACHE) is not a folder: set "
+                         "GRASPJAX_CACHE to a folder (0: no cache)")
     if info.st_uid != os.geteuid():
         raise InputError(f"the compile cache {folder} belongs to another user (uid "
                          f"{info.st_uid}) and what it holds runs as code: set GRASPJAX_CACHE "
