@@ -106,7 +106,8 @@ def _run_experiment(args, grid_items=None) -> int:
 
 def _dry_run(args, lines) -> int:
     """--dry-run: print `lines()` (what would be played, `batch.estimate`); nothing is traced,
-    compiled or written, and a folder a real run would refuse is refused now."""
+    compiled or written, and a folder a real run would refuse (`check_output_folder`) is refused
+    now; whether a folder given --resume holds this same run is checked by the run alone."""
     from graspjax.outputs import check_output_folder
 
     check_output_folder(args.out, getattr(args, "resume", False), args.overwrite)
