@@ -326,6 +326,7 @@ def test_bench_finish_names_a_folder_without_a_run_s_settings(tmp_path, capsys, 
     assert message in err and err.count("\n") == 1 and not out.exists()
 
 
+@pytest.mark.slow  # starts a Python process that imports JAX (`pytest -m "not slow"`: README)
 def test_console_script_exit_status(tmp_path):
     """The installed entry point: a user mistake exits non-zero without a traceback."""
     bad = tmp_path / "neg.npy"

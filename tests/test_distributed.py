@@ -33,6 +33,7 @@ def _python(*codes: str, timeout: float) -> list[tuple[int, str, str]]:
     return [(proc.returncode, *out) for proc, out in zip(procs, said, strict=True)]
 
 
+@pytest.mark.slow  # starts Python processes that import JAX (`pytest -m "not slow"`: README)
 def test_the_run_s_processes_join_and_know_their_index():
     address = f"localhost:{_free_port()}"
     done = _python(*(f"from graspjax.runtime import distributed as d; "
@@ -43,6 +44,7 @@ def test_the_run_s_processes_join_and_know_their_index():
         assert out.strip() == f"({i}, 2)"
 
 
+@pytest.mark.slow  # starts Python processes that import JAX (`pytest -m "not slow"`: README)
 def test_a_process_that_never_joins_is_named_in_one_line_and_nothing_is_written(tmp_path):
     """Process 0 of 2 started alone: after the join timeout (3 s here, 5 minutes by default) one
     line naming process 1, exit 2, no folder; not JAX's native abort with a stack trace."""
