@@ -90,7 +90,7 @@ def detect_settings(preset_name: str | None, top: int | None, sets: list[str] | 
         raise UsageError(f"--top must be >= 1, got {top}")
     flags = [f"image.top_k={top}"] if top is not None else []
     flags += [f"method={method}"] if method is not None else []
-    parse_assignments(flags + (sets or []))  # the user's own: malformed or twice is an error
+    parse_assignments(flags + (sets or []))  # malformed, or a key given twice: an error
     items = [f"{k}={v}" for k, v in PRESETS[preset_name or "paper"].items()]
     return items + flags + (sets or [])
 
