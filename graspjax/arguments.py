@@ -10,7 +10,7 @@ import os
 import re
 import sys
 
-from graspjax.disk import check_writable
+from graspjax.disk import check_utf8_name, check_writable
 
 
 class UsageError(Exception):
@@ -406,6 +406,8 @@ def report_folder(args):
     for folder in folders:
         if not folder.is_dir():
             raise InputError(f"no such directory: {folder}")
+        if args.compare is not None:  # the comparison's columns are named by the folders
+            check_utf8_name(folder, "the folder's name")
     if args.debug < 0:
         raise UsageError(f"--debug must be >= 0, got {args.debug}")
     return folders if args.compare is not None else folders[0]

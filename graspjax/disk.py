@@ -54,6 +54,16 @@ def check_writable(path: str | os.PathLike | None, what: str, directory: bool = 
         raise InputError(f"cannot write {path}: directory {parent} is not writable")
 
 
+def check_utf8_name(path: str | os.PathLike, what: str) -> None:
+    """Refuse (`InputError`, one line) a path holding bytes the file system gave that are not
+    UTF-8 (Python keeps them as lone surrogates): a name written into a UTF-8 file or table
+    cannot hold them. `what` names it in the message."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(f"{ascii(str(path))}: {what} is not UTF-8 text (rename it)") from None
+
+
 def jsonable(value):
     """Arrays, numpy scalars and nested containers as JSON values (nan and inf -> null)."""
     if isinstance(value, dict):

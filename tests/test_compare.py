@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 
 import pandas as pd
 import pytest
@@ -67,6 +68,7 @@ def test_a_paired_sweep_s_points_compare_with_its_first(tmp_path, capsys):
     ("both", "give a folder to report, or --compare DIR ... (not both)"),
     ("debug", "--debug draws one folder's attempts: not with --compare"),
     ("missing", "no such directory"),
+    ("not UTF-8", "b\\udcffd': the folder's name is not UTF-8 text (rename it)"),
 ])
 def test_what_cannot_be_compared_is_one_line_exit_2(tmp_path, capsys, case, message):
     first = _run(tmp_path / "first", 0, [1, 0], [1, 1])
@@ -77,7 +79,9 @@ def test_what_cannot_be_compared_is_one_line_exit_2(tmp_path, capsys, case, mess
             "one point": ["--compare", str(first)],
             "both": [str(first), "--compare", str(first), str(other)],
             "debug": ["--compare", str(sweep), "--debug", "1"],
-            "missing": ["--compare", str(first), str(tmp_path / "nowhere")]}[case]
+            "missing": ["--compare", str(first), str(tmp_path / "nowhere")],
+            "not UTF-8": ["--compare", str(first), str(_run(tmp_path / os.fsdecode(b"b\xffd"), 0,
+                                                            [1, 0], [1, 1]))]}[case]
     assert main(["report", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1

@@ -18,6 +18,7 @@ import numpy as np
 
 from graspjax.camera import KINECT_FOV_X_DEG, KINECT_FOV_Y_DEG, Camera
 from graspjax.config import Config, RealImageConfig, override
+from graspjax.disk import check_utf8_name
 from graspjax.errors import InputError
 from graspjax.imagefiles.bins import bin_interior
 from graspjax.imagefiles.readers import (
@@ -229,19 +230,8 @@ def expand_images(images: Sequence[str | Path]) -> tuple[Path, ...]:
     if not paths:
         raise InputError("no depth images given")
     for path in paths:  # its name goes into the CSV and JSON records, which are UTF-8
-        if _undecodable(str(path)):
-            raise InputError(f"{ascii(str(path))}: the file name is not UTF-8 text (rename it)")
+        check_utf8_name(path, "the file name")
     return tuple(paths)
-
-
-def _undecodable(name: str) -> bool:
-    """Whether `name` holds bytes the file system gave that are not UTF-8 (Python keeps them as
-    lone surrogates, which no UTF-8 file can hold)."""
-    try:
-        name.encode("utf-8")
-    except UnicodeEncodeError:
-        return True
-    return False
 
 
 def _check_range(depth: np.ndarray, path: Path, image: RealImageConfig, depth_scale: float) -> None:
