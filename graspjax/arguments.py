@@ -343,8 +343,9 @@ def bench_request(args) -> dict:
             raise UsageError(f"--rows-from: {exc}") from None
         from pathlib import Path
 
-        from graspjax.bench_finish import run_settings
-        run_settings(Path(args.rows_from))  # its settings, read before anything is timed
+        from graspjax.bench_finish import ROWS_FROM
+        from graspjax.outputs import read_run_config
+        read_run_config(Path(args.rows_from) / "config.json", ROWS_FROM)  # before anything is timed
     return dict(config=config, image=image, objects=letters,
                 setups=ints(str(args.setup), "--setup", (1, 2, 3)), trials=args.trials,
                 seconds=args.seconds, batch=args.batch, width=args.width, height=args.height,

@@ -3,7 +3,6 @@ then its report), timed on the CPU with a finished run's rows repeated to any si
 
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from pathlib import Path
@@ -11,8 +10,7 @@ from pathlib import Path
 import pandas as pd
 
 from graspjax.bench import bench_record
-from graspjax.errors import InputError
-from graspjax.outputs import RunFolder
+from graspjax.outputs import RunFolder, read_run_config
 from graspjax.provenance import device_line, provenance
 from graspjax.report import load_attempts, load_rounds, write_report
 from graspjax.schema import TIMINGS_COLUMNS
@@ -24,7 +22,7 @@ def finish_benchmark(source: str, rows: int = 96_000, progress=print) -> dict:
     finished run's (`source`), repeated with their trials and rounds renumbered until there
     are `rows`, in that run's chunks; each chunk goes through `RunFolder.add` as the run's
     would (untimed), then the finish is timed."""
-    meta = run_settings(Path(source))
+    meta = read_run_config(Path(source) / "config.json", ROWS_FROM)
     attempts, rounds = load_attempts(source), load_rounds(source)
     rounds = rounds if rounds is not None else pd.DataFrame(columns=["point", "setup", "round"])
     meta.pop("finished", None)
@@ -56,19 +54,7 @@ def finish_benchmark(source: str, rows: int = 96_000, progress=print) -> dict:
                                    "after_last_chunk_s": end - start, **provenance()})
 
 
-def run_settings(source: Path) -> dict:
-    """The finished run's `config.json` (its settings, a JSON object); an `InputError` naming
-    it where it is missing or holds none."""
-    path = source / "config.json"
-    try:
-        meta = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
-        raise InputError(f"--rows-from {source}: {path} cannot be read ({why}): give a "
-                         "finished run's folder") from None
-    if not isinstance(meta, dict):
-        raise InputError(f"--rows-from {source}: {path} holds no run's settings (a JSON object)")
-    return meta
+ROWS_FROM = "--rows-from takes a finished run's folder"  # why its config.json must be read
 
 
 def format_finish(r: dict) -> str:

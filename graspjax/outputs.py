@@ -227,14 +227,15 @@ def _difference(old: dict, new: dict) -> str:
     return f"run_id: {old.get('run_id')!r} there, {new.get('run_id')!r} here"
 
 
-def _read_config(path: Path) -> dict:
-    """A run's `config.json`; one line where it cannot be read."""
+def read_run_config(path: Path, needed: str) -> dict:
+    """A run's `config.json` (a JSON object); else one line naming it and `needed` (why)."""
     try:
         meta = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
-        raise InputError(f"{path} cannot be read ({exc}): it holds no run to resume") from None
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
+        raise InputError(f"{path} cannot be read ({why}): {needed}") from None
     if not isinstance(meta, dict):
-        raise InputError(f"{path} holds no run's settings: it holds no run to resume")
+        raise InputError(f"{path} holds no run's settings (a JSON object): {needed}")
     return meta
 
 
@@ -290,7 +291,7 @@ class RunFolder:
         config = self.folder / "config.json"
         old = {}
         if config.is_file() and (resume or shared):
-            old = _read_config(config)
+            old = read_run_config(config, "it holds no run to resume")
             if any(old.get(key) != self.meta.get(key) for key in ("run_id", "batch", "reuse")):
                 raise InputError(f"--out {self.folder} holds another run "
                                  f"({_difference(old, self.meta)})")
